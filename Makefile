@@ -1,0 +1,41 @@
+# Every target sets up .venv itself (python3 -m venv + pip install -e .[test]) when it is
+# missing or pyproject.toml changed, and renders off-screen through EGL (Mesa on CPU works).
+SHELL := /bin/bash
+export MUJOCO_GL ?= egl
+export PYOPENGL_PLATFORM ?= egl
+VENV := .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.sortsim-installed
+
+.PHONY: run test test-all bench lint format venv clean
+
+$(STAMP): pyproject.toml
+	@test -x $(PY) || python3 -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -e '.[test]'
+	@touch $(STAMP)
+
+venv: $(STAMP)
+
+run: $(STAMP)
+	$(VENV)/bin/sortsim run --out runs/latest --video runs/latest/video.mp4
+
+test: $(STAMP)
+	$(PY) -m pytest -q -m "not slow" -n 2 --dist loadfile
+
+test-all: $(STAMP)
+	$(PY) -m pytest -q -n 2 --dist loadfile
+
+bench: $(STAMP)
+	$(VENV)/bin/sortsim bench
+
+lint: $(STAMP)
+	$(VENV)/bin/ruff check .
+	$(VENV)/bin/ruff format --check .
+
+format: $(STAMP)
+	$(VENV)/bin/ruff check --fix .
+	$(VENV)/bin/ruff format .
+
+clean:
+	rm -rf $(VENV) runs .pytest_cache

@@ -1,0 +1,1 @@
+"""Perception: camera model, calibration, belt grid, observation codes, HMMs, items."""

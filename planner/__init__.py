@@ -1,0 +1,1 @@
+"""Motion planning and decision making: delta kinematics, ruckig trajectories, pick choice."""

@@ -1,0 +1,1 @@
+"""sortsim: physics digital twin of a robotic recycling sorting cell (MuJoCo side)."""
