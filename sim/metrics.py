@@ -1,0 +1,138 @@
+"""Counters of one episode and the rows of episodes.csv / picks.csv they produce.
+
+Definitions (thesis 4.1.4 and DESIGN.md):
+
+- `entered` (SI): items that were dropped onto the belt during the episode.
+- `picked` (SP): items that the robot placed into a bin (any bin), counted by their true class
+  in `picked_<class>`; `wrong_bin` of them landed in a bin of another class.
+- `accuracy` = SP / SI.
+- `profit_eur`: sum of the values of the items that landed in the bin of their own class. An
+  item in the wrong bin earns nothing (its material is not recovered; it is not charged
+  either), so a confused class costs the value it would have earned.
+- `missed`: items that left the belt at its discharge end unpicked (the thesis discards an item
+  that passes the robot's working space); `dropped`: items lost on the way to a bin.
+- `mean_cycle_s`: mean time from the start of one pick attempt to the end of its release.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from perception.codes import ALUMINIUM, CLASS_NAMES, PAPER, PLASTIC
+
+ITEM_CLASSES = (PAPER, PLASTIC, ALUMINIUM)
+
+
+def class_name(class_id: int | None) -> str:
+    """Name of a class id ('paper', ...), 'none' for None or 0."""
+    if not class_id:
+        return "none"
+    return CLASS_NAMES[int(class_id) - 1]
+
+
+@dataclass(frozen=True)
+class PickRecord:
+    """One pick attempt (a row of picks.csv)."""
+
+    t_start_s: float
+    t_end_s: float
+    item_id: int
+    true_class: int | None
+    predicted_class: int
+    bin: int | None
+    success: bool
+
+    def row(self) -> dict[str, object]:
+        """The picks.csv row of this attempt."""
+        return {
+            "t_start_s": self.t_start_s,
+            "t_end_s": self.t_end_s,
+            "item_id": self.item_id,
+            "true_class": class_name(self.true_class),
+            "predicted_class": class_name(self.predicted_class),
+            "bin": class_name(self.bin),
+            "success": self.success,
+            "cycle_s": self.t_end_s - self.t_start_s,
+        }
+
+
+class EpisodeMetrics:
+    """Accumulates what happens to the items and the robot during one episode.
+
+    Args:
+        values: Value per class id [EUR] (2 paper, 3 plastic, 4 aluminium).
+    """
+
+    def __init__(self, values: dict[int, float]):
+        self.values = dict(values)
+        self.entered = {c: 0 for c in ITEM_CLASSES}
+        self.binned: dict[int, tuple[int, int]] = {}
+        self.missed: set[int] = set()
+        self.dropped: set[int] = set()
+        self.picks: list[PickRecord] = []
+
+    def on_entered(self, item_id: int, true_class: int) -> None:
+        """An item was dropped onto the belt."""
+        self.entered[int(true_class)] += 1
+
+    def on_binned(self, item_id: int, true_class: int, bin_class: int) -> None:
+        """An item landed in the bin of `bin_class` (counted once)."""
+        self.binned.setdefault(int(item_id), (int(true_class), int(bin_class)))
+
+    def on_missed(self, item_id: int) -> None:
+        """An item left the belt unpicked."""
+        if item_id not in self.binned:
+            self.missed.add(int(item_id))
+
+    def on_dropped(self, item_id: int) -> None:
+        """An item fell somewhere other than the belt's end or a bin."""
+        if item_id not in self.binned:
+            self.dropped.add(int(item_id))
+
+    def on_pick(self, record: PickRecord) -> None:
+        """A pick attempt finished (successfully or not)."""
+        self.picks.append(record)
+
+    @property
+    def n_entered(self) -> int:
+        return sum(self.entered.values())
+
+    @property
+    def n_picked(self) -> int:
+        return len(self.binned)
+
+    @property
+    def profit(self) -> float:
+        """Value of the items in their own class's bin [EUR]."""
+        return sum(self.values[t] for t, b in self.binned.values() if t == b)
+
+    def picked_of(self, class_id: int) -> int:
+        """Items of true class `class_id` placed into a bin."""
+        return sum(1 for t, _ in self.binned.values() if t == class_id)
+
+    def row(self) -> dict[str, object]:
+        """The episode's counters as episodes.csv columns (config and timing added by caller)."""
+        n_in = self.n_entered
+        cycles = [p.t_end_s - p.t_start_s for p in self.picks if p.success]
+        return {
+            "picked": self.n_picked,
+            "picked_paper": self.picked_of(PAPER),
+            "picked_plastic": self.picked_of(PLASTIC),
+            "picked_aluminium": self.picked_of(ALUMINIUM),
+            "wrong_bin": sum(1 for t, b in self.binned.values() if t != b),
+            "missed": len(self.missed),
+            "accuracy": self.n_picked / n_in if n_in else 0.0,
+            "profit_eur": self.profit,
+            "mean_cycle_s": sum(cycles) / len(cycles) if cycles else 0.0,
+            "entered": n_in,
+            "attempts": len(self.picks),
+            "failed_picks": sum(1 for p in self.picks if not p.success),
+            "dropped": len(self.dropped),
+            "entered_paper": self.entered[PAPER],
+            "entered_plastic": self.entered[PLASTIC],
+            "entered_aluminium": self.entered[ALUMINIUM],
+        }
+
+    def pick_rows(self) -> list[dict[str, object]]:
+        """picks.csv rows, in the order the attempts started."""
+        return [p.row() for p in sorted(self.picks, key=lambda p: (p.t_start_s, p.item_id))]
