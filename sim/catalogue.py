@@ -1,0 +1,229 @@
+"""The item catalogue (`sim/data/items.toml`): item types, MuJoCo shapes, masses, colours.
+
+Body frame convention shared by the flow, the ground truth and the cell's item bodies: z up, the
+item's long axis along the body's x axis, origin at the item's centre, which rests `rest_height`
+above the belt. A lying cylinder or capsule therefore has its geom rotated by `geom_quat` (the
+geom's own z axis onto the body's x axis). The footprint on the belt is a rectangle (box, lying
+cylinder), a disc (standing cylinder) or a stadium (lying capsule) in the body's xy plane.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from perception.codes import CLASS_NAMES, COLOURS
+from sim.errors import InvalidInput
+from sim.paths import DATA_DIR
+
+MATERIALS = CLASS_NAMES[1:]
+SHAPE_POSES = {"box": ("flat",), "cylinder": ("standing", "lying"), "capsule": ("lying",)}
+SIZE_LEN = {"box": 3, "cylinder": 2, "capsule": 2}
+LYING_QUAT = (math.sqrt(0.5), 0.0, math.sqrt(0.5), 0.0)
+
+
+@dataclass(frozen=True)
+class ItemType:
+    """One kind of item.
+
+    Attributes:
+        name: Unique name, e.g. "pet_bottle_0l5".
+        material: "paper", "plastic" or "aluminium".
+        shape: MuJoCo geom type: "box", "cylinder" or "capsule".
+        pose: "flat", "standing" or "lying" (see the module docstring).
+        size: MuJoCo geom size [m]: box half-sizes (3); cylinder (radius, half-height);
+            capsule (radius, half-length of the straight part).
+        mass: Mass [kg].
+        friction: MuJoCo (sliding, torsional, rolling) friction.
+        weight: Relative frequency within its material class.
+        colour_probs: Probability of each colour of `perception.codes.COLOURS` (sums to 1).
+    """
+
+    name: str
+    material: str
+    shape: str
+    pose: str
+    size: tuple[float, ...]
+    mass: float
+    friction: tuple[float, float, float]
+    weight: float
+    colour_probs: tuple[float, ...]
+
+    def __post_init__(self):
+        where = f"item {self.name!r}"
+        if self.material not in MATERIALS:
+            raise InvalidInput("material", "/".join(MATERIALS), self.material, where)
+        if self.shape not in SHAPE_POSES:
+            raise InvalidInput("shape", "/".join(SHAPE_POSES), self.shape, where)
+        if self.pose not in SHAPE_POSES[self.shape]:
+            raise InvalidInput("pose", "/".join(SHAPE_POSES[self.shape]), self.pose, where)
+        if len(self.size) != SIZE_LEN[self.shape] or not all(0 < s < 0.5 for s in self.size):
+            allowed = f"{SIZE_LEN[self.shape]} half-sizes in (0, 0.5) m for a {self.shape}"
+            raise InvalidInput("size", allowed, self.size, where)
+        if not 0 < self.mass <= 3.0:
+            raise InvalidInput("mass", "(0, 3] kg (the robot's payload)", self.mass, where)
+        if len(self.friction) != 3 or not all(f >= 0 for f in self.friction):
+            raise InvalidInput("friction", "3 non-negative numbers", self.friction, where)
+        if not self.weight > 0:
+            raise InvalidInput("weight", "> 0", self.weight, where)
+        probs = self.colour_probs
+        if len(probs) != len(COLOURS) or min(probs) < 0 or abs(sum(probs) - 1) > 1e-9:
+            raise InvalidInput("colours", f"weights over {COLOURS} summing to 1", probs, where)
+
+    @property
+    def class_id(self) -> int:
+        """Class code of table 3.1 (2 paper, 3 plastic, 4 aluminium)."""
+        return CLASS_NAMES.index(self.material) + 1
+
+    @property
+    def footprint(self) -> tuple[str, float, float]:
+        """(kind, a, b) in the body frame: ("rect", hx, hy), ("disc", r, r), ("stadium", h, r)."""
+        if self.shape == "box":
+            return "rect", self.size[0], self.size[1]
+        radius, half = self.size
+        if self.pose == "standing":
+            return "disc", radius, radius
+        return ("rect" if self.shape == "cylinder" else "stadium"), half, radius
+
+    @property
+    def footprint_area(self) -> float:
+        """Area of the footprint on the belt [m^2]."""
+        kind, a, b = self.footprint
+        if kind == "rect":
+            return 4 * a * b
+        if kind == "disc":
+            return math.pi * a * a
+        return 4 * a * b + math.pi * b * b
+
+    @property
+    def half_length(self) -> float:
+        """Half the footprint's extent along the body x axis [m]."""
+        kind, a, b = self.footprint
+        return a + b if kind == "stadium" else a
+
+    @property
+    def half_width(self) -> float:
+        """Half the footprint's extent along the body y axis [m]."""
+        return self.footprint[2]
+
+    @property
+    def rest_height(self) -> float:
+        """Height of the body origin above the belt when the item rests on it [m]."""
+        if self.shape == "box":
+            return self.size[2]
+        return self.size[1] if self.pose == "standing" else self.size[0]
+
+    @property
+    def geom_quat(self) -> tuple[float, float, float, float]:
+        """Orientation (w, x, y, z) of the geom in the body frame."""
+        return LYING_QUAT if self.pose == "lying" else (1.0, 0.0, 0.0, 0.0)
+
+    def half_extents(self, yaw: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
+        """Half extents (along x, along y) [m] of the footprint's bounding box at `yaw` [rad]."""
+        c, s = np.abs(np.cos(yaw)), np.abs(np.sin(yaw))
+        kind, a, b = self.footprint
+        if kind == "disc":
+            return a + 0 * c, a + 0 * c
+        if kind == "stadium":
+            return a * c + b, a * s + b
+        return a * c + b * s, a * s + b * c
+
+
+@dataclass(frozen=True)
+class Catalogue:
+    """All item types and the colour table.
+
+    Attributes:
+        types: Item types, in file order (a type's index is its id in flows).
+        rgba: RGBA of each colour of `perception.codes.COLOURS`, same order.
+    """
+
+    types: tuple[ItemType, ...]
+    rgba: tuple[tuple[float, float, float, float], ...]
+
+    def __post_init__(self):
+        if not self.types:
+            raise InvalidInput("item", "at least one item type", 0)
+        names = [t.name for t in self.types]
+        if len(set(names)) != len(names):
+            raise InvalidInput("item.name", "unique names", names)
+        missing = [m for m in MATERIALS if not any(t.material == m for t in self.types)]
+        if missing:
+            raise InvalidInput("item.material", f"every material of {MATERIALS}", missing)
+        if len(self.rgba) != len(COLOURS):
+            raise InvalidInput("colours", f"one RGBA per colour of {COLOURS}", len(self.rgba))
+
+    def index(self, name: str) -> int:
+        """Index of the item type called `name`."""
+        for i, item_type in enumerate(self.types):
+            if item_type.name == name:
+                return i
+        raise InvalidInput("item", "/".join(t.name for t in self.types), name)
+
+    def of_material(self, material: str) -> tuple[int, ...]:
+        """Indices of the types of one material."""
+        return tuple(i for i, t in enumerate(self.types) if t.material == material)
+
+    def colour_rgba(self, colour: str | int) -> tuple[float, float, float, float]:
+        """RGBA of a colour name or index of `perception.codes.COLOURS`."""
+        return self.rgba[colour if isinstance(colour, int) else COLOURS.index(colour)]
+
+
+def _colour_probs(weights: dict, where: str) -> tuple[float, ...]:
+    unknown = set(weights) - set(COLOURS)
+    if unknown or not weights or min(weights.values()) < 0 or sum(weights.values()) <= 0:
+        raise InvalidInput("colours", f"non-negative weights over {COLOURS}", weights, where)
+    total = float(sum(weights.values()))
+    return tuple(float(weights.get(c, 0.0)) / total for c in COLOURS)
+
+
+def _item_type(entry: dict) -> ItemType:
+    where = f"item {entry.get('name', '?')!r}"
+    keys = ("name", "material", "shape", "pose", "size", "mass", "friction", "weight", "colours")
+    for key in keys:
+        if key not in entry:
+            raise InvalidInput(key, "present in every [[item]]", None, where)
+    extra = set(entry) - set(keys)
+    if extra:
+        raise InvalidInput(sorted(extra)[0], f"only the keys {keys}", None, where)
+    return ItemType(
+        name=str(entry["name"]),
+        material=entry["material"],
+        shape=entry["shape"],
+        pose=entry["pose"],
+        size=tuple(float(s) for s in entry["size"]),
+        mass=float(entry["mass"]),
+        friction=tuple(float(f) for f in entry["friction"]),
+        weight=float(entry["weight"]),
+        colour_probs=_colour_probs(entry["colours"], where),
+    )
+
+
+def load_catalogue(path: Path | str = DATA_DIR / "items.toml") -> Catalogue:
+    """Reads and validates an item catalogue.
+
+    Args:
+        path: TOML file with a [colours] table and [[item]] entries.
+
+    Raises:
+        InvalidInput: A missing or malformed field, named in the message.
+    """
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text())
+    except (OSError, tomllib.TOMLDecodeError) as error:
+        raise InvalidInput("catalogue", "a readable TOML file", f"{path}: {error}") from None
+    colours = data.get("colours", {})
+    if set(colours) != set(COLOURS):
+        raise InvalidInput("colours", f"exactly the names {COLOURS}", sorted(colours), str(path))
+    rgba = []
+    for name in COLOURS:
+        value = colours[name]
+        if len(value) != 4 or not all(0 <= v <= 1 for v in value):
+            raise InvalidInput(f"colours.{name}", "4 numbers in [0, 1]", value, str(path))
+        rgba.append(tuple(float(v) for v in value))
+    return Catalogue(types=tuple(_item_type(e) for e in data.get("item", [])), rgba=tuple(rgba))
