@@ -1,0 +1,134 @@
+"""A real lens on a pinhole render: Brown-Conrady radial (k1, k2, k3) and tangential (p1, p2).
+
+MuJoCo renders an ideal pinhole image. A real camera's lens bends the rays, so the image the
+cell's computer receives is distorted; the pipeline's first step undoes that (thesis 2.2.5,
+figure 2.13). `LensDistorter` produces that distorted image from a pinhole render by inverse
+mapping: for every pixel of the distorted output it finds the undistorted ray (OpenCV's
+iterative `undistortPointsIter`) and samples the pinhole image there with `cv2.remap`.
+
+The default coefficients are those of a ZED stereo camera's left lens at 1280x720, as the
+factory calibration file of one such camera lists them (SN*.conf, section [LEFT_CAM_HD]).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from perception.errors import PerceptionInputError
+
+
+@dataclass(frozen=True)
+class LensModel:
+    """OpenCV's 5-coefficient distortion model (k1, k2, p1, p2, k3), dimensionless."""
+
+    k1: float = -0.170704
+    k2: float = 0.0249542
+    p1: float = 9.55189e-05
+    p2: float = -0.000109509
+    k3: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("k1", "k2", "p1", "p2", "k3"):
+            value = getattr(self, name)
+            if not np.isfinite(value) or abs(value) > 1.0:
+                raise PerceptionInputError(f"lens.{name}", "a finite number in [-1, 1]", value)
+
+    def dist_coeffs(self) -> np.ndarray:
+        """(5,) array in OpenCV's order (k1, k2, p1, p2, k3)."""
+        return np.array([self.k1, self.k2, self.p1, self.p2, self.k3], dtype=np.float64)
+
+
+ZED_HD_LEFT = LensModel()
+"""The ZED's left lens at 1280x720 (factory calibration values)."""
+
+_ITER_CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 50, 1e-10)
+
+
+def _undistorted_normalised(
+    pixels: np.ndarray, camera_matrix: np.ndarray, lens: LensModel
+) -> np.ndarray:
+    """Normalised undistorted image coordinates (N, 2) of distorted pixels (N, 2)."""
+    points = pixels.reshape(-1, 1, 2).astype(np.float64)
+    out = cv2.undistortPoints(
+        points, camera_matrix, lens.dist_coeffs(), None, None, None, _ITER_CRITERIA
+    )
+    return out.reshape(-1, 2)
+
+
+def source_canvas(
+    camera_matrix: np.ndarray, lens: LensModel, size: tuple[int, int], margin_px: int = 4
+) -> tuple[np.ndarray, tuple[int, int]]:
+    """The pinhole canvas a distorted image of `size` samples from.
+
+    Barrel distortion shows rays from outside the pinhole field of the same focal length, so the
+    pinhole render must be larger. Returns the canvas's camera matrix (same focal lengths, the
+    principal point moved to keep the optical axis) and its size (width, height) [px].
+    """
+    width, height = size
+    border = np.concatenate(
+        [
+            np.stack([np.arange(width), np.zeros(width)], 1),
+            np.stack([np.arange(width), np.full(width, height - 1)], 1),
+            np.stack([np.zeros(height), np.arange(height)], 1),
+            np.stack([np.full(height, width - 1), np.arange(height)], 1),
+        ]
+    )
+    norm = _undistorted_normalised(border, camera_matrix, lens)
+    fx, fy = camera_matrix[0, 0], camera_matrix[1, 1]
+    cx, cy = camera_matrix[0, 2], camera_matrix[1, 2]
+    half_w = max(np.max(np.abs(norm[:, 0])) * fx, cx, width - 1 - cx) + margin_px
+    half_h = max(np.max(np.abs(norm[:, 1])) * fy, cy, height - 1 - cy) + margin_px
+    src_w, src_h = 2 * int(np.ceil(half_w)) + 2, 2 * int(np.ceil(half_h)) + 2
+    src_matrix = camera_matrix.astype(np.float64).copy()
+    src_matrix[0, 2] = (src_w - 1) / 2.0
+    src_matrix[1, 2] = (src_h - 1) / 2.0
+    return src_matrix, (src_w, src_h)
+
+
+class LensDistorter:
+    """Turns pinhole renders into the distorted images of a camera with `lens`.
+
+    Args:
+        camera_matrix: (3, 3) intrinsics of the distorted output [px].
+        lens: The lens's distortion coefficients.
+        size: Output (width, height) [px].
+        source_matrix: (3, 3) intrinsics of the pinhole render [px].
+        source_size: Pinhole render (width, height) [px].
+    """
+
+    def __init__(
+        self,
+        camera_matrix: np.ndarray,
+        lens: LensModel,
+        size: tuple[int, int],
+        source_matrix: np.ndarray,
+        source_size: tuple[int, int],
+    ):
+        width, height = size
+        if width < 16 or height < 16:
+            raise PerceptionInputError("size", "width and height >= 16 px", size)
+        self.size = (int(width), int(height))
+        self.source_size = (int(source_size[0]), int(source_size[1]))
+        u, v = np.meshgrid(np.arange(width, dtype=np.float64), np.arange(height, dtype=np.float64))
+        norm = _undistorted_normalised(np.stack([u.ravel(), v.ravel()], 1), camera_matrix, lens)
+        map_x = source_matrix[0, 0] * norm[:, 0] + source_matrix[0, 2]
+        map_y = source_matrix[1, 1] * norm[:, 1] + source_matrix[1, 2]
+        self._map1, self._map2 = cv2.convertMaps(
+            map_x.reshape(height, width).astype(np.float32),
+            map_y.reshape(height, width).astype(np.float32),
+            cv2.CV_16SC2,
+        )
+
+    def apply(self, pinhole: np.ndarray) -> np.ndarray:
+        """The distorted image (height, width, 3) uint8 of a pinhole render."""
+        src_w, src_h = self.source_size
+        if pinhole.shape[:2] != (src_h, src_w):
+            raise PerceptionInputError(
+                "pinhole image shape", f"({src_h}, {src_w}, channels)", pinhole.shape
+            )
+        return cv2.remap(
+            pinhole, self._map1, self._map2, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT
+        )
