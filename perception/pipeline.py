@@ -1,0 +1,156 @@
+"""The camera pipeline: raw frame -> one grid row of observation codes and item pixels.
+
+    frame (distorted) --remap--> top-down belt image (undistorted + rectified in one step)
+          --> band of row k --> colour labels --> 5 cell codes + item pixels
+
+`CameraPipeline` is what the episode runner calls once per observation period. It locates the
+belt from the corner markers on its first frame (or on `locate`), then checks on every frame
+that the frame is usable: right shape, not black, markers where they were. An unusable frame
+raises PerceptionError; the runner logs it and marks the row unobserved.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from perception.calibration import CameraCalibration
+from perception.errors import PerceptionError, PerceptionInputError
+from perception.grid import BeltGrid
+from perception.observe import CellObservation, ColourRules, code_cells
+from perception.rectify import BeltRectifier, BeltView, colour_mask, locate_belt
+
+_MARKER_PATCH_PX = 4
+
+
+@dataclass(frozen=True)
+class RowObservation:
+    """One observation period's row.
+
+    Attributes:
+        row: Row index k (t_k = k T).
+        t: Time of the frame [s].
+        codes: (n_stripes,) observation codes 1..19, stripe 0 on the -y side.
+        cells: Per stripe, the cell's observation (fraction, colour, item pixels).
+    """
+
+    row: int
+    t: float
+    codes: np.ndarray
+    cells: tuple[CellObservation, ...]
+
+
+class CameraPipeline:
+    """Frames of the belt camera -> rows of observation codes.
+
+    Args:
+        calibration: The camera's intrinsics and distortion (`sortsim calibrate`).
+        grid: The belt grid (stripes, camera line, observation period).
+        marker_world: (N >= 4, 3) world centres of the corner markers [m] (from the cell's MJCF).
+        marker_colours: (N, 3) their colours [0..1].
+        resolution_m: Side of a top-down pixel [m].
+        plane_z: Height above the belt of the rectified plane [m].
+        max_pitch_m: Longest row the pipeline must see (top belt speed x period) [m].
+        rules: Per-pixel colour rules.
+    """
+
+    def __init__(
+        self,
+        calibration: CameraCalibration,
+        grid: BeltGrid,
+        marker_world: np.ndarray,
+        marker_colours: np.ndarray,
+        resolution_m: float = 0.001,
+        plane_z: float = 0.0,
+        max_pitch_m: float = 0.3,
+        rules: ColourRules | None = None,
+    ):
+        self.calibration = calibration
+        self.grid = grid
+        self.marker_world = np.asarray(marker_world, dtype=np.float64)
+        self.marker_colours = np.asarray(marker_colours, dtype=np.float64)
+        if self.marker_colours.shape != self.marker_world.shape:
+            raise PerceptionInputError(
+                "marker_colours", f"shape {self.marker_world.shape}", self.marker_colours.shape
+            )
+        self.resolution_m = resolution_m
+        self.plane_z = plane_z
+        self.max_pitch_m = max_pitch_m
+        self.rules = rules or ColourRules()
+        self.view: BeltView | None = None
+        self.rectifier: BeltRectifier | None = None
+        self._marker_px: np.ndarray | None = None
+
+    def check_frame(self, frame: np.ndarray) -> None:
+        """Raises PerceptionError for a frame of the wrong shape, dtype, or an all-dark one."""
+        width, height = self.calibration.image_size
+        if not isinstance(frame, np.ndarray) or frame.shape != (height, width, 3):
+            shape = getattr(frame, "shape", type(frame).__name__)
+            raise PerceptionError(f"frame shape {shape}, expected ({height}, {width}, 3)")
+        if frame.dtype != np.uint8:
+            raise PerceptionError(f"frame dtype {frame.dtype}, expected uint8")
+        if int(frame[::8, ::8].max()) < 20:
+            raise PerceptionError("frame is all black (camera or lighting off)")
+
+    def locate(self, frame: np.ndarray) -> BeltView:
+        """Solves the camera's pose from the markers in `frame` and builds the rectifier."""
+        self.check_frame(frame)
+        view = locate_belt(frame, self.calibration, self.marker_world, self.marker_colours)
+        half = 0.5 * self.max_pitch_m
+        self.rectifier = BeltRectifier(
+            view,
+            (self.grid.x_line - half, self.grid.x_line + half),
+            (self.grid.y_min, self.grid.y_max),
+            self.resolution_m,
+            self.plane_z,
+        )
+        self.view = view
+        self._marker_px = np.round(view.project(self.marker_world)).astype(int)
+        return view
+
+    def _check_markers(self, frame: np.ndarray) -> None:
+        r = _MARKER_PATCH_PX
+        for index, (u, v) in enumerate(self._marker_px):
+            patch = frame[max(v - r, 0) : v + r + 1, max(u - r, 0) : u + r + 1]
+            if patch.size == 0 or colour_mask(patch, self.marker_colours[index]).mean() < 0.5:
+                raise PerceptionError(f"marker {index} not seen where it was (pixel {u}, {v})")
+
+    def rectify(self, frame: np.ndarray) -> np.ndarray:
+        """The top-down belt image of a raw frame (locates the belt on first use)."""
+        if self.rectifier is None:
+            self.locate(frame)
+        else:
+            self.check_frame(frame)
+            self._check_markers(frame)
+        return self.rectifier.rectify(frame)
+
+    def observe(self, frame: np.ndarray, belt_speed: float, t: float) -> RowObservation:
+        """The row of codes of the frame taken at time `t` [s] at belt speed `belt_speed` [m/s].
+
+        Item pixel coordinates are belt-plane positions at the row's time t_k = k T.
+        """
+        pitch = self.grid.row_pitch(belt_speed)
+        if pitch > self.max_pitch_m:
+            raise PerceptionInputError(
+                "belt speed", f"at most {self.max_pitch_m / self.grid.period_s} m/s", belt_speed
+            )
+        top = self.rectify(frame)
+        rectifier = self.rectifier
+        x_lo, x_hi = self.grid.band(belt_speed, t)
+        row_slice = rectifier.rows_of(x_lo, x_hi)
+        edges = self.grid.stripe_edges()
+        col_slices = [rectifier.cols_of(edges[j], edges[j + 1]) for j in range(len(edges) - 1)]
+        band = top[row_slice[0] : row_slice[1]]
+        labels = self.rules.classify(band)
+        k = self.grid.row_of_time(t)
+        back = belt_speed * (t - k * self.grid.period_s)
+        cells = []
+        for code, fraction, colour, rows, cols in code_cells(
+            labels, (0, band.shape[0]), col_slices
+        ):
+            xy = rectifier.pixel_to_world(rows + row_slice[0], cols)
+            xy[:, 0] -= back
+            cells.append(CellObservation(code, fraction, colour, xy))
+        codes = np.array([c.code for c in cells], dtype=np.int64)
+        return RowObservation(k, float(t), codes, tuple(cells))
