@@ -86,6 +86,63 @@ def loop_closure_error(model: mujoco.MjModel, data: mujoco.MjData) -> float:
     return worst
 
 
+def settle_loop(
+    model: mujoco.MjModel, data: mujoco.MjData, tol: float = 1e-12, max_iter: int = 30
+) -> float:
+    """Close the six loops by moving only the passive joints (Gauss-Newton on MuJoCo's kinematics).
+
+    Motors and axis 4 keep their angles; rod hinges and the free platform move so that every
+    connect constraint's two sites coincide. Velocities are left untouched.
+
+    Args:
+        model: Compiled model containing the robot.
+        data: Its data; `qpos` is modified in place and `mj_kinematics` has run on return.
+        tol: Stop when the largest site gap is below this [m].
+        max_iter: Iteration limit.
+
+    Returns:
+        The remaining largest site gap [m].
+    """
+    held = [model.joint(n).dofadr[0] for n in (*MOTOR_JOINTS, "axis4_joint")]
+    passive = np.ones(model.nv, dtype=bool)
+    passive[held] = False
+    robot = _robot_dofs(model)
+    cols = np.flatnonzero(passive & robot)
+    pairs = [(f"rod_{i}{r}_tip", f"platform_{i}{r}") for i in LEGS for r in RODS]
+    jac1, jac2 = np.zeros((3, model.nv)), np.zeros((3, model.nv))
+    for _ in range(max_iter):
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_comPos(model, data)
+        res, rows = [], []
+        for s1, s2 in pairs:
+            a, b = data.site(s1), data.site(s2)
+            res.append(a.xpos - b.xpos)
+            mujoco.mj_jacSite(model, data, jac1, None, a.id)
+            mujoco.mj_jacSite(model, data, jac2, None, b.id)
+            rows.append((jac1 - jac2)[:, cols])
+        res = np.concatenate(res)
+        if np.max(np.abs(res)) < tol:
+            break
+        step = np.linalg.lstsq(np.vstack(rows), -res, rcond=None)[0]
+        dq = np.zeros(model.nv)
+        dq[cols] = step
+        mujoco.mj_integratePos(model, data.qpos, dq, 1.0)
+    mujoco.mj_kinematics(model, data)
+    return loop_closure_error(model, data)
+
+
+def _robot_dofs(model: mujoco.MjModel) -> np.ndarray:
+    """Mask of the degrees of freedom that belong to the robot's bodies."""
+    roots = {model.body("base_link").id, model.body("platform_link").id}
+    mask = np.zeros(model.nv, dtype=bool)
+    for dof in range(model.nv):
+        body = model.dof_bodyid[dof]
+        while body != 0 and body not in roots:
+            body = model.body_parentid[body]
+        mask[dof] = body in roots
+    return mask
+
+
 def _rod_angles(geom: DeltaGeometry, q: np.ndarray, leg: int, platform: np.ndarray):
     """Swing and tilt of leg `leg`'s rods (both equal in a parallelogram) [rad]."""
     u = geom.radial[leg]
