@@ -12,7 +12,8 @@ with weight 1/|neighbours| for each neighbour of stripe s in class c at t-1.
 Re-estimation then runs Baum-Welch on the codes alone of a mix of sequences (the thesis mixes
 real and generated recordings). Unlabelled EM may wander away from the class semantics the
 counts gave each state, so the counted model also enters as Dirichlet pseudo-counts of weight
-`anchor` per row (0 = the plain Baum-Welch of the thesis).
+`anchor` per row (0 = the plain Baum-Welch of the thesis). The M-step adds `smoothing` to every
+expected count as well, so no probability becomes exactly zero during re-estimation either.
 """
 
 from __future__ import annotations
@@ -127,8 +128,7 @@ def train(classes_grids, codes_grids, unlabelled_codes=(), config: TrainConfig =
     if config.max_iter == 0:
         return initial, initial
     seqs = [np.asarray(g).T for g in list(codes_grids) + list(unlabelled_codes)]
-    prior = None
-    if config.anchor > 0:
-        prior = tuple(config.anchor * m for m in (initial.pi, initial.A, initial.B))
+    # The M-step keeps the additive smoothing, so re-estimation never sets a probability to 0.
+    prior = tuple(config.smoothing + config.anchor * m for m in (initial.pi, initial.A, initial.B))
     trained, _ = reestimate(initial, seqs, config.max_iter, config.tol, prior)
     return initial, trained
