@@ -1,0 +1,188 @@
+"""A pick-and-place cycle as a chain of ruckig segments, and ABB's Cycle 1.
+
+Pick and place: approach a point above the item, descend onto it arriving at the belt's
+velocity, seal (35 ms) while moving with the belt, lift, transfer to the bin's drop point,
+release (35 ms). The robot then sets off from the drop point to the next item. Corners (above
+the item, after the lift) are blended by `planner.blending.plan_chain`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from planner.blending import Waypoint, plan_chain
+from planner.errors import PlannerInputError
+from planner.ruckig_trajectory import RuckigTrajectoryGenerator
+from planner.trajectory import Chain, State
+
+
+@dataclass(frozen=True)
+class PickPlaceConfig:
+    """Geometry and timing of one pick and place.
+
+    Attributes:
+        approach_height: Height above the pick point of the corner before the descent [m].
+        lift_height: Height of the corner after the lift, above the pick point [m].
+        seal_time: Vacuum build-up with the cup on the item (ABB Cycle 1: 35 ms) [s].
+        release_time: Vacuum release over the bin [s].
+        blend: Pass the corners with non-zero velocity where that is faster.
+    """
+
+    approach_height: float = 0.025
+    lift_height: float = 0.025
+    seal_time: float = 0.035
+    release_time: float = 0.035
+    blend: bool = True
+
+    def __post_init__(self):
+        for name in ("approach_height", "lift_height", "seal_time", "release_time"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and 0.0 <= value <= 1.0):
+                raise PlannerInputError(name, "0 to 1 [m or s]", value)
+
+
+@dataclass(frozen=True, eq=False)
+class PickPlan:
+    """A planned pick and place.
+
+    Attributes:
+        chain: The whole trajectory from the start state to the end of the release.
+        contact_time: When the cup touches the item and the seal begins [s from start].
+        lift_time: When the seal ends and the lift begins [s].
+        release_time: When the cup reaches the drop point and releases [s].
+        pick_xyz: Where the cup meets the item [m].
+        belt_velocity: The belt's velocity along x during the pick [m/s].
+    """
+
+    chain: Chain
+    contact_time: float
+    lift_time: float
+    release_time: float
+    pick_xyz: np.ndarray
+    belt_velocity: float
+
+    @property
+    def duration(self) -> float:
+        """Start to end of the release [s]."""
+        return self.chain.duration
+
+
+def pick_place_waypoints(
+    pick_xyz: Sequence[float],
+    belt_velocity: float,
+    drop_xyz: Sequence[float],
+    config: PickPlaceConfig,
+    axis4: tuple[float, float] = (0.0, 0.0),
+    contact_time: float | None = None,
+) -> list[Waypoint]:
+    """Waypoints of one pick and place (the chain's start is the robot's current state).
+
+    Args:
+        pick_xyz: Where the cup meets the item (top of the item) [m].
+        belt_velocity: Belt speed along +x [m/s]; the cup arrives and seals at this velocity.
+        drop_xyz: Release point above the bin [m].
+        config: Heights and times.
+        axis4: Axis-4 angle at the pick and at the drop [rad].
+        contact_time: If set, touch the item exactly at this time [s from start].
+    """
+    p = np.asarray(pick_xyz, dtype=float)
+    b = np.asarray(drop_xyz, dtype=float)
+    vb = float(belt_velocity)
+    up = np.array([0.0, 0.0, 1.0])
+    sealed = p + np.array([vb * config.seal_time, 0.0, 0.0])
+    lift = sealed + config.lift_height * up
+    return [
+        Waypoint(np.append(p + config.approach_height * up, axis4[0]), label="approach"),
+        Waypoint(
+            np.append(p, axis4[0]),
+            velocity=np.array([vb, 0.0, 0.0, 0.0]),
+            dwell=config.seal_time,
+            label="descend",
+            dwell_label="seal",
+            arrival_time=contact_time,
+        ),
+        Waypoint(np.append(lift, axis4[0]), label="lift"),
+        Waypoint(
+            np.append(b, axis4[1]),
+            velocity=np.zeros(4),
+            dwell=config.release_time,
+            label="transfer",
+            dwell_label="release",
+        ),
+    ]
+
+
+def plan_pick_place(
+    start: State,
+    pick_xyz: Sequence[float],
+    belt_velocity: float,
+    drop_xyz: Sequence[float],
+    generator: RuckigTrajectoryGenerator,
+    config: PickPlaceConfig | None = None,
+    axis4: tuple[float, float] = (0.0, 0.0),
+    contact_time: float | None = None,
+) -> PickPlan:
+    """Plans one pick and place from the robot's current state (see `pick_place_waypoints`).
+
+    Raises:
+        PlannerInputError: a point is out of reach or the contact time cannot be met.
+    """
+    config = config or PickPlaceConfig()
+    wps = pick_place_waypoints(pick_xyz, belt_velocity, drop_xyz, config, axis4, contact_time)
+    chain = plan_chain(start, wps, generator, blend=config.blend)
+    return PickPlan(
+        chain=chain,
+        contact_time=chain.phase_start("seal"),
+        lift_time=chain.phase_start("lift"),
+        release_time=chain.phase_start("release"),
+        pick_xyz=np.asarray(pick_xyz, dtype=float),
+        belt_velocity=float(belt_velocity),
+    )
+
+
+def cycle1_waypoints(
+    a_xyz: Sequence[float],
+    across: float = 0.305,
+    height: float = 0.025,
+    axis4_turn: float = np.pi / 2.0,
+    vacuum_time: float = 0.035,
+    zone: float = 0.025,
+) -> list[Waypoint]:
+    """ABB's Cycle 1 from `a_xyz` at rest: up, across (+x), down, vacuum, and back, vacuum.
+
+    Axis 4 turns by `axis4_turn` on the way out and back on the way home, spread over the path
+    in proportion to distance. Corners (top of the ups and downs) are free for blending and may
+    be cut by up to `zone` along the 305 mm leg.
+
+    Args:
+        a_xyz: Pick point A [m]; B is `across` further along +x.
+        across: Horizontal distance (ABB: 305 mm) [m].
+        height: Vertical moves (ABB: 25 mm) [m].
+        axis4_turn: Axis-4 rotation (ABB: 90 deg) [rad].
+        vacuum_time: Vacuum time at each end (ABB: 35 ms) [s].
+        zone: Corner zone [m]; 0 keeps the path on the exact up-across-down lines.
+    """
+    a = np.asarray(a_xyz, dtype=float)
+    b = a + np.array([across, 0.0, 0.0])
+    up = np.array([0.0, 0.0, height])
+    share = height / (2.0 * height + across)
+    th = [axis4_turn * share, axis4_turn * (1.0 - share)]
+    stop = np.zeros(4)
+    return [
+        Waypoint(np.append(a + up, th[0]), label="up", zone=zone),
+        Waypoint(np.append(b + up, th[1]), label="across", zone=zone),
+        Waypoint(np.append(b, axis4_turn), stop, vacuum_time, "down", "vacuum_place"),
+        Waypoint(np.append(b + up, th[1]), label="up_back", zone=zone),
+        Waypoint(np.append(a + up, th[0]), label="across_back", zone=zone),
+        Waypoint(np.append(a, 0.0), stop, vacuum_time, "down_back", "vacuum_pick"),
+    ]
+
+
+def plan_cycle1(
+    a_xyz: Sequence[float], generator: RuckigTrajectoryGenerator, blend: bool = True
+) -> Chain:
+    """ABB's Cycle 1 starting at rest at A with axis 4 at 0 (see `cycle1_waypoints`)."""
+    return plan_chain(State.at_rest(a_xyz), cycle1_waypoints(a_xyz), generator, blend=blend)
