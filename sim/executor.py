@@ -149,7 +149,14 @@ class TrajectoryExecutor:
         self._kp = np.array([model.actuator_gainprm[i, 0] for i in self._motor_ids_of(model)])
         self._motor_ids = [model.actuator(n).id for n in MOTOR_ACTUATORS]
         self._limits = np.array([model.actuator_forcerange[i, 1] for i in self._motor_ids])
-        self._axis4_qpos = model.joint("axis4_joint").qposadr[0]
+        axis4 = model.joint("axis4_joint")
+        self._axis4_qpos = axis4.qposadr[0]
+        # Axis 4 turns the cup (and any held item, neglected) about z: inertia, damping, gain.
+        self._axis4_inertia = float(
+            model.dof_armature[axis4.dofadr[0]] + model.body("cup_link").inertia[2]
+        )
+        self._axis4_damping = float(model.dof_damping[axis4.dofadr[0]])
+        self._axis4_kp = float(model.actuator("axis4").gainprm[0])
 
     def set_payload(self, payload_kg: float) -> None:
         """Load now held by the cup outside the robot's tree [kg] (feed-forward only)."""
@@ -163,7 +170,8 @@ class TrajectoryExecutor:
         """Planned states, motor set-points and feed-forward torques at `times` [s].
 
         Returns:
-            pos (n, 4), vel (n, 4), q (n, 3), qdot (n, 3), torque (n, 3) [m, rad, s, N m].
+            pos (n, 4), vel (n, 4), acc (n, 4), q (n, 3), qdot (n, 3), torque (n, 3)
+            [m, rad, s, N m].
         """
         states = np.array([np.concatenate(trajectory.at_time(float(t))) for t in times])
         pos, vel, acc = states[:, :4], states[:, 4:8], states[:, 8:]
@@ -172,7 +180,7 @@ class TrajectoryExecutor:
         qdot = np.linalg.solve(jac, vel[:, :3, None])[..., 0]
         qddot = np.gradient(qdot, times, axis=0) if len(times) > 1 else np.zeros_like(qdot)
         torque = self.dynamics.torque(q, qdot, qddot, jac, acc[:, :3])
-        return pos, vel, q, qdot, torque
+        return pos, vel, acc, q, qdot, torque
 
     def execute(
         self,
@@ -192,15 +200,19 @@ class TrajectoryExecutor:
         """
         n = int(np.ceil((trajectory.duration + hold) / self.control_dt - 1e-9))
         times = (np.arange(n) + 1) * self.control_dt
-        pos, vel, q, qdot, tau = self.references(trajectory, times)
-        q_cmd = q + tau / self._kp if self.feedforward else q
+        pos, vel, acc, q, qdot, tau = self.references(trajectory, times)
+        q_cmd, axis4_cmd = q, pos[:, 3]
+        if self.feedforward:
+            q_cmd = q + tau / self._kp
+            tau4 = self._axis4_inertia * acc[:, 3] + self._axis4_damping * vel[:, 3]
+            axis4_cmd = pos[:, 3] + tau4 / self._axis4_kp
         model, data = self.model, self.data
         actual = np.empty((n, 4))
         torque = np.empty((n, 3))
         tilt = np.empty(n)
         for k in range(n):
             # Aim at where the TCP should be at the end of this control period.
-            set_motor_targets(model, data, q_cmd[k], pos[k, 3], qdot[k], vel[k, 3])
+            set_motor_targets(model, data, q_cmd[k], axis4_cmd[k], qdot[k], vel[k, 3])
             for _ in range(self.substeps):
                 mujoco.mj_step(model, data)
             actual[k, :3] = tcp_position(model, data)
