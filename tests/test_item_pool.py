@@ -1,0 +1,102 @@
+"""The item pool: generated file up to date, spawn and park without recompiling, missed items."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from sim.belt import Belt
+from sim.catalogue import load_catalogue
+from sim.errors import InvalidInput
+from sim.flow import POOL_CAPACITY_REQUIRED
+from sim.item_pool import ItemPool
+from sim.item_pool_xml import ITEMS_XML, pool_xml
+from sim.paths import REPO_ROOT
+
+CATALOGUE = load_catalogue()
+BELT_SCENE = REPO_ROOT / "tests" / "models" / "belt_items.xml"
+
+
+def belt_scene():
+    model = mujoco.MjModel.from_xml_path(str(BELT_SCENE))
+    data = mujoco.MjData(model)
+    belt = Belt(model)
+    return model, data, belt, ItemPool(model, CATALOGUE, belt)
+
+
+def test_committed_items_xml_is_up_to_date():
+    assert ITEMS_XML.read_text() == pool_xml(CATALOGUE), "run: python -m sim.item_pool_xml"
+
+
+def test_pool_holds_the_flow_capacity_parked_asleep_and_still():
+    model, data, _, pool = belt_scene()
+    assert pool.size == POOL_CAPACITY_REQUIRED
+    for _ in range(200):
+        mujoco.mj_step(model, data)
+    assert data.ncon == 0
+    assert data.ntree_awake == 0  # every parked slot sleeps
+    np.testing.assert_array_equal(data.qpos, model.qpos0)
+
+
+def test_spawn_sets_type_mass_colour_and_rest_pose_then_park_restores():
+    model, data, _, pool = belt_scene()
+    k = CATALOGUE.index("can_330_lying")
+    rgba = CATALOGUE.colour_rgba("red")
+    slot = pool.spawn(data, item_id=7, type_index=k, x=-2.5, y=0.1, yaw=0.3, rgba=rgba)
+    body, geom = pool.body_ids[slot], pool.geom_id(slot)
+    assert pool.slot_of(7) == slot and pool.item_type(slot).name == "can_330_lying"
+    assert model.body_mass[body] == pytest.approx(0.0135)
+    assert model.geom_rgba[geom].tolist() == pytest.approx(list(rgba))
+    others = np.delete(pool.geom_ids[slot], k)
+    assert not model.geom_contype[others].any() and not model.geom_rgba[others, 3].any()
+    for _ in range(500):
+        mujoco.mj_step(model, data)
+    pos = pool.position(data, slot)
+    assert pos[2] == pytest.approx(0.033, abs=5e-4)  # resting on the belt, axis horizontal
+    assert pos[0] > -2.5 + 0.5 * 0.185 * 0.5  # carried downstream
+    assert pool.park(data, slot) == 7
+    assert pool.slot_of(7) is None and not model.geom_contype[pool.geom_ids[slot]].any()
+    for _ in range(50):
+        mujoco.mj_step(model, data)
+    adr = pool.qpos_adr[slot]
+    np.testing.assert_allclose(data.qpos[adr : adr + 7], model.qpos0[adr : adr + 7], atol=1e-12)
+    assert data.ntree_awake == 0
+
+
+def test_a_reused_slot_plays_a_different_type_with_its_own_mass():
+    model, data, _, pool = belt_scene()
+    light, heavy = CATALOGUE.index("paper_scrap"), CATALOGUE.index("hdpe_bottle_1l")
+    slot = pool.spawn(data, 0, light, -2.5, 0.0, 0.0, CATALOGUE.rgba[0])
+    pool.park(data, slot)
+    assert pool.spawn(data, 1, heavy, -2.5, 0.0, 0.0, CATALOGUE.rgba[1]) == slot
+    assert model.body_mass[pool.body_ids[slot]] == pytest.approx(0.040)
+    mujoco.mj_forward(model, data)
+    assert data.ncon == 0  # dropped above the belt, not into it
+
+
+def test_refusals():
+    _, data, _, pool = belt_scene()
+    pool.spawn(data, 0, 0, -2.5, 0.0, 0.0, CATALOGUE.rgba[0])
+    with pytest.raises(InvalidInput, match="item_id"):
+        pool.spawn(data, 0, 0, -2.0, 0.0, 0.0, CATALOGUE.rgba[0])
+    with pytest.raises(InvalidInput, match="type_index"):
+        pool.spawn(data, 1, len(CATALOGUE.types), -2.0, 0.0, 0.0, CATALOGUE.rgba[0])
+    for i in range(1, pool.size):
+        pool.spawn(data, i, 0, -2.9 + 0.06 * i, 0.0, 0.0, CATALOGUE.rgba[0])
+    with pytest.raises(InvalidInput, match=f"at most {pool.size}"):
+        pool.spawn(data, pool.size, 0, 0.0, 0.0, 0.0, CATALOGUE.rgba[0])
+
+
+def test_items_reaching_the_discharge_end_are_parked_as_missed():
+    model, data, belt, pool = belt_scene()
+    belt.set_factor(1.5)
+    k = CATALOGUE.index("carton_box_small")
+    pool.spawn(data, 3, k, 1.3, 0.0, 0.0, CATALOGUE.rgba[2])
+    pool.spawn(data, 4, k, 0.5, 0.0, 0.0, CATALOGUE.rgba[2])
+    missed = []
+    while data.time < 1.0:
+        mujoco.mj_step(model, data)
+        missed += pool.park_missed(data)
+    assert missed == [3]  # 0.2 m from the end at 0.2775 m/s: gone after ~0.72 s
+    assert pool.slot_of(4) is not None
