@@ -1,9 +1,11 @@
 """Saving and loading trained stripe HMMs as `.npz` files with a format version.
 
 A file holds `format` (the string "sortsim-stripe-hmms"), `version` (an int), `pi` (S, N),
-`A` (S, C, N, N) and `B` (S, N, M). Loading refuses, with one `PerceptionInputError` line naming
-the file, anything that is not such a file: unreadable or not a zip, another format or version,
-missing arrays, pickled objects, shapes other than the expected ones, or rows that do not sum to 1.
+`A` (S, C, N, N) and `B` (S, N, M), and optionally `cells_per_item` (N,), the expected grid
+cells per item of each class that the item extraction needs. Loading refuses, with one
+`PerceptionInputError` line naming the file, anything that is not such a file: unreadable or not
+a zip, another format or version, missing arrays, pickled objects, shapes other than the
+expected ones, or rows that do not sum to 1.
 """
 
 from __future__ import annotations
@@ -21,13 +23,17 @@ FORMAT = "sortsim-stripe-hmms"
 VERSION = 1
 
 
-def save_models(path: Path | str, models: StripeHmms) -> Path:
-    """Write `models` to `path` (a `.npz`; the suffix is added if missing) and return the path."""
+def save_models(path: Path | str, models: StripeHmms, cells_per_item=None) -> Path:
+    """Write `models` (and optionally the expected cells per item of each class) to `path`.
+
+    The `.npz` suffix is added if missing; the file is replaced atomically. Returns the path.
+    """
     path = Path(path)
     if path.suffix != ".npz":
         path = path.with_name(path.name + ".npz")
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".tmp.npz")
+    extra = {} if cells_per_item is None else {"cells_per_item": _cells(cells_per_item, path)}
     np.savez(
         tmp,
         format=np.array(FORMAT),
@@ -35,6 +41,7 @@ def save_models(path: Path | str, models: StripeHmms) -> Path:
         pi=models.pi,
         A=models.A,
         B=models.B,
+        **extra,
     )
     tmp.replace(path)
     return path
@@ -95,3 +102,20 @@ def load_models(
         return StripeHmms(pi, a, b)
     except PerceptionInputError as exc:
         raise PerceptionInputError(field, f"{exc.field}: {exc.allowed}", exc.got) from None
+
+
+def _cells(values, path) -> np.ndarray:
+    arr = np.asarray(values, dtype=np.float64)
+    if arr.shape != (N_STATES,) or np.any(np.isnan(arr)) or np.any(arr[1:] <= 0):
+        allowed = f"cells_per_item of {N_STATES} counts, > 0 for the item classes"
+        raise PerceptionInputError(f"hmm file {path}", allowed, arr.tolist())
+    return arr
+
+
+def load_cells_per_item(path: Path | str) -> np.ndarray | None:
+    """The expected cells per item (N,) stored beside the models, None if the file has none."""
+    load_models(path)
+    with np.load(path, allow_pickle=False) as data:
+        if "cells_per_item" not in data.files:
+            return None
+        return _cells(data["cells_per_item"], path)

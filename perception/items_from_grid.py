@@ -104,9 +104,9 @@ def _confidence(posteriors, cells: np.ndarray, cls: int) -> float:
     return float(np.mean(posteriors[cells[:, 0], cells[:, 1], cls - 1]))
 
 
-def _item(geo, rows, cols, posteriors, cls, items):
+def _item(geo, rows, cols, posteriors, cls, items, first_row=0):
     """Append the item of expanded cells (rows, cols) to `items` (a dict of lists)."""
-    items["b"].append(float(np.mean(rows)) * geo.row_pitch_m)
+    items["b"].append((first_row + float(np.mean(rows))) * geo.row_pitch_m)
     items["y"].append(float(np.mean(geo.column_y(cols))))
     cells = np.unique(np.stack([rows, (cols - 1) // SUB_COLUMNS], axis=1), axis=0)
     items["class_id"].append(cls)
@@ -125,7 +125,13 @@ def _finish(items: dict) -> GridItems:
 
 
 def items_kmeans(
-    classes, geometry: GridGeometry, cells_per_item, posteriors=None, batch_rows=20, seed=0
+    classes,
+    geometry: GridGeometry,
+    cells_per_item,
+    posteriors=None,
+    batch_rows: int = 20,
+    seed: int = 0,
+    first_row: int = 0,
 ) -> GridItems:
     """Items by k-means per class and batch of rows (thesis 3.4, 4.1.2).
 
@@ -136,6 +142,10 @@ def items_kmeans(
         posteriors: Optional (rows, S, 4) class posteriors for the confidences.
         batch_rows: Rows per batch (20 in the thesis).
         seed: Seed of k-means's initialisation.
+        first_row: Index of the grid's first row since the episode began (sets `b`).
+
+    Returns:
+        The items; `cells` hold (row, stripe) indices into `classes`.
     """
     expanded = expand_grid(classes)
     size = np.asarray(cells_per_item, dtype=float)
@@ -157,12 +167,14 @@ def items_kmeans(
             km = KMeans(n_clusters=k, n_init=4, random_state=seed).fit(points)
             for label in range(k):
                 sel = km.labels_ == label
-                _item(geometry, rows[sel], cols[sel], posteriors, cls, items)
+                _item(geometry, rows[sel], cols[sel], posteriors, cls, items, first_row)
     return _finish(items)
 
 
-def items_components(classes, geometry: GridGeometry, posteriors=None) -> GridItems:
-    """Items as 8-connected regions of one class in the (rows, S) grid."""
+def items_components(
+    classes, geometry: GridGeometry, posteriors=None, first_row: int = 0
+) -> GridItems:
+    """Items as 8-connected regions of one class in the (rows, S) grid (args as items_kmeans)."""
     grid = _classes(classes)
     items = {"b": [], "y": [], "class_id": [], "confidence": [], "cells": []}
     for cls in ITEM_CLASSES:
@@ -170,7 +182,7 @@ def items_components(classes, geometry: GridGeometry, posteriors=None) -> GridIt
         for label in range(1, count + 1):
             rows, stripes = np.nonzero(labels == label)
             cols = 1 + stripes * SUB_COLUMNS + SUB_COLUMNS // 2
-            _item(geometry, rows, cols, posteriors, cls, items)
+            _item(geometry, rows, cols, posteriors, cls, items, first_row)
     return _finish(items)
 
 

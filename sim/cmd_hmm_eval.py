@@ -55,21 +55,12 @@ def _recordings(seeds, catalogue, perception):
 
 
 def _items(train, test, evaluation):
-    import numpy as np
 
-    from perception.items_from_grid import (
-        GridGeometry,
-        cells_per_item,
-        items_components,
-        items_kmeans,
-    )
+    from perception.items_from_grid import GridGeometry, items_components, items_kmeans
     from perception.items_score import pooled, score_items
+    from sim.hmm_models import item_sizes
 
-    counts = np.zeros(4)
-    for rec in train:
-        inside = rec.item_cell[:, 0] < rec.classes.shape[0]
-        counts += np.bincount(rec.item_class[inside] - 1, minlength=4)
-    size = cells_per_item([r.classes for r in train], counts)
+    size = item_sizes(train)
     scores = {}
     for source in ("decoded", "true"):
         for name in ("k-means", "components"):
@@ -178,7 +169,9 @@ def main(args: argparse.Namespace) -> int:
     if not args.no_items:
         _items(train_recs, test_recs, ev)
     if args.save:
-        print(f"\nsaved {save_models(args.save, models)}")
+        from sim.hmm_models import item_sizes
+
+        print(f"\nsaved {save_models(args.save, models, item_sizes(train_recs))}")
     print(
         f"\n({time.perf_counter() - t0:.1f} s) reproduce: sortsim hmm-eval --perception "
         f"{args.perception} --train-seeds {args.train_seeds} --extra-seeds '{args.extra_seeds}' "

@@ -72,3 +72,26 @@ def test_refuses_corrupt_and_missing_files(tmp_path, models):
     (tmp_path / "text.npz").write_text("not a zip")
     with pytest.raises(PerceptionInputError, match="readable"):
         load_models(tmp_path / "text.npz")
+
+
+def test_cells_per_item_are_stored_and_checked(tmp_path, models):
+    from perception.hmm_io import load_cells_per_item
+
+    path = save_models(tmp_path / "with_sizes.npz", models, cells_per_item=[np.inf, 20, 16, 13])
+    assert np.array_equal(load_cells_per_item(path), [np.inf, 20, 16, 13])
+    assert load_cells_per_item(save_models(tmp_path / "plain.npz", models)) is None
+    with pytest.raises(PerceptionInputError, match="cells_per_item"):
+        save_models(tmp_path / "bad.npz", models, cells_per_item=[1, 0, 1, 1])
+
+
+def test_trained_models_are_cached(tmp_path):
+    pytest.importorskip("sim.truth")
+    from sim.catalogue import load_catalogue
+    from sim.hmm_models import trained_models
+
+    catalogue = load_catalogue()
+    cache = tmp_path / "cache.npz"
+    first, sizes = trained_models(catalogue, cache=cache, train_seeds=(0, 1), extra_seeds=())
+    assert cache.exists() and np.all(sizes[1:] > 1)
+    again, sizes_again = trained_models(catalogue, cache=cache, train_seeds=(5,), extra_seeds=())
+    assert np.array_equal(again.B, first.B) and np.array_equal(sizes, sizes_again)

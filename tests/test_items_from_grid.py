@@ -79,6 +79,15 @@ def test_touching_items_merge_in_components_but_kmeans_counts_them():
     assert pooled([comp, km]).n_true == 4
 
 
+def test_first_row_shifts_the_belt_coordinate():
+    grid = rasterise(10, [(0.4, 0.0, 0.1, 0.05, 2)])
+    base = items_components(grid, GEO)
+    later = items_components(grid, GEO, first_row=100)
+    assert np.isclose(later.b[0] - base.b[0], 100 * GEO.row_pitch_m)
+    km = items_kmeans(grid, GEO, [np.inf, 1e3, 1e3, 1e3], first_row=100)
+    assert np.isclose(km.b[0], later.b[0])
+
+
 def test_confidence_is_the_mean_posterior_of_the_class():
     grid = rasterise(10, [(0.4, 0.0, 0.1, 0.05, 4)])
     post = np.zeros((10, 5, 4))
