@@ -23,18 +23,26 @@ BELT = -1
 class ColourRules:
     """Per-pixel colour rules on OpenCV's HSV (H in degrees 0..360, S and V 0..255).
 
+    Hued pixels take the colour of their hue band. Greyish pixels are white or transparent by
+    the item they belong to (a connected blob of greyish pixels): a white item has a core at
+    full brightness, while a transparent one, blended with the black belt, stays dimmer even at
+    its highlights; pixel by pixel, the shaded rim of a white bottle would look transparent.
+
     Attributes:
         item_min_value: Brightness above which a pixel is an item, not the black belt.
-        grey_max_saturation: Below it a pixel is white or transparent (greyish).
-        white_min_value: Greyish pixels at least this bright are white, dimmer ones transparent.
-        brown_max_value: Orange-hued pixels up to this bright are brown (brighter: red-orange).
-        hue_bounds: Upper hue bounds [deg] of red, brown, (red beyond), green, blue, (red beyond).
+        grey_max_saturation: Below it a pixel is greyish (white or transparent).
+        white_min_value: Brightness of a white item's core.
+        white_min_core: Fraction of a greyish blob at white brightness that makes it white.
+        red_max_hue: Hues below it (or from blue_max_hue on) are red [deg].
+        brown_max_hue: Hues from red_max_hue below it are brown [deg].
+        green_max_hue: Hues from brown_max_hue below it are green [deg].
+        blue_max_hue: Hues from green_max_hue below it are blue [deg].
     """
 
     item_min_value: int = 45
     grey_max_saturation: int = 90
-    white_min_value: int = 175
-    brown_max_value: int = 200
+    white_min_value: int = 235
+    white_min_core: float = 0.2
     red_max_hue: float = 16.0
     brown_max_hue: float = 50.0
     green_max_hue: float = 170.0
@@ -45,6 +53,8 @@ class ColourRules:
             value = getattr(self, name)
             if not 0 <= value <= 255:
                 raise PerceptionInputError(f"colour_rules.{name}", "0..255", value)
+        if not 0.0 < self.white_min_core <= 1.0:
+            raise PerceptionInputError("colour_rules.white_min_core", "(0, 1]", self.white_min_core)
         if not self.red_max_hue < self.brown_max_hue < self.green_max_hue < self.blue_max_hue:
             raise PerceptionInputError(
                 "colour_rules hue bounds", "red < brown < green < blue [deg]", self.blue_max_hue
@@ -58,20 +68,24 @@ class ColourRules:
         labels = np.full(image.shape[:2], BELT, dtype=np.int8)
         item = val >= self.item_min_value
         grey = item & (sat < self.grey_max_saturation)
-        labels[grey & (val >= self.white_min_value)] = COLOURS.index("white")
-        labels[grey & (val < self.white_min_value)] = COLOURS.index("transparent")
         hued = item & ~grey
-        red = hued & ((hue < self.red_max_hue) | (hue >= self.blue_max_hue))
-        orange = hued & (hue >= self.red_max_hue) & (hue < self.brown_max_hue)
-        labels[red] = COLOURS.index("red")
-        labels[orange & (val <= self.brown_max_value)] = COLOURS.index("brown")
-        labels[orange & (val > self.brown_max_value)] = COLOURS.index("red")
-        labels[hued & (hue >= self.brown_max_hue) & (hue < self.green_max_hue)] = COLOURS.index(
-            "green"
+        bands = (
+            ("red", (hue < self.red_max_hue) | (hue >= self.blue_max_hue)),
+            ("brown", (hue >= self.red_max_hue) & (hue < self.brown_max_hue)),
+            ("green", (hue >= self.brown_max_hue) & (hue < self.green_max_hue)),
+            ("blue", (hue >= self.green_max_hue) & (hue < self.blue_max_hue)),
         )
-        labels[hued & (hue >= self.green_max_hue) & (hue < self.blue_max_hue)] = COLOURS.index(
-            "blue"
-        )
+        for name, band in bands:
+            labels[hued & band] = COLOURS.index(name)
+        count, blobs = cv2.connectedComponents(grey.astype(np.uint8), connectivity=8)
+        if count > 1:
+            size = np.bincount(blobs.ravel(), minlength=count)
+            core = np.bincount(
+                blobs.ravel(), weights=(val >= self.white_min_value).ravel(), minlength=count
+            )
+            white = core >= self.white_min_core * np.maximum(size, 1)
+            names = np.where(white, COLOURS.index("white"), COLOURS.index("transparent"))
+            labels[grey] = names[blobs[grey]]
         return labels
 
 
