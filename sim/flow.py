@@ -107,7 +107,9 @@ def max_items_on_belt(flow: Flow) -> int:
 def _draw_classes(config: FlowConfig, stripes: np.ndarray, u: np.ndarray) -> np.ndarray:
     """Class index 0..2 of each item: a Markov chain per stripe, in arrival order."""
     prior_cdf = np.cumsum(config.class_priors)
+    prior_cdf /= prior_cdf[-1]
     step_cdf = np.cumsum(np.asarray(config.transitions, dtype=float), axis=1)
+    step_cdf /= step_cdf[:, -1:]
     out = np.empty(len(stripes), dtype=np.int64)
     last = [-1] * N_STRIPES
     for i, (stripe, draw) in enumerate(zip(stripes.tolist(), u.tolist(), strict=True)):

@@ -102,9 +102,13 @@ class FlowConfig:
                 f"at {BELT_SPEED_X1_MPS} m/s per x1)"
             )
             raise InvalidInput("speed_factor", allowed, self.speed_factor)
-        _probabilities("stripe_priors", self.stripe_priors, (N_STRIPES,))
-        _probabilities("transitions", self.transitions, (3, 3))
-        _probabilities("class_priors", self.class_priors, (3,))
+        stripes = _probabilities("stripe_priors", self.stripe_priors, (N_STRIPES,))
+        transitions = _probabilities("transitions", self.transitions, (3, 3))
+        classes = _probabilities("class_priors", self.class_priors, (3,))
+        # Plain tuples (e.g. from TOML lists), so configs hash and compare by value.
+        object.__setattr__(self, "stripe_priors", tuple(stripes.tolist()))
+        object.__setattr__(self, "transitions", tuple(tuple(r) for r in transitions.tolist()))
+        object.__setattr__(self, "class_priors", tuple(classes.tolist()))
         if isinstance(self.seed, bool) or not isinstance(self.seed, int | np.integer):
             raise InvalidInput("seed", "an integer >= 0", self.seed)
         if self.seed < 0:
