@@ -42,6 +42,19 @@ YAW_TRIES = 8
 POOL_CAPACITY_REQUIRED = 72
 
 
+@dataclass(frozen=True)
+class Spawn:
+    """One item of a flow: dropped at x = X_INFEED at `t` [s], at lateral `y` [m], `yaw` [rad]."""
+
+    item_id: int
+    t: float
+    y: float
+    yaw: float
+    type_index: int
+    class_id: int
+    colour: int
+
+
 @dataclass(frozen=True, eq=False)
 class Flow:
     """A generated flow: one entry per item, in order of arrival at the infeed.
@@ -68,6 +81,13 @@ class Flow:
 
     def __len__(self) -> int:
         return len(self.t_spawn)
+
+    def spawn(self, i: int) -> Spawn:
+        """Item `i` as a record."""
+        return Spawn(
+            i, float(self.t_spawn[i]), float(self.y[i]), float(self.yaw[i]),
+            int(self.type_index[i]), int(self.class_id[i]), int(self.colour[i]),
+        )  # fmt: skip
 
     @property
     def item_id(self) -> np.ndarray:

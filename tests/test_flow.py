@@ -116,6 +116,8 @@ def test_time_and_row_convention(catalogue):
     t = float(flow.tau[10])
     assert flow.x_at(t)[10] == pytest.approx(X_CAMERA)
     assert 10 in flow.on_belt(t)
+    spawn = flow.spawn(10)
+    assert (spawn.item_id, spawn.t, spawn.class_id) == (10, flow.t_spawn[10], flow.class_id[10])
 
 
 def test_too_dense_a_flow_is_refused(catalogue):
