@@ -161,7 +161,11 @@ def _rod_angles(geom: DeltaGeometry, q: np.ndarray, leg: int, platform: np.ndarr
 
 
 def set_configuration(
-    model: mujoco.MjModel, data: mujoco.MjData, q_motors, axis4: float = 0.0
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    q_motors,
+    axis4: float = 0.0,
+    geom: DeltaGeometry | None = None,
 ) -> None:
     """Place the whole closed chain in the IK-consistent state of motor angles `q_motors`.
 
@@ -173,8 +177,9 @@ def set_configuration(
         data: Its data (modified in place).
         q_motors: Motor angles, shape (3,) [rad].
         axis4: Axis 4 angle [rad].
+        geom: The model's geometry if already read (saves reading it again).
     """
-    geom = geometry_from_model(model)
+    geom = geometry_from_model(model) if geom is None else geom
     q = np.asarray(q_motors, dtype=float).reshape(3)
     platform = forward_kinematics(geom, q) + np.array([0.0, 0.0, geom.tcp_offset])
     for leg, i in enumerate(LEGS):
