@@ -3,7 +3,7 @@
 One recording per seed. The seed also picks the belt speed (x1, x1.2, x1.5) and the density
 (50, 100, 120, 150 items per 90 s, thesis table 4.2), so a set of seeds mixes the conditions the
 thesis recorded. Codes come from the flow's ground truth (`sim.truth`) or, in camera mode, from
-the camera pipeline (not available yet).
+the camera pipeline in MuJoCo (`sim.hmm_camera`).
 """
 
 from __future__ import annotations
@@ -11,8 +11,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
-from sim.errors import NotAvailable
 
 SPEED_FACTORS = (1.0, 1.2, 1.5)
 DENSITIES = (50, 100, 120, 150)
@@ -33,6 +31,7 @@ class Recording:
         item_y: (n,) lateral position of each item's centre [m].
         item_class: (n,) 2..4.
         item_cell: (n, 2) (row, stripe) of each item's centre.
+        refused_rows: Rows whose camera frame the pipeline refused (camera mode).
     """
 
     seed: int
@@ -44,6 +43,7 @@ class Recording:
     item_y: np.ndarray
     item_class: np.ndarray
     item_cell: np.ndarray
+    refused_rows: int = 0
 
 
 def conditions(seed: int) -> tuple[float, int]:
@@ -57,8 +57,10 @@ def record(seed: int, catalogue, perception: str = "truth") -> Recording:
     from sim.flow_config import stripe_of
     from sim.truth import flow_truth
 
-    if perception != "truth":
-        raise NotAvailable("hmm-eval --perception camera: camera codes per flow not available yet")
+    if perception == "camera":
+        from sim.hmm_camera import camera_recording
+
+        return camera_recording(seed, catalogue)
     speed, n_items = conditions(seed)
     config = FlowConfig(n_items=n_items, duration_s=DURATION_S, speed_factor=speed, seed=seed)
     flow = generate_flow(config, catalogue)
