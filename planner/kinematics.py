@@ -107,7 +107,8 @@ def _ik_raw(geom: DeltaGeometry, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     a = np.einsum("nij,ij->ni", d, geom.radial)  # radial component
     c = d[..., 2]  # vertical component (negative below the base)
     k = (np.sum(d * d, axis=-1) + geom.upper_arm**2 - geom.forearm**2) / (2.0 * geom.upper_arm)
-    # a cos(q) - c sin(q) = k  <=>  rho cos(q + atan2(c, a))... written as cos(q - alpha) below.
+    # |rod|^2 = forearm^2 reduces to a cos(q) - c sin(q) = k, i.e. rho cos(q - alpha) = k with
+    # rho = hypot(a, c) and alpha = atan2(-c, a): q = alpha +- acos(k / rho).
     rho = np.hypot(a, c)
     alpha = np.arctan2(-c, a)
     ratio = np.divide(k, rho, out=np.full_like(k, np.inf), where=rho > 0.0)
