@@ -169,6 +169,65 @@ def _within(v: np.ndarray, generator: RuckigTrajectoryGenerator) -> bool:
     return bool(np.all(np.abs(v) <= generator.limits.max_velocity))
 
 
+def search_corners(
+    start: State,
+    waypoints: Sequence[Waypoint],
+    generator: RuckigTrajectoryGenerator,
+    blend: bool = True,
+    sweeps: int = 2,
+) -> tuple[dict, float]:
+    """Corner offsets and velocities that shorten the chain, and its duration (no checks of the
+    motor limits yet: `plan_chain` applies them). inf when no candidate is feasible.
+
+    Args:
+        start: State at the chain's start.
+        waypoints: Points to pass; the last one must have a given velocity.
+        generator: Segment planner.
+        blend: Search non-zero corner velocities and cuts; False keeps every corner at rest.
+        sweeps: Rounds of coordinate descent over the corners.
+
+    Returns:
+        ({waypoint index: (offset (4,), velocity (4,))}, duration [s]).
+    """
+    if not waypoints or waypoints[-1].velocity is None:
+        raise PlannerInputError("waypoints", "a non-empty list ending with a given velocity", None)
+    zero = {
+        k: (np.zeros(DOF), np.zeros(DOF)) for k, wp in enumerate(waypoints) if wp.velocity is None
+    }
+    best_corners = dict(zero)
+    cache: dict = {}
+    plain = [
+        (
+            tuple(wp.position),
+            None if wp.velocity is None else tuple(wp.velocity),
+            wp.dwell,
+            wp.arrival_time,
+        )
+        for wp in waypoints
+    ]
+    as_tuples = {k: (tuple(waypoints[k].position + o), tuple(v)) for k, (o, v) in zero.items()}
+    best = _search_duration(start, plain, as_tuples, generator, cache)
+    if not (blend and zero):
+        return best_corners, best
+    axes = _corner_axes(start, waypoints, generator)
+    for _ in range(sweeps):
+        for k, (e_in, e_out, cut) in axes.items():
+            for c in CUTS if np.any(cut) else (0.0,):
+                for alpha in FRACTIONS:
+                    for beta in FRACTIONS:
+                        v = alpha * e_in + beta * e_out
+                        if not _within(v, generator):
+                            continue
+                        trial = dict(as_tuples)
+                        trial[k] = (tuple(waypoints[k].position + c * cut), tuple(v))
+                        d = _search_duration(start, plain, trial, generator, cache)
+                        if d < best - 1e-12:
+                            best, as_tuples = d, trial
+                            best_corners = dict(best_corners)
+                            best_corners[k] = (c * cut, v)
+    return best_corners, best
+
+
 def plan_chain(
     start: State,
     waypoints: Sequence[Waypoint],
@@ -181,7 +240,7 @@ def plan_chain(
     Args:
         start: State at the chain's start.
         waypoints: Points to pass; the last one must have a given velocity.
-        generator: Segment planner (its limits and motor-speed check apply to every segment).
+        generator: Segment planner (its limits and motor checks apply to every segment).
         blend: Search non-zero corner velocities; False stops at every corner.
         sweeps: Rounds of coordinate descent over the corners.
 
@@ -191,45 +250,12 @@ def plan_chain(
     Raises:
         PlannerInputError: no chain meets the limits (e.g. a waypoint outside the workspace).
     """
-    if not waypoints or waypoints[-1].velocity is None:
-        raise PlannerInputError("waypoints", "a non-empty list ending with a given velocity", None)
-    zero = {
-        k: (np.zeros(DOF), np.zeros(DOF)) for k, wp in enumerate(waypoints) if wp.velocity is None
-    }
-    best_corners = dict(zero)
-    if blend and zero:
-        axes = _corner_axes(start, waypoints, generator)
-        cache: dict = {}
-        plain = [
-            (
-                tuple(wp.position),
-                None if wp.velocity is None else tuple(wp.velocity),
-                wp.dwell,
-                wp.arrival_time,
-            )
-            for wp in waypoints
-        ]
-        as_tuples = {k: (tuple(waypoints[k].position + o), tuple(v)) for k, (o, v) in zero.items()}
-        best = _search_duration(start, plain, as_tuples, generator, cache)
-        for _ in range(sweeps):
-            for k, (e_in, e_out, cut) in axes.items():
-                for c in CUTS if np.any(cut) else (0.0,):
-                    for alpha in FRACTIONS:
-                        for beta in FRACTIONS:
-                            v = alpha * e_in + beta * e_out
-                            if not _within(v, generator):
-                                continue
-                            trial = dict(as_tuples)
-                            trial[k] = (tuple(waypoints[k].position + c * cut), tuple(v))
-                            d = _search_duration(start, plain, trial, generator, cache)
-                            if d < best - 1e-12:
-                                best, as_tuples = d, trial
-                                best_corners = dict(best_corners)
-                                best_corners[k] = (c * cut, v)
+    best_corners, _ = search_corners(start, waypoints, generator, blend, sweeps)
+    zero = {k: (np.zeros(DOF), np.zeros(DOF)) for k in best_corners}
     candidates = [best_corners, zero] if blend and zero else [zero]
     chains = []
-    for vel in candidates:
-        segs = _try_build(start, waypoints, vel, generator, True)
+    for corners in candidates:
+        segs = _try_build(start, waypoints, corners, generator, True)
         if segs is not None:
             chains.append(segs)
     if not chains:
