@@ -15,6 +15,7 @@ import numpy as np
 from perception.codes import VOID
 from perception.errors import PerceptionInputError
 from perception.hmm_metrics import table_4_1
+from perception.hmm_online import OnlineConfig, OnlineStripeHmms
 from perception.hmm_stripes import StripeHmms, infer
 
 DECODERS = ("posterior", "filtered")
@@ -58,6 +59,23 @@ def evaluate(models: StripeHmms, classes_grids, codes_grids, decode: str = "post
         predicted.append(np.argmax(out["predicted"], axis=2).T + 1)
         loglik += float(out["loglik"].sum())
         rows += post.shape[0]
+    return _score(classes_grids, decoded, predicted, posts, loglik / max(rows, 1))
+
+
+def evaluate_online(models: StripeHmms, classes_grids, codes_grids, config: OnlineConfig):
+    """Run the online filter row by row over each grid (re-estimating as configured) and score
+    its filtered decoding and one-step predictions like `evaluate` (loglik_per_row is NaN)."""
+    decoded, posts, predicted = [], [], []
+    for codes in codes_grids:
+        online = OnlineStripeHmms(models, config)
+        rows = [online.step(row) for row in np.asarray(codes)]
+        decoded.append(np.stack([r.classes for r in rows]))
+        posts.append(np.stack([r.filtered for r in rows]))
+        predicted.append(np.stack([np.argmax(r.predicted, axis=1) + 1 for r in rows]))
+    return _score(classes_grids, decoded, predicted, posts, float("nan"))
+
+
+def _score(classes_grids, decoded, predicted, posts, loglik_per_row) -> Evaluation:
     truth = [np.asarray(c) for c in classes_grids]
     gt, dec, pred = (np.concatenate(x) for x in (truth, decoded, predicted))
     occupied = gt != VOID
@@ -67,7 +85,7 @@ def evaluate(models: StripeHmms, classes_grids, codes_grids, decode: str = "post
         prediction_accuracy=float(np.mean(pred == gt)),
         prediction_accuracy_items=float(np.mean(pred[occupied] == gt[occupied])),
         cell_accuracy=float(np.mean(dec == gt)),
-        loglik_per_row=loglik / max(rows, 1),
+        loglik_per_row=loglik_per_row,
         decoded=decoded,
         posteriors=posts,
     )

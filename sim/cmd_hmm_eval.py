@@ -186,6 +186,20 @@ def main(args: argparse.Namespace) -> int:
             f"{e.prediction_accuracy:>10.4f}{e.prediction_accuracy_items:>12.4f}"
             f"{e.loglik_per_row:>12.3f}"
         )
+    from perception.hmm_eval import evaluate_online
+    from perception.hmm_online import OnlineConfig
+
+    print(f"\nOnline, row by row ({'coupled' if shown_coupled else 'independent'}, filtered):")
+    for every in (0, 1):
+        online = OnlineConfig(window=40, reestimate_every=every, anchor=200.0)
+        e = evaluate_online(
+            models, [r.classes for r in test_recs], [r.codes for r in test_recs], online
+        )
+        what = "re-estimated every row on 40 rows" if every else "fixed models"
+        print(
+            f"  {what:<34} avg acc {e.table[4, 0]:.4f}  avg sens {e.table[4, 1]:.4f}  "
+            f"cell acc {e.cell_accuracy:.4f}  pred acc {e.prediction_accuracy:.4f}"
+        )
     if not args.no_items:
         _items(train_recs, test_recs, ev)
     if args.save:
