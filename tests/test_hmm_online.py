@@ -75,3 +75,14 @@ def test_refuses_bad_rows_and_config():
     with pytest.raises(PerceptionInputError) as err:
         OnlineConfig(window=1)
     assert err.value.field == "window"
+
+
+def test_online_evaluation_equals_batch_filtered_evaluation():
+    from perception.hmm_eval import evaluate, evaluate_online
+
+    models, cls, codes = model_and_grid(True, seed=3)
+    batch = evaluate(models, [cls], [codes], decode="filtered")
+    online = evaluate_online(models, [cls], [codes], OnlineConfig(reestimate_every=0))
+    assert np.array_equal(batch.decoded[0], online.decoded[0])
+    assert np.allclose(batch.table, online.table, equal_nan=True)
+    assert batch.prediction_accuracy == online.prediction_accuracy
