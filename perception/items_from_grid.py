@@ -17,6 +17,7 @@ class over its cells (1 without posteriors).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -163,7 +164,8 @@ def items_kmeans(
             rows = rows + start
             points = np.stack([rows * geometry.row_pitch_m, geometry.column_y(cols)], axis=1)
             distinct = len(np.unique(points, axis=0))
-            k = int(min(max(1, round(rows.size / size[cls - 1])), distinct))
+            # MATLAB's round (halves away from zero); at least one item where the class is.
+            k = int(min(max(1, math.floor(rows.size / size[cls - 1] + 0.5)), distinct))
             km = KMeans(n_clusters=k, n_init=4, random_state=seed).fit(points)
             for label in range(k):
                 sel = km.labels_ == label
