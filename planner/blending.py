@@ -252,12 +252,14 @@ def plan_chain(
     """
     best_corners, _ = search_corners(start, waypoints, generator, blend, sweeps)
     zero = {k: (np.zeros(DOF), np.zeros(DOF)) for k in best_corners}
-    candidates = [best_corners, zero] if blend and zero else [zero]
-    chains = []
-    for corners in candidates:
-        segs = _try_build(start, waypoints, corners, generator, True)
-        if segs is not None:
-            chains.append(segs)
+    best = _try_build(start, waypoints, best_corners, generator, True) if blend else None
+    if best is not None and zero:
+        # The rest-corner chain cannot beat its own unchecked duration: skip it when possible.
+        _, zero_bound = search_corners(start, waypoints, generator, blend=False)
+        if _duration(best) <= zero_bound:
+            return Chain(best)
+    rest = _try_build(start, waypoints, zero, generator, True)
+    chains = [c for c in (best, rest) if c is not None]
     if not chains:
         raise PlannerInputError("waypoints", "points the robot can pass within its limits", None)
     return Chain(min(chains, key=_duration))

@@ -16,8 +16,9 @@ from ruckig import Trajectory as _RuckigTrajectory
 
 from planner.dynamics import LumpedDynamics
 from planner.errors import PlannerInputError
-from planner.kinematics import DeltaGeometry, inverse_kinematics, jacobian, reachable_mask
+from planner.kinematics import DeltaGeometry, reachable_mask
 from planner.limits import MotionLimits
+from planner.motor_rates import motor_rates
 from planner.trajectory import DOF, Segment, State, TrajectoryGenerator
 
 CHECK_DT = 0.002
@@ -50,30 +51,34 @@ class RuckigSegment(Segment):
         ext = self._traj.position_extrema[dof]
         return ext.min, ext.max
 
+    def breakpoints(self) -> np.ndarray:
+        """Times [s] where some coordinate's jerk switches (its acceleration peaks there)."""
+        times = []
+        for section in self._traj.profiles:
+            for prof in section:
+                t0 = prof.brake.duration
+                times.append(t0 + np.concatenate([[0.0], np.cumsum(prof.t)]))
+        return np.clip(np.concatenate(times), 0.0, self._duration)
+
     def sample_states(self, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Times (N,) every `dt` [s] plus the end, and positions, velocities, accelerations
-        (N, 4) there."""
-        times = np.append(np.arange(0.0, self._duration, dt), self._duration)
+        """Times (N,) every `dt` [s], at every jerk switch and at the end, and the positions,
+        velocities and accelerations (N, 4) there."""
+        grid = np.append(np.arange(0.0, self._duration, dt), self._duration)
+        times = np.unique(np.concatenate([grid, self.breakpoints()]))
         arr = np.array([self._traj.at_time(float(t)) for t in times])
         return times, arr[:, 0, :], arr[:, 1, :], arr[:, 2, :]
 
 
 def motor_speeds(geom: DeltaGeometry, xyz: np.ndarray, vxyz: np.ndarray) -> np.ndarray:
     """Motor speeds [rad/s] (n, 3) for TCP positions (n, 3) [m] and velocities (n, 3) [m/s]."""
-    q = inverse_kinematics(geom, xyz)
-    return np.linalg.solve(jacobian(geom, q), vxyz[..., None])[..., 0]
+    return motor_rates(geom, xyz, vxyz).qdot
 
 
-def motor_torques(
-    geom: DeltaGeometry, dynamics: LumpedDynamics, times, xyz, vxyz, axyz
-) -> np.ndarray:
-    """Motor torques [N m] (n, 3) of a sampled TCP motion (times (n,) [s], positions,
-    velocities, accelerations (n, 3)) under the lumped dynamics."""
-    q = inverse_kinematics(geom, xyz)
-    jac = jacobian(geom, q)
-    qdot = np.linalg.solve(jac, vxyz[..., None])[..., 0]
-    qddot = np.gradient(qdot, times, axis=0) if len(times) > 1 else np.zeros_like(qdot)
-    return dynamics.torque(q, qdot, qddot, jac, axyz)
+def motor_torques(geom: DeltaGeometry, dynamics: LumpedDynamics, xyz, vxyz, axyz) -> np.ndarray:
+    """Motor torques [N m] (n, 3) of TCP positions, velocities and accelerations (n, 3) under
+    the lumped dynamics."""
+    r = motor_rates(geom, xyz, vxyz, axyz)
+    return dynamics.torque(r.q, r.qdot, r.qddot, r.jac, axyz)
 
 
 class RuckigTrajectoryGenerator(TrajectoryGenerator):
@@ -165,11 +170,12 @@ class RuckigTrajectoryGenerator(TrajectoryGenerator):
         times, pos, vel, acc = segment.sample_states(CHECK_DT)
         if not np.all(reachable_mask(self.geometry, pos[:, :3])):
             return np.inf, np.inf
-        qd = motor_speeds(self.geometry, pos[:, :3], vel[:, :3])
-        speed = float(np.max(np.abs(qd))) / self.limits.motor_velocity
+        rates = motor_rates(self.geometry, pos[:, :3], vel[:, :3], acc[:, :3])
+        speed = float(np.max(np.abs(rates.qdot))) / self.limits.motor_velocity
         if self.dynamics is None:
             return speed, 0.0
-        tau = motor_torques(self.geometry, self.dynamics, times, pos[:, :3], vel[:, :3], acc[:, :3])
+        d = self.dynamics
+        tau = d.torque(rates.q, rates.qdot, rates.qddot, rates.jac, acc[:, :3])
         return speed, float(np.max(np.abs(tau))) / (TORQUE_MARGIN * self.dynamics.torque_limit)
 
     def plan(

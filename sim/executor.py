@@ -17,7 +17,8 @@ import mujoco
 import numpy as np
 
 from planner.dynamics import LumpedDynamics
-from planner.kinematics import DeltaGeometry, inverse_kinematics, jacobian
+from planner.kinematics import DeltaGeometry
+from planner.motor_rates import motor_rates
 from sim.errors import InvalidInput
 from sim.robot import (
     MOTOR_ACTUATORS,
@@ -175,10 +176,7 @@ class TrajectoryExecutor:
         """
         states = np.array([np.concatenate(trajectory.at_time(float(t))) for t in times])
         pos, vel, acc = states[:, :4], states[:, 4:8], states[:, 8:]
-        q = inverse_kinematics(self.geometry, pos[:, :3])
-        jac = jacobian(self.geometry, q)
-        qdot = np.linalg.solve(jac, vel[:, :3, None])[..., 0]
-        qddot = np.gradient(qdot, times, axis=0) if len(times) > 1 else np.zeros_like(qdot)
+        q, qdot, qddot, jac = motor_rates(self.geometry, pos[:, :3], vel[:, :3], acc[:, :3])
         torque = self.dynamics.torque(q, qdot, qddot, jac, acc[:, :3])
         return pos, vel, acc, q, qdot, torque
 

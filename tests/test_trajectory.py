@@ -1,0 +1,146 @@
+"""Ruckig trajectories: boundary states, every limit, the workspace, blending never slower.
+
+The property test plans 1000 seeded random pick-and-place pairs in the cell (start at rest
+somewhere in the workspace, item on the belt at a thesis belt speed, drop over a random bin)
+and checks each whole chain sampled every millisecond.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from planner.blending import plan_chain
+from planner.errors import PlannerInputError
+from planner.kinematics import reachable_mask
+from planner.limits import MotionLimits, limits_for_payload
+from planner.pick_cycle import PickPlaceConfig, pick_place_waypoints
+from planner.ruckig_trajectory import (
+    TORQUE_MARGIN,
+    RuckigTrajectoryGenerator,
+    motor_speeds,
+    motor_torques,
+)
+from planner.trajectory import Chain, Dwell, State
+from sim.executor import lumped_dynamics
+from sim.model import load_robot
+from sim.robot import geometry_from_model
+
+N_PAIRS = 1000
+BOUNDARY_TOL = 1e-8
+BINS = ((0.0, -0.51, 0.06), (-0.21, 0.51, 0.06), (0.21, 0.51, 0.06))
+SPEEDS = (0.185, 0.222, 0.2775)
+PICK_Z = 0.02
+
+
+@pytest.fixture(scope="module")
+def robot():
+    model = load_robot()
+    geom = geometry_from_model(model)
+    dyn = lumped_dynamics(model, geom, 0.1)
+    gen = RuckigTrajectoryGenerator(limits_for_payload(0.1), geom, dyn)
+    return geom, dyn, gen
+
+
+def _random_pair(rng, geom):
+    while True:
+        start = np.array(
+            [rng.uniform(-0.45, 0.45), rng.uniform(-0.45, 0.45), rng.uniform(0.03, 0.2)]
+        )
+        pick = np.array([rng.uniform(-0.4, 0.4), rng.uniform(-0.35, 0.35), PICK_Z])
+        drop = np.array(BINS[rng.integers(3)])
+        if np.all(reachable_mask(geom, np.stack([start, pick, pick + [0, 0, 0.025]]))):
+            return start, pick, float(rng.choice(SPEEDS)), drop
+
+
+def _check_chain(chain: Chain, start: State, wps, geom, dyn, limits: MotionLimits):
+    # Boundary states: the chain's start, every stop's state, continuity between segments.
+    p, v, a = chain.at_time(0.0)
+    assert np.max(np.abs(np.r_[p - start.position, v - start.velocity])) < BOUNDARY_TOL
+    ends = {s.label: s.end for s in chain.segments}
+    for wp in wps:
+        if wp.velocity is not None:
+            end = ends[wp.label]
+            assert np.max(np.abs(end.position - wp.position)) < BOUNDARY_TOL
+            assert np.max(np.abs(end.velocity - wp.velocity)) < BOUNDARY_TOL
+    for prev, seg in zip(chain.segments, chain.segments[1:], strict=False):
+        gap = np.r_[prev.end.position - seg.start.position, prev.end.velocity - seg.start.velocity]
+        assert np.max(np.abs(gap)) < BOUNDARY_TOL
+    # Limits, sampled every millisecond on every ruckig segment.
+    for seg in chain.segments:
+        if isinstance(seg, Dwell):
+            continue
+        times, pos, vel, acc = seg.sample_states(0.001)
+        assert np.all(np.abs(vel) <= limits.max_velocity * (1 + 1e-9) + 1e-12)
+        assert np.all(np.abs(acc) <= limits.max_acceleration * (1 + 1e-9) + 1e-9)
+        dt = np.diff(times)[:, None]
+        ok = dt[:, 0] > 1e-7
+        jerk = np.abs(np.diff(acc, axis=0))[ok] / dt[ok]
+        assert np.all(jerk <= limits.max_jerk * (1 + 1e-6))
+        assert np.all(reachable_mask(geom, pos[:, :3]))
+        qd = motor_speeds(geom, pos[:, :3], vel[:, :3])
+        assert np.max(np.abs(qd)) <= limits.motor_velocity * 1.01
+        tau = motor_torques(geom, dyn, pos[:, :3], vel[:, :3], acc[:, :3])
+        assert np.max(np.abs(tau)) <= dyn.torque_limit * TORQUE_MARGIN * 1.01
+
+
+def test_random_pick_place_pairs(robot):
+    geom, dyn, gen = robot
+    rng = np.random.default_rng(20260101)
+    config = PickPlaceConfig()
+    gains = []
+    for _ in range(N_PAIRS):
+        start, pick, speed, drop = _random_pair(rng, geom)
+        wps = pick_place_waypoints(pick, speed, drop, config)
+        state = State.at_rest(start)
+        blended = plan_chain(state, wps, gen, blend=True)
+        rest = plan_chain(state, wps, gen, blend=False)
+        _check_chain(blended, state, wps, geom, dyn, gen.limits)
+        assert blended.duration <= rest.duration + 1e-12
+        gains.append(rest.duration - blended.duration)
+    # Blending pays on most pairs, not only on a lucky few.
+    assert np.median(gains) > 0.005
+
+
+def test_rest_to_rest_segment_hits_goal(robot):
+    _, _, gen = robot
+    a = State.at_rest([-0.2, 0.1, 0.05], 0.3)
+    b = State([0.25, -0.2, 0.12, -1.0], [0.3, 0.0, 0.0, 0.0])
+    seg = gen.plan(a, b)
+    p, v, acc = seg.at_time(seg.duration)
+    assert np.allclose(p, b.position, atol=BOUNDARY_TOL)
+    assert np.allclose(v, b.velocity, atol=BOUNDARY_TOL)
+    assert np.allclose(acc, 0.0, atol=BOUNDARY_TOL)
+
+
+def test_motor_speed_limit_forces_a_retime(robot):
+    geom, _, _ = robot
+    slow_motors = MotionLimits(motor_velocity=2.0)
+    gen = RuckigTrajectoryGenerator(slow_motors, geom)
+    seg = gen.plan(State.at_rest([-0.3, 0.0, 0.05]), State.at_rest([0.3, 0.0, 0.05]))
+    assert gen.last_retimes > 0
+    times, pos, vel, _ = seg.sample_states(0.0005)
+    assert np.max(np.abs(motor_speeds(geom, pos[:, :3], vel[:, :3]))) <= 2.0 * 1.01
+    free = RuckigTrajectoryGenerator(slow_motors, None).plan(
+        State.at_rest([-0.3, 0.0, 0.05]), State.at_rest([0.3, 0.0, 0.05])
+    )
+    assert seg.duration > free.duration * 1.5
+
+
+def test_goal_outside_workspace_is_refused(robot):
+    _, _, gen = robot
+    with pytest.raises(PlannerInputError):
+        gen.plan(State.at_rest([0.0, 0.0, 0.05]), State.at_rest([1.5, 0.0, 0.05]))
+
+
+def test_limits_validation_and_payload_dependence():
+    with pytest.raises(PlannerInputError):
+        MotionLimits(tcp_acceleration=-1.0)
+    with pytest.raises(PlannerInputError):
+        limits_for_payload(3.5)
+    with pytest.raises(PlannerInputError):
+        State([0.0, 0.0, 0.0])
+    accels = [limits_for_payload(m).tcp_acceleration for m in (0.0, 1.0, 2.0, 3.0)]
+    assert accels[0] == accels[1] == 100.0  # datasheet
+    assert accels[1] > accels[2] > accels[3]
+    assert limits_for_payload(0.5).tcp_velocity == 10.0
