@@ -72,6 +72,7 @@ def test_every_item_type_rides_at_belt_speed(factor, yaw):
     steps = int(round(1.0 / model.opt.timestep))
     for _ in range(steps):
         mujoco.mj_step(model, data)
+    assert not any(w.number for w in data.warning)  # no instability, no overflow
     for slot, y0 in start.items():
         item_type = pool.item_type(slot)
         dof = pool.dof_adr[slot]

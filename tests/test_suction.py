@@ -168,6 +168,7 @@ def test_picks_each_type_from_the_belt_at_x1_5_into_its_bin(name):
     run = pick_and_place(cell, slot, item_type.material, hold=1.0)
     kinds = [e.kind for e in run.events]
     assert kinds == ["sealed", "released"], name
+    assert not any(w.number for w in cell.data.warning)
     sealed, released = run.events
     # The seal forms 35 ms after the lip touched; the item drops 35 ms after the vacuum is off.
     assert sealed.time - run.first_contact == pytest.approx(0.035, abs=1.5e-3)
