@@ -9,8 +9,9 @@ Definitions (thesis 4.1.4 and DESIGN.md):
 - `profit_eur`: sum of the values of the items that landed in the bin of their own class. An
   item in the wrong bin earns nothing (its material is not recovered; it is not charged
   either), so a confused class costs the value it would have earned.
-- `missed`: items that left the belt at its discharge end unpicked (the thesis discards an item
-  that passes the robot's working space); `dropped`: items lost on the way to a bin.
+- `missed`: items that passed the robot's working space unpicked (the thesis discards them; the
+  runner takes them off the belt there); `dropped`: items that fell anywhere but into a bin
+  (off the belt, off the cup, beside a bin).
 - `mean_cycle_s`: mean time from the start of one pick attempt to the end of its release.
 """
 

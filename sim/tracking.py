@@ -20,14 +20,14 @@ from perception.codes import CLASS_NAMES
 class Detection:
     """An item reported by perception at time `t` [s]: belt position [m], class probabilities.
 
-    `probs` are over the item classes paper, plastic, aluminium (ids 2, 3, 4), summing to 1.
+    `probs` are over the classes void, paper, plastic, aluminium (ids 1..4), summing to 1.
     `true_id` is the simulator's item id when perception is the ground truth, else None.
     """
 
     t: float
     x: float
     y: float
-    probs: tuple[float, float, float]
+    probs: tuple[float, float, float, float]
     true_id: int | None = None
 
 
@@ -52,7 +52,7 @@ class Track:
     @property
     def predicted_class(self) -> int:
         """Most probable class id (2 paper, 3 plastic, 4 aluminium)."""
-        return int(np.argmax(self.probs)) + 2
+        return int(np.argmax(self.probs[1:])) + 2
 
     @property
     def predicted_name(self) -> str:
@@ -115,7 +115,7 @@ class Tracker:
                 continue
             dx = track.x_at(det.t, self.belt_speed) - det.x
             d = float(np.hypot(dx, track.y - det.y))
-            if d < best_d and track.predicted_class == int(np.argmax(det.probs)) + 2:
+            if d < best_d and track.predicted_class == int(np.argmax(det.probs[1:])) + 2:
                 best, best_d = track, d
         return best
 
@@ -130,6 +130,11 @@ class Tracker:
     def remove(self, track_id: int) -> Track | None:
         """Forget a track (picked, or gone past the robot)."""
         return self._tracks.pop(track_id, None)
+
+    def remove_true(self, true_id: int) -> None:
+        """Forget the track of simulator item `true_id` (truth mode; no-op otherwise)."""
+        for key in [k for k, tr in self._tracks.items() if tr.true_id == true_id]:
+            del self._tracks[key]
 
     def prune(self, t: float, x_max: float) -> list[Track]:
         """Remove and return the tracks whose position at `t` [s] is beyond `x_max` [m]."""

@@ -1,0 +1,98 @@
+"""The compiled sorting cell and the long-lived objects built on it, reused between episodes.
+
+A `Cell` owns one MjModel/MjData (the item pool switches geom fields of its own model at run
+time, so a cell is never shared between simulations running at once), the belt, the item pool,
+the robot's geometry, trajectory generator and executor, the reachable window and the bins'
+release points. `reset` parks every item and puts the robot back to its `home` keyframe, so a
+sweep worker or a Ray actor runs many episodes on one compiled model.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from perception.codes import ALUMINIUM, PAPER, PLASTIC
+from planner.kinematics import reachable_mask
+from planner.limits import limits_for_payload
+from planner.reach_window import ReachWindow
+from planner.ruckig_trajectory import RuckigTrajectoryGenerator
+from sim.belt import Belt
+from sim.catalogue import load_catalogue
+from sim.executor import TrajectoryExecutor, lumped_dynamics
+from sim.item_pool import ItemPool
+from sim.model import load_scene
+from sim.robot import geometry_from_model, tcp_position
+
+BIN_NAMES = {PAPER: "paper", PLASTIC: "plastic", ALUMINIUM: "aluminium"}
+PICK_Z_NOMINAL = 0.02
+"""TCP height of the reachable window the planners use (a typical item top) [m]."""
+DESIGN_PAYLOAD_KG = 1.0
+"""Payload the pick trajectories are planned for: the heaviest catalogue item is well under it."""
+
+
+class Cell:
+    """The compiled cell (model, data) and its robot, belt, pool and bins.
+
+    Args:
+        model: A compiled cell; `sim.model.load_scene()` when omitted.
+    """
+
+    def __init__(self, model: mujoco.MjModel | None = None):
+        self.model = model if model is not None else load_scene()
+        self.data = mujoco.MjData(self.model)
+        self.catalogue = load_catalogue()
+        self.belt = Belt(self.model)
+        self.pool = ItemPool(self.model, self.catalogue, self.belt)
+        self.geometry = geometry_from_model(self.model)
+        self.limits = limits_for_payload(DESIGN_PAYLOAD_KG)
+        dynamics = lumped_dynamics(self.model, self.geometry, DESIGN_PAYLOAD_KG)
+        self.generator = RuckigTrajectoryGenerator(self.limits, self.geometry, dynamics)
+        self.executor = TrajectoryExecutor(self.model, self.data, geometry=self.geometry)
+        self.window = ReachWindow.from_reachable(
+            lambda p: reachable_mask(self.geometry, p), PICK_Z_NOMINAL
+        )
+        mujoco.mj_forward(self.model, self.data)
+        self.drop_xyz = {
+            c: self.data.site(f"bin_{name}_drop").xpos.copy() for c, name in BIN_NAMES.items()
+        }
+        self.bin_regions = {c: self._box_site(f"bin_{name}_floor") for c, name in BIN_NAMES.items()}
+        self._home_key = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_KEY, "home")
+
+    def _box_site(self, name: str) -> tuple[np.ndarray, np.ndarray]:
+        """(low corner, high corner) [m] of an axis-aligned box site (a bin's floor region)."""
+        site = self.data.site(name)
+        half = self.model.site(name).size
+        return site.xpos - half, site.xpos + half
+
+    def bins_tuple(self) -> tuple[tuple[float, float, float], ...]:
+        """Release points of the paper, plastic and aluminium bins, for the planners [m]."""
+        return tuple(tuple(float(v) for v in self.drop_xyz[c]) for c in (PAPER, PLASTIC, ALUMINIUM))
+
+    def bin_containing(self, point: np.ndarray) -> int | None:
+        """Class of the bin whose floor region holds `point` [m], or None."""
+        for c, (lo, hi) in self.bin_regions.items():
+            if np.all(point >= lo) and np.all(point <= hi):
+                return c
+        return None
+
+    def bin_containing_xy(self, point: np.ndarray) -> int | None:
+        """Class of the bin whose floor region is under `point` (x, y only) [m], or None."""
+        for c, (lo, hi) in self.bin_regions.items():
+            if lo[0] <= point[0] <= hi[0] and lo[1] <= point[1] <= hi[1]:
+                return c
+        return None
+
+    def reset(self, belt_speed: float) -> None:
+        """Park every item, robot to `home`, belt at `belt_speed` [m/s], clock at 0."""
+        for slot in self.pool.active_slots():
+            self.pool.park(self.data, int(slot))
+        mujoco.mj_resetDataKeyframe(self.model, self.data, self._home_key)
+        self.data.eq_active[:] = self.model.eq_active0
+        self.belt.set_speed(belt_speed)
+        self.executor.set_payload(0.0)
+        mujoco.mj_forward(self.model, self.data)
+
+    def tcp(self) -> np.ndarray:
+        """Cup lip centre now [m]."""
+        return tcp_position(self.model, self.data)

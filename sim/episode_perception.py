@@ -1,0 +1,161 @@
+"""What the cell sees of the belt once per observation period: detections for the tracker.
+
+Two sources with one interface, `observe(t) -> list[Detection]`:
+
+- `TruthPerception` (`--perception truth`, the fast path): no rendering; every item whose
+  centre crossed the camera line during the last period is reported where the simulation has
+  it, with its true class as a certainty.
+- `CameraPerception`: the belt camera's frame is rendered (`sim.camera.BeltCamera`, real lens
+  distortion), turned into a row of 5 observation codes (`perception.pipeline`), filtered by
+  the online stripe HMMs (`perception.hmm_online`), and items are extracted from the decoded
+  class grid (`perception.items_from_grid`). The thesis runs k-means on batches of 20 rows;
+  online that would report an item 10 s after it passed the camera, 1.85 m downstream at x1
+  and so already past the robot 1.48 m away, so here items are the connected regions of a
+  sliding window of rows, reported the period after their last row (the components
+  alternative of `items_from_grid`); class probabilities are the mean filtered posterior over
+  the item's cells. A frame the pipeline cannot use is counted and its row read as empty.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from perception.codes import EMPTY_CODE, N_STATES, VOID
+from perception.errors import PerceptionError
+from perception.grid import BeltGrid
+from perception.hmm_online import OnlineStripeHmms
+from perception.items_from_grid import GridGeometry, items_components
+from perception.pipeline import CameraPipeline
+from sim.flow import Flow
+from sim.flow_config import X_CAMERA
+from sim.item_pool import ItemPool
+from sim.paths import REPO_ROOT
+from sim.tracking import Detection
+
+HMM_CACHE = REPO_ROOT / "runs" / "cache" / "stripe_hmms.npz"
+CAMERA_SIZE = (640, 360)
+WINDOW_ROWS = 12
+
+
+def one_hot(class_id: int) -> tuple[float, ...]:
+    """Class probabilities (void, paper, plastic, aluminium) of a certain class."""
+    probs = [0.0] * N_STATES
+    probs[int(class_id) - 1] = 1.0
+    return tuple(probs)
+
+
+class TruthPerception:
+    """True items as they cross the camera line (no rendering)."""
+
+    name = "truth"
+
+    def __init__(
+        self, data: mujoco.MjData, pool: ItemPool, flow: Flow, belt_speed: float, period_s: float
+    ):
+        self.data, self.pool, self.flow = data, pool, flow
+        self.band = belt_speed * period_s
+        self.seen: set[int] = set()
+        self.rows = self.unobserved = 0
+
+    def observe(self, t: float) -> list[Detection]:
+        """Items whose centre is within one period's travel past the camera line."""
+        self.rows += 1
+        out = []
+        for slot in self.pool.active_slots():
+            item_id = int(self.pool.item_ids[slot])
+            if item_id in self.seen:
+                continue
+            x, y, _ = self.data.xpos[self.pool.body_ids[slot]]
+            if X_CAMERA <= x:
+                self.seen.add(item_id)
+                cls = int(self.flow.class_id[item_id])
+                out.append(Detection(t, float(x), float(y), one_hot(cls), true_id=item_id))
+        return out
+
+    def close(self) -> None:
+        """Nothing to free."""
+
+
+def stripe_models(catalogue):
+    """(stripe HMMs, cells per item): trained once, cached in runs/cache (written atomically)."""
+    from sim.hmm_models import trained_models
+
+    if HMM_CACHE.exists():
+        return trained_models(catalogue, cache=HMM_CACHE)
+    models, sizes = trained_models(catalogue, cache=None)
+    from perception.hmm_io import save_models
+
+    HMM_CACHE.parent.mkdir(parents=True, exist_ok=True)
+    tmp = HMM_CACHE.with_name(f".{HMM_CACHE.stem}.{os.getpid()}.npz")
+    save_models(tmp, models, sizes)
+    os.replace(tmp, HMM_CACHE)
+    return models, sizes
+
+
+class CameraPerception:
+    """Rendered frames -> codes -> online stripe HMMs -> items (see the module docstring)."""
+
+    name = "camera"
+
+    def __init__(self, model, data, catalogue, belt_speed: float, period_s: float, camera=None):
+        from perception.calibration import CameraCalibration
+        from sim.camera import BeltCamera, marker_points
+        from sim.cmd_calibrate import DEFAULT_CALIBRATION
+
+        self.data, self.speed, self.period = data, float(belt_speed), float(period_s)
+        calibration = CameraCalibration.load(Path(DEFAULT_CALIBRATION)).scaled(CAMERA_SIZE)
+        grid = BeltGrid(x_line=X_CAMERA, period_s=period_s)
+        self.pipeline = CameraPipeline(calibration, grid, *marker_points(model, data))
+        self.camera = camera if camera is not None else BeltCamera(model, *CAMERA_SIZE)
+        models, self.cells_per_item = stripe_models(catalogue)
+        self.hmm = OnlineStripeHmms(models)
+        self.geometry = GridGeometry(row_pitch_m=belt_speed * period_s)
+        stripes = models.pi.shape[0]
+        self.classes = np.full((WINDOW_ROWS, stripes), VOID, dtype=np.int64)
+        self.posteriors = np.zeros((WINDOW_ROWS, stripes, N_STATES))
+        self.rows = self.unobserved = 0
+        self.render_s = self.pipeline_s = self.hmm_s = 0.0
+
+    def observe(self, t: float) -> list[Detection]:
+        """Take the frame of time `t` [s]; return the items whose last row was the previous."""
+        t0 = time.perf_counter()
+        frame = self.camera.render(self.data)
+        t1 = time.perf_counter()
+        try:
+            codes = self.pipeline.observe(frame, self.speed, t).codes
+        except PerceptionError:
+            self.unobserved += 1
+            codes = np.full(self.classes.shape[1], EMPTY_CODE)
+        t2 = time.perf_counter()
+        est = self.hmm.step(codes)
+        self.classes = np.roll(self.classes, -1, axis=0)
+        self.posteriors = np.roll(self.posteriors, -1, axis=0)
+        self.classes[-1], self.posteriors[-1] = est.classes, est.filtered
+        self.rows += 1
+        out = self._completed_items(t)
+        self.render_s += t1 - t0
+        self.pipeline_s += t2 - t1
+        self.hmm_s += time.perf_counter() - t2
+        return out
+
+    def _completed_items(self, t: float) -> list[Detection]:
+        first_row = self.rows - WINDOW_ROWS
+        found = items_components(self.classes, self.geometry, self.posteriors, first_row)
+        out = []
+        for b, y, cells in zip(found.b, found.y, found.cells, strict=True):
+            if int(cells[:, 0].max()) != WINDOW_ROWS - 2:
+                continue  # still growing (touches the newest row) or reported already
+            probs = self.posteriors[cells[:, 0], cells[:, 1]].mean(axis=0)
+            probs = probs / probs.sum()
+            x = X_CAMERA + self.speed * t - float(b)
+            out.append(Detection(t, x, float(y), tuple(float(p) for p in probs)))
+        return out
+
+    def close(self) -> None:
+        """Free the camera's renderer."""
+        self.camera.close()

@@ -1,0 +1,138 @@
+"""The robot's side of an episode: plan the chosen pick, play it in physics, seal, release.
+
+The chosen item is met where it will be (`planner.intercept.intercept_item`: ruckig chain
+arriving on the item at the belt's velocity), the chain is played by
+`sim.executor.TrajectoryExecutor` (IK motor set-points at every physics step), and the cup
+seals during the chain's seal dwell if it touches an item (`sim.suction` when available) and
+releases at the end of the release dwell over the bin.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+import mujoco
+import numpy as np
+
+from planner.errors import PlannerInputError
+from planner.intercept import Intercept, intercept_item
+from planner.pick_cycle import PickPlaceConfig
+from planner.trajectory import State
+from sim.cell import Cell
+from sim.gripper import Gripper
+
+PRESS_DEPTH_M = 0.003
+"""The cup aims this far below the item's top so that its lip touches it [m]."""
+DEFAULT_TOP_Z = 0.02
+"""Assumed top of an item when no item is found near the detection [m]."""
+NEAR_M = 0.08
+"""Radius within which the item under a detection is looked for [m]."""
+RAIL_TOP_Z = 0.03
+"""Top of the belt's side rails, the highest obstacle between the belt and the bins [m]."""
+CLEARANCE_M = 0.025
+"""Gap kept between a held item's bottom and the rails or a bin's rim [m]."""
+
+
+@dataclass(frozen=True)
+class PickOutcome:
+    """What one pick attempt did.
+
+    Attributes:
+        t_start: Sim time the attempt started [s].
+        t_end: Sim time the release ended [s].
+        item_id: Flow id of the item the cup held (-1: none).
+        sealed: The cup sealed on an item.
+        held_to_bin: The item was still held when released over the bin.
+    """
+
+    t_start: float
+    t_end: float
+    item_id: int
+    sealed: bool
+    held_to_bin: bool
+
+
+class PickController:
+    """Plans and executes picks on a `Cell`.
+
+    Args:
+        cell: The compiled cell (robot, pool, executor).
+        belt_speed: Belt speed [m/s].
+    """
+
+    def __init__(self, cell: Cell, belt_speed: float):
+        self.cell = cell
+        self.belt_speed = float(belt_speed)
+        self.config = PickPlaceConfig()
+        self.gripper = Gripper(cell)
+        mujoco.mj_forward(cell.model, cell.data)
+        self.rest = cell.tcp()
+        self.plan_failures = 0
+
+    def top_z_near(self, x: float, y: float) -> float:
+        """Top height [m] of the item nearest (x, y) now (the stereo camera's depth)."""
+        pool, data = self.cell.pool, self.cell.data
+        best, best_d = DEFAULT_TOP_Z, NEAR_M
+        for slot in pool.active_slots():
+            px, py, pz = data.xpos[pool.body_ids[slot]]
+            d = float(np.hypot(px - x, py - y))
+            if d < best_d and pz > -0.05:
+                best, best_d = float(pz + pool.item_type(int(slot)).rest_height), d
+        return best
+
+    def plan(self, x: float, y: float, bin_class: int) -> Intercept:
+        """Intercept of an item now at (x, y) [m], carried to the bin of `bin_class`.
+
+        The item hangs under the cup by its height (its top is where the cup seals), so the
+        lift and the release point keep its bottom `CLEARANCE_M` above the rails (the bins'
+        rims are lower).
+        """
+        top = self.top_z_near(x, y)
+        pick_z = max(top - PRESS_DEPTH_M, 0.0)
+        height = max(top, 0.0)
+        lift = max(self.config.lift_height, RAIL_TOP_Z + CLEARANCE_M + height - pick_z)
+        drop = np.array(self.cell.drop_xyz[bin_class], dtype=float)
+        # Long items overhang the bin towards the belt: keep them above the rails too.
+        drop[2] = max(drop[2], RAIL_TOP_Z + CLEARANCE_M + height)
+        config = replace(self.config, lift_height=lift)
+        try:
+            return intercept_item(
+                State.at_rest(self.rest),
+                (x, y),
+                self.belt_speed,
+                drop,
+                self.cell.generator,
+                pick_z,
+                config,
+            )
+        except PlannerInputError as exc:
+            self.plan_failures += 1
+            return Intercept(False, str(exc), float("nan"), np.full(3, np.nan))
+
+    def execute(self, intercept: Intercept, on_step: Callable[[], None]) -> PickOutcome:
+        """Play a feasible intercept's plan; `on_step` runs after every physics step."""
+        plan = intercept.plan
+        data = self.cell.data
+        t_start = float(data.time)
+        seal_from, seal_until = plan.contact_time, plan.lift_time
+        state = {"touching": -1, "sealed": -1}
+
+        def step(t_traj: float) -> None:
+            if state["sealed"] < 0 and seal_from <= t_traj:
+                if t_traj <= seal_until and state["touching"] < 0:
+                    state["touching"] = self.gripper.touching_slot()
+                if t_traj >= seal_until and state["touching"] >= 0:
+                    state["sealed"] = self.gripper.seal(state["touching"])
+                    state["touching"] = -2  # one seal attempt per pick
+            on_step()
+
+        self.cell.executor.execute(plan.chain, on_step=step)
+        item_id, held = -1, False
+        if state["sealed"] >= 0:
+            item_id = int(self.cell.pool.item_ids[state["sealed"]])
+            held = self.gripper.holding(state["sealed"])
+            self.gripper.release()
+        end = plan.chain.at_time(plan.chain.duration)[0]
+        self.rest = np.asarray(end[:3], dtype=float)
+        return PickOutcome(t_start, float(data.time), item_id, state["sealed"] >= 0, held)
