@@ -132,6 +132,11 @@ class SuctionCup:
         """Flow id of the held item, or None."""
         return None if self._held is None else int(self.pool.item_ids[self._held])
 
+    @property
+    def vacuum(self) -> bool:
+        """Whether the vacuum valve is open."""
+        return self._vacuum
+
     def vacuum_on(self) -> None:
         """Opens the vacuum valve."""
         self._vacuum = True

@@ -100,3 +100,28 @@ def test_items_reaching_the_discharge_end_are_parked_as_missed():
         missed += pool.park_missed(data)
     assert missed == [3]  # 0.2 m from the end at 0.2775 m/s: gone after ~0.72 s
     assert pool.slot_of(4) is not None
+
+
+def test_feed_drops_a_generated_flow_in_order_with_its_types_colours_and_poses():
+    from sim.flow import generate_flow
+    from sim.flow_config import X_INFEED, FlowConfig
+
+    model, data, belt, pool = belt_scene()
+    flow = generate_flow(FlowConfig(n_items=20, duration_s=10.0, seed=3), CATALOGUE)
+    belt.set_speed(flow.config.belt_speed_mps)
+    fed = 0
+    while data.time < 5.0:
+        fed = pool.feed(data, flow, fed)
+        mujoco.mj_step(model, data)
+    due = int(np.sum(flow.t_spawn <= 5.0 - model.opt.timestep / 2))
+    assert fed == due and sorted(pool.item_ids[pool.active_slots()]) == list(range(due))
+    assert not any(w.number for w in data.warning)
+    for i in range(due):
+        slot = pool.slot_of(i)
+        assert pool.type_index[slot] == flow.type_index[i]
+        rgba = model.geom_rgba[pool.geom_id(slot)]
+        assert rgba.tolist() == pytest.approx(list(CATALOGUE.rgba[flow.colour[i]]))
+        pos = pool.position(data, slot)
+        expected_x = X_INFEED + flow.config.belt_speed_mps * (data.time - flow.t_spawn[i])
+        assert pos[0] == pytest.approx(expected_x, abs=0.002)  # riding with the belt since its drop
+        assert pos[1] == pytest.approx(flow.y[i], abs=0.002)

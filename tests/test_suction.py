@@ -130,7 +130,7 @@ def pick_and_place(
     cup, bins = cell.cup, cell.bins
 
     def on_step(t: float) -> None:
-        if plan.contact_time - VACUUM_LEAD <= t < plan.release_time and not cup._vacuum:
+        if plan.contact_time - VACUUM_LEAD <= t < plan.release_time and not cup.vacuum:
             if cup.held_slot is None and not run.events:
                 cup.vacuum_on()
         if t >= plan.release_time and run.vacuum_off is None:
