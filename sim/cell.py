@@ -56,32 +56,11 @@ class Cell:
         self.drop_xyz = {
             c: self.data.site(f"bin_{name}_drop").xpos.copy() for c, name in BIN_NAMES.items()
         }
-        self.bin_regions = {c: self._box_site(f"bin_{name}_floor") for c, name in BIN_NAMES.items()}
         self._home_key = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_KEY, "home")
-
-    def _box_site(self, name: str) -> tuple[np.ndarray, np.ndarray]:
-        """(low corner, high corner) [m] of an axis-aligned box site (a bin's floor region)."""
-        site = self.data.site(name)
-        half = self.model.site(name).size
-        return site.xpos - half, site.xpos + half
 
     def bins_tuple(self) -> tuple[tuple[float, float, float], ...]:
         """Release points of the paper, plastic and aluminium bins, for the planners [m]."""
         return tuple(tuple(float(v) for v in self.drop_xyz[c]) for c in (PAPER, PLASTIC, ALUMINIUM))
-
-    def bin_containing(self, point: np.ndarray) -> int | None:
-        """Class of the bin whose floor region holds `point` [m], or None."""
-        for c, (lo, hi) in self.bin_regions.items():
-            if np.all(point >= lo) and np.all(point <= hi):
-                return c
-        return None
-
-    def bin_containing_xy(self, point: np.ndarray) -> int | None:
-        """Class of the bin whose floor region is under `point` (x, y only) [m], or None."""
-        for c, (lo, hi) in self.bin_regions.items():
-            if lo[0] <= point[0] <= hi[0] and lo[1] <= point[1] <= hi[1]:
-                return c
-        return None
 
     def reset(self, belt_speed: float) -> None:
         """Park every item, robot to `home`, belt at `belt_speed` [m/s], clock at 0."""

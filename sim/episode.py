@@ -26,6 +26,7 @@ import numpy as np
 from planner.decision import DecisionContext, RobotState, TrackedItem
 from planner.registry import make_planner
 from planner.straight_line_timing import StraightLineCycleModel
+from sim.bins import BIN_CLASSES, Bins
 from sim.cell import PICK_Z_NOMINAL, Cell
 from sim.config import EpisodeConfig
 from sim.episode_perception import CameraPerception, TruthPerception
@@ -41,8 +42,6 @@ CHECK_PERIOD_S = 0.02
 """How often items leaving the belt, landing in bins or falling are looked for [s]."""
 BELOW_BELT_Z = -0.1
 """An item whose centre is this far below the belt surface has left it [m]."""
-ON_FLOOR_Z = -0.6
-"""An item this low has fallen past every bin [m]."""
 DISCARD_MARGIN_M = 0.15
 """An item this far past the reachable window's downstream edge is out of the robot's reach
 (the cup's radius and the item's half length included) [m]."""
@@ -100,6 +99,7 @@ class Episode:
         self.planner = make_decision_manager(config)
         self.planner.reset()
         self.robot = PickController(cell, self.speed)
+        self.bins = Bins(self.model, self.data, cell.pool)
         limits = cell.limits
         self.context = DecisionContext(
             belt_speed=self.speed,
@@ -163,26 +163,25 @@ class Episode:
 
     def _check_items(self, t: float) -> None:
         pool, data = self.cell.pool, self.data
+        held = self.robot.suction.held_slot
         for slot in pool.active_slots():
-            if self.robot.gripper.held == slot:
+            if slot == held:
                 continue
             pos = data.xpos[pool.body_ids[slot]]
-            if pos[2] > BELOW_BELT_Z:
-                if pos[0] > self.x_discard:  # past the robot's working space: discarded
-                    item_id = pool.park(data, int(slot))
-                    self.metrics.on_missed(item_id)
-                    self.tracker.remove_true(item_id)
-                continue
-            item_id = int(pool.item_ids[slot])
-            bin_class = self.cell.bin_containing_xy(pos)
-            if bin_class is not None and pos[2] > ON_FLOOR_Z:
-                if np.linalg.norm(data.cvel[pool.body_ids[slot]]) < 0.5 or pos[2] < -0.25:
-                    self.metrics.on_binned(item_id, int(self.flow.class_id[item_id]), bin_class)
-                    pool.park(data, int(slot))
-            elif bin_class is None:
-                self.metrics.on_dropped(item_id)
+            if pos[0] > self.x_discard and pos[2] > BELOW_BELT_Z:  # passed the robot: discarded
+                item_id = pool.park(data, int(slot))
+                self.metrics.on_missed(item_id)
                 self.tracker.remove_true(item_id)
-                pool.park(data, int(slot))
+        for item_id in pool.park_missed(data):  # past the belt's end (e.g. pushed along)
+            self.metrics.on_missed(item_id)
+            self.tracker.remove_true(item_id)
+        for landing in self.bins.update(data, held):
+            if landing.bin is None:
+                self.metrics.on_dropped(landing.item_id)
+            else:
+                bin_class = BIN_CLASSES.index(landing.bin) + 2
+                self.metrics.on_binned(landing.item_id, landing.true_class, bin_class)
+            self.tracker.remove_true(landing.item_id)
         self.tracker.prune(t, self.x_discard)
 
     # ----- decisions and picks ----------------------------------------------------------------

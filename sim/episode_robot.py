@@ -2,9 +2,9 @@
 
 The chosen item is met where it will be (`planner.intercept.intercept_item`: ruckig chain
 arriving on the item at the belt's velocity), the chain is played by
-`sim.executor.TrajectoryExecutor` (IK motor set-points at every physics step), and the cup
-seals during the chain's seal dwell if it touches an item (`sim.suction` when available) and
-releases at the end of the release dwell over the bin.
+`sim.executor.TrajectoryExecutor` (IK motor set-points at every physics step), and the vacuum
+cup (`sim.suction.SuctionCup`) seals if its lip rests on an item for the seal time, holds it
+within its force budget, and lets it go over the bin.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from planner.intercept import Intercept, intercept_item
 from planner.pick_cycle import PickPlaceConfig
 from planner.trajectory import State
 from sim.cell import Cell
-from sim.gripper import Gripper
+from sim.suction import SuctionCup
 
 PRESS_DEPTH_M = 0.003
 """The cup aims this far below the item's top so that its lip touches it [m]."""
@@ -65,7 +65,7 @@ class PickController:
         self.cell = cell
         self.belt_speed = float(belt_speed)
         self.config = PickPlaceConfig()
-        self.gripper = Gripper(cell)
+        self.suction = SuctionCup(cell.model, cell.pool)
         mujoco.mj_forward(cell.model, cell.data)
         self.rest = cell.tcp()
         self.plan_failures = 0
@@ -111,28 +111,38 @@ class PickController:
             return Intercept(False, str(exc), float("nan"), np.full(3, np.nan))
 
     def execute(self, intercept: Intercept, on_step: Callable[[], None]) -> PickOutcome:
-        """Play a feasible intercept's plan; `on_step` runs after every physics step."""
-        plan = intercept.plan
-        data = self.cell.data
+        """Play a feasible intercept's plan; `on_step` runs after every physics step.
+
+        The vacuum opens as the descent starts (the cup seals once its lip has touched the item
+        for the seal time) and closes when the cup reaches the drop point (the item falls the
+        release time later, at the end of the chain).
+        """
+        plan, data, cup = intercept.plan, self.cell.data, self.suction
         t_start = float(data.time)
-        seal_from, seal_until = plan.contact_time, plan.lift_time
-        state = {"touching": -1, "sealed": -1}
+        vacuum_from = plan.chain.phase_start("descend")
+        events = []
+        state = {"on": False, "off": False}
 
         def step(t_traj: float) -> None:
-            if state["sealed"] < 0 and seal_from <= t_traj:
-                if t_traj <= seal_until and state["touching"] < 0:
-                    state["touching"] = self.gripper.touching_slot()
-                if t_traj >= seal_until and state["touching"] >= 0:
-                    state["sealed"] = self.gripper.seal(state["touching"])
-                    state["touching"] = -2  # one seal attempt per pick
+            if not state["on"] and t_traj >= vacuum_from:
+                cup.vacuum_on()
+                state["on"] = True
+            if not state["off"] and t_traj >= plan.release_time:
+                cup.vacuum_off(float(data.time))
+                state["off"] = True
+            events.extend(cup.update(data))
             on_step()
 
         self.cell.executor.execute(plan.chain, on_step=step)
-        item_id, held = -1, False
-        if state["sealed"] >= 0:
-            item_id = int(self.cell.pool.item_ids[state["sealed"]])
-            held = self.gripper.holding(state["sealed"])
-            self.gripper.release()
+        if not state["off"]:
+            cup.vacuum_off(float(data.time))
+        while cup.held_slot is not None:  # finish the release (normally already done)
+            mujoco.mj_step(self.cell.model, data)
+            events.extend(cup.update(data))
+            on_step()
+        sealed = [e for e in events if e.kind == "sealed"]
+        item_id = sealed[0].item_id if sealed else -1
+        released = any(e.kind == "released" and e.item_id == item_id for e in events)
         end = plan.chain.at_time(plan.chain.duration)[0]
         self.rest = np.asarray(end[:3], dtype=float)
-        return PickOutcome(t_start, float(data.time), item_id, state["sealed"] >= 0, held)
+        return PickOutcome(t_start, float(data.time), item_id, bool(sealed), released)
