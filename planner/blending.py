@@ -47,6 +47,8 @@ class Waypoint:
         arrival_time: If set, arrive exactly at this time from the chain's start [s] (the
             segment is stretched with ruckig's minimum duration; it must be reachable by then).
         zone: How far [m] the chain may pass from a corner, along the corner's longer leg.
+        slow: Plan the segment that ends here with the limits of a motion `slow` (>= 1) times
+            slower (a gentle touch-down the servos can follow without lag).
     """
 
     position: np.ndarray
@@ -56,6 +58,7 @@ class Waypoint:
     dwell_label: str = "dwell"
     arrival_time: float | None = None
     zone: float = 0.0
+    slow: float = 1.0
 
     def __post_init__(self):
         pos = np.asarray(self.position, dtype=float).reshape(DOF)
@@ -66,6 +69,8 @@ class Waypoint:
             raise PlannerInputError("dwell", "a finite time >= 0 [s]", self.dwell)
         if self.dwell > 0.0 and self.velocity is None:
             raise PlannerInputError("velocity", "given (not None) where the chain dwells", None)
+        if not (np.isfinite(self.slow) and self.slow >= 1.0):
+            raise PlannerInputError("slow", "a finite factor >= 1", self.slow)
         if not (np.isfinite(self.zone) and self.zone >= 0.0):
             raise PlannerInputError("zone", "a finite distance >= 0 [m]", self.zone)
 
@@ -83,7 +88,7 @@ def _build(start, waypoints, corners, generator, checked):
         if min_dur is not None and min_dur < 0.0:
             return None
         plan = generator.plan if checked else generator.plan_unchecked
-        seg = plan(state, goal, wp.label, min_dur)
+        seg = plan(state, goal, wp.label, min_dur, wp.slow)
         lo, _ = seg.position_range(2)
         if lo < min(state.position[2], goal.position[2]) - Z_TOL:
             return None
@@ -109,16 +114,16 @@ def _search_duration(start, plain, corners, generator, cache) -> float:
     state = (tuple(start.position), tuple(start.velocity), tuple(start.acceleration))
     t = 0.0
     zero = (0.0,) * DOF
-    for k, (pos, vel, dwell, arrival) in enumerate(plain):
+    for k, (pos, vel, dwell, arrival, slow) in enumerate(plain):
         if vel is None:
             pos, vel = corners[k]
         min_dur = None if arrival is None else arrival - t
         if min_dur is not None and min_dur < 0.0:
             return np.inf
-        key = (state, pos, vel, min_dur)
+        key = (state, pos, vel, min_dur, slow)
         hit = cache.get(key)
         if hit is None:
-            hit = generator.duration_and_lowest(state, (pos, vel, zero), 2, min_dur)
+            hit = generator.duration_and_lowest(state, (pos, vel, zero), 2, min_dur, slow)
             cache[key] = hit
         dur, low = hit
         if low < min(state[0][2], pos[2]) - Z_TOL:
@@ -202,6 +207,7 @@ def search_corners(
             None if wp.velocity is None else tuple(wp.velocity),
             wp.dwell,
             wp.arrival_time,
+            wp.slow,
         )
         for wp in waypoints
     ]

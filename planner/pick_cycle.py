@@ -28,6 +28,9 @@ class PickPlaceConfig:
         lift_height: Height of the corner after the lift, above the pick point [m].
         seal_time: Vacuum build-up with the cup on the item (ABB Cycle 1: 35 ms) [s].
         release_time: Vacuum release over the bin [s].
+        touchdown_slow: The descent onto the item is planned with the limits of a motion this
+            many times slower, so the servos have caught up with it when the cup touches down
+            (1: full limits).
         blend: Pass the corners with non-zero velocity where that is faster.
     """
 
@@ -35,6 +38,7 @@ class PickPlaceConfig:
     lift_height: float = 0.025
     seal_time: float = 0.035
     release_time: float = 0.035
+    touchdown_slow: float = 1.0
     blend: bool = True
 
     def __post_init__(self):
@@ -42,6 +46,8 @@ class PickPlaceConfig:
             value = getattr(self, name)
             if not (np.isfinite(value) and 0.0 <= value <= 1.0):
                 raise PlannerInputError(name, "0 to 1 [m or s]", value)
+        if not (np.isfinite(self.touchdown_slow) and 1.0 <= self.touchdown_slow <= 4.0):
+            raise PlannerInputError("touchdown_slow", "1 to 4", self.touchdown_slow)
 
 
 @dataclass(frozen=True, eq=False)
@@ -103,6 +109,7 @@ def pick_place_waypoints(
             label="descend",
             dwell_label="seal",
             arrival_time=contact_time,
+            slow=config.touchdown_slow,
         ),
         Waypoint(np.append(lift, axis4[0]), label="lift"),
         Waypoint(

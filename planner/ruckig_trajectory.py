@@ -129,7 +129,12 @@ class RuckigTrajectoryGenerator(TrajectoryGenerator):
         return traj
 
     def duration_and_lowest(
-        self, start: tuple, goal: tuple, dof: int, minimum_duration: float | None = None
+        self,
+        start: tuple,
+        goal: tuple,
+        dof: int,
+        minimum_duration: float | None = None,
+        slow: float = 1.0,
     ) -> tuple[float, float]:
         """Fast path for searches: duration [s] and lowest value of coordinate `dof`.
 
@@ -138,6 +143,7 @@ class RuckigTrajectoryGenerator(TrajectoryGenerator):
             goal: (position, velocity, acceleration) of the goal.
             dof: Coordinate whose minimum is returned (2: z).
             minimum_duration: As in `plan`.
+            slow: As in `plan`.
 
         Returns:
             (duration, lowest); (inf, -inf) when ruckig refuses the input.
@@ -146,7 +152,7 @@ class RuckigTrajectoryGenerator(TrajectoryGenerator):
         inp.minimum_duration = minimum_duration
         inp.current_position, inp.current_velocity, inp.current_acceleration = start
         inp.target_position, inp.target_velocity, inp.target_acceleration = goal
-        lim = self.limits
+        lim = self.limits if slow == 1.0 else self.limits.slowed(slow)
         inp.max_velocity = lim.max_velocity.tolist()
         inp.max_acceleration = lim.max_acceleration.tolist()
         inp.max_jerk = lim.max_jerk.tolist()
@@ -156,11 +162,17 @@ class RuckigTrajectoryGenerator(TrajectoryGenerator):
         return traj.duration, traj.position_extrema[dof].min
 
     def plan_unchecked(
-        self, start: State, goal: State, label: str = "", minimum_duration: float | None = None
+        self,
+        start: State,
+        goal: State,
+        label: str = "",
+        minimum_duration: float | None = None,
+        slow: float = 1.0,
     ) -> RuckigSegment:
-        """The ruckig segment alone, without the motor-speed check."""
-        traj = self._calculate(start, goal, self.limits, minimum_duration)
-        return RuckigSegment(traj, self.limits, label)
+        """The ruckig segment alone, without the motor checks."""
+        limits = self.limits if slow == 1.0 else self.limits.slowed(slow)
+        traj = self._calculate(start, goal, limits, minimum_duration)
+        return RuckigSegment(traj, limits, label)
 
     def limit_ratios(self, segment: RuckigSegment) -> tuple[float, float]:
         """Peak motor speed / speed limit and peak torque / (margin x torque limit) over the
@@ -179,7 +191,12 @@ class RuckigTrajectoryGenerator(TrajectoryGenerator):
         return speed, float(np.max(np.abs(tau))) / (TORQUE_MARGIN * self.dynamics.torque_limit)
 
     def plan(
-        self, start: State, goal: State, label: str = "", minimum_duration: float | None = None
+        self,
+        start: State,
+        goal: State,
+        label: str = "",
+        minimum_duration: float | None = None,
+        slow: float = 1.0,
     ) -> RuckigSegment:
         """The fastest segment found within every limit, motor speeds included.
 
@@ -189,17 +206,19 @@ class RuckigTrajectoryGenerator(TrajectoryGenerator):
             label: Name of the phase.
             minimum_duration: Make the segment last at least this long [s] (e.g. to arrive at a
                 moving item exactly when it gets there); `None` for time-optimal.
+            slow: Plan with the limits of the motion played `slow` (>= 1) times slower, e.g.
+                for a gentle touch-down.
 
         Raises:
             PlannerInputError: the states are outside the limits, the segment leaves the
                 workspace, or no slowed re-plan meets the motor speed and torque limits.
         """
-        limits = self.limits
+        limits = self.limits if slow == 1.0 else self.limits.slowed(slow)
         segment = RuckigSegment(
             self._calculate(start, goal, limits, minimum_duration), limits, label
         )
         self.last_retimes = 0
-        factor = 1.0
+        factor = slow
         for _ in range(self.max_retimes + 1):
             speed, torque = self.limit_ratios(segment)
             if speed <= 1.0 and torque <= 1.0:

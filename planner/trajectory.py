@@ -167,7 +167,12 @@ class TrajectoryGenerator(abc.ABC):
 
     @abc.abstractmethod
     def plan(
-        self, start: State, goal: State, label: str = "", minimum_duration: float | None = None
+        self,
+        start: State,
+        goal: State,
+        label: str = "",
+        minimum_duration: float | None = None,
+        slow: float = 1.0,
     ) -> Segment:
         """The fastest segment from `start` to `goal` within the generator's limits.
 
@@ -176,4 +181,5 @@ class TrajectoryGenerator(abc.ABC):
             goal: Goal state.
             label: Name of the phase.
             minimum_duration: Make the segment last at least this long [s]; `None`: time-optimal.
+            slow: Use the limits of the same motion played `slow` (>= 1) times slower.
         """

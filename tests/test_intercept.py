@@ -1,0 +1,106 @@
+"""Meeting items on the moving belt: position and velocity at contact, in the plan and in physics.
+
+Items ride the belt at x1, x1.2 and x1.5 (0.185, 0.222, 0.2775 m/s) from random places across
+it. The cup must land within 3 mm of the item's centre at the belt's velocity within 1 %: in the
+plan exactly, and with the plan played on the simulated robot: position at touch-down within
+3 mm, velocity in the belt's plane as the cup's mean velocity over the 35 ms seal (how it moves
+with the item while sealing) within 3 % (see PHYSICS_VEL_TOL). The cup touches down about
+0.2 mm low (servo and loop-closure lag of the descent) and rises back during the seal, a
+vertical settling of a few mm/s that a real item and the cup's bellows absorb; it is bounded
+separately, as is the instantaneous velocity.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from planner.intercept import intercept_item
+from planner.kinematics import inverse_kinematics, is_reachable
+from planner.limits import limits_for_payload
+from planner.ruckig_trajectory import RuckigTrajectoryGenerator
+from planner.trajectory import State
+from sim.executor import TrajectoryExecutor, lumped_dynamics
+from sim.model import load_robot
+from sim.robot import geometry_from_model, set_configuration
+
+SPEEDS = (0.185, 0.222, 0.2775)
+PICK_Z = 0.02
+BINS = ((0.0, -0.51, 0.06), (-0.21, 0.51, 0.06), (0.21, 0.51, 0.06))
+POS_TOL = 0.003
+VEL_TOL = 0.01
+PHYSICS_VEL_TOL = 0.03
+"""In physics the cup's horizontal position settles by ~0.1 mm during the seal, which alone is
+~3 mm/s over 35 ms (1.5 % at x1): 1 % holds for the plan, 3 % for the simulated cup."""
+
+
+@pytest.fixture(scope="module")
+def robot():
+    model = load_robot()
+    geom = geometry_from_model(model)
+    gen = RuckigTrajectoryGenerator(limits_for_payload(0.1), geom, lumped_dynamics(model, geom))
+    return model, geom, gen
+
+
+def _random_items(rng, n):
+    return [(rng.uniform(-0.4, 0.3), rng.uniform(-0.35, 0.35)) for _ in range(n)]
+
+
+@pytest.mark.parametrize("speed", SPEEDS)
+def test_planned_contact_on_item_at_belt_velocity(robot, speed):
+    _, _, gen = robot
+    rng = np.random.default_rng(int(speed * 1e4))
+    for item in _random_items(rng, 10):
+        start = State.at_rest(BINS[rng.integers(3)])
+        hit = intercept_item(start, item, speed, BINS[rng.integers(3)], gen, PICK_Z)
+        assert hit.feasible, hit.reason
+        p, v, _ = hit.plan.chain.at_time(hit.meet_time)
+        centre = np.array([item[0] + speed * hit.meet_time, item[1], PICK_Z])
+        assert np.linalg.norm(p[:3] - centre) < 1e-6
+        assert abs(v[0] - speed) < 1e-9 and np.allclose(v[1:3], 0.0, atol=1e-9)
+        assert hit.plan.contact_time == pytest.approx(hit.meet_time, abs=1e-9)
+
+
+@pytest.mark.parametrize("speed", SPEEDS)
+def test_contact_in_physics(robot, speed):
+    model, geom, gen = robot
+    rng = np.random.default_rng(7 + int(speed * 1e4))
+    for item in _random_items(rng, 2):
+        start = np.array(BINS[rng.integers(3)])
+        hit = intercept_item(State.at_rest(start), item, speed, BINS[0], gen, PICK_Z)
+        assert hit.feasible, hit.reason
+        data = mujoco.MjData(model)
+        set_configuration(model, data, inverse_kinematics(geom, start), 0.0)
+        log = TrajectoryExecutor(model, data, geometry=geom).execute(hit.plan.chain)
+        k = int(np.argmin(np.abs(log.time - hit.meet_time)))
+        t = log.time[k]
+        centre = np.array([item[0] + speed * t, item[1], PICK_Z])
+        assert np.linalg.norm(log.actual[k, :3] - centre) < POS_TOL
+        end = int(np.argmin(np.abs(log.time - hit.plan.lift_time)))
+        seal = (log.actual[end, :3] - log.actual[k, :3]) / (log.time[end] - log.time[k])
+        assert np.linalg.norm(seal[:2] - [speed, 0.0]) < PHYSICS_VEL_TOL * speed
+        assert abs(seal[2]) < 0.01  # vertical settling [m/s]
+        dt = log.time[k + 1] - log.time[k - 1]
+        now = (log.actual[k + 1, :3] - log.actual[k - 1, :3]) / dt
+        assert np.linalg.norm(now - [speed, 0.0, 0.0]) < 0.015  # [m/s]
+
+
+def test_item_leaving_the_window_is_refused(robot):
+    _, _, gen = robot
+    start = State.at_rest(BINS[0])
+    # Far side of the workspace from the paper bin, about to leave at x1.5.
+    hit = intercept_item(start, (0.54, 0.2), 0.2775, BINS[0], gen, PICK_Z)
+    assert not hit.feasible
+    assert "leaves the reachable window" in hit.reason
+    assert np.isnan(hit.meet_time) and hit.plan is None
+    off_belt = intercept_item(start, (0.0, 1.5), 0.185, BINS[0], gen, PICK_Z)
+    assert not off_belt.feasible and "never enters" in off_belt.reason
+
+
+def test_upstream_item_is_met_inside_the_window(robot):
+    _, geom, gen = robot
+    hit = intercept_item(State.at_rest(BINS[0]), (-1.2, 0.0), 0.185, BINS[0], gen, PICK_Z)
+    assert hit.feasible
+    assert is_reachable(geom, hit.pick_xyz)
+    assert hit.meet_time > (-0.6 + 1.2) / 0.185  # it had to ride into the window first
