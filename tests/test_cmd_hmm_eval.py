@@ -45,3 +45,13 @@ def test_overlapping_or_bad_seeds_are_refused(capsys):
     assert main(["hmm-eval", "--train-seeds", "0-3", "--test-seeds", "3"]) == 2
     assert "--test-seeds" in capsys.readouterr().err
     assert main(["hmm-eval", "--train-seeds", "x"]) == 2
+
+
+@pytest.mark.slow
+def test_camera_codes_table(capsys):
+    """Camera codes through the rendered cell: about 40 s a flow."""
+    args = ["hmm-eval", "--perception", "camera", "--train-seeds", "0-1", "--test-seeds", "100"]
+    assert main([*args, "--iterations", "2"]) == 0
+    text = capsys.readouterr().out
+    assert "camera codes" in text
+    assert _table(text)[4, 0] >= 0.88
