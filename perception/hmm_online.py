@@ -7,6 +7,13 @@ posterior). Every `reestimate_every` rows the models are re-estimated by Baum-We
 now known"), with the trained models as Dirichlet pseudo-counts of weight `anchor` per row so that
 a short window refines the models without forgetting them. Rows live in a fixed ring buffer, so
 a step costs the same at row 10 and at row 10 000.
+
+Use in an episode (models and cells per item from `sim.hmm_models.trained_models`):
+
+    online = OnlineStripeHmms(models)
+    estimate = online.step(row_codes)          # every period: (5,) codes -> RowEstimate
+    ...                                        # every 20 rows: items of the last 20 rows
+    items_kmeans(classes_20x5, GridGeometry(v * T), cells_per_item, filtered_20x5x4, first_row=k0)
 """
 
 from __future__ import annotations
