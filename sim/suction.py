@@ -91,17 +91,12 @@ class SuctionCup:
         self.config = config or SuctionConfig()
         self.body_id = model.body(CUP_BODY).id
         self.site_id = model.site(CUP_SITE).id
-        geoms = [
-            g
-            for g in range(
-                model.body_geomadr[self.body_id],
-                model.body_geomadr[self.body_id] + model.body_geomnum[self.body_id],
-            )
-            if model.geom_contype[g] or model.geom_conaffinity[g]
-        ]
+        first = model.body_geomadr[self.body_id]
+        geoms = np.arange(first, first + model.body_geomnum[self.body_id])
+        geoms = geoms[(model.geom_contype[geoms] | model.geom_conaffinity[geoms]) != 0]
         if len(geoms) != 1 or model.geom_type[geoms[0]] != mujoco.mjtGeom.mjGEOM_CYLINDER:
             raise InvalidInput("cup", "one colliding cylinder geom on cup_link (the lip)", geoms)
-        self.geom_id = geoms[0]
+        self.geom_id = int(geoms[0])
         self.radius = float(model.geom_size[self.geom_id, 0])
         self._vacuum = False
         self._sealing: tuple[int, float] | None = None  # (slot, time the lip touched)
@@ -183,14 +178,10 @@ class SuctionCup:
             [geoms[geoms[:, 0] == self.geom_id, 1], geoms[geoms[:, 1] == self.geom_id, 0]]
         )
         for geom in touching:
-            body = self.model.geom_bodyid[geom]
-            slots = np.flatnonzero(self.pool.body_ids == body)
-            if (
-                len(slots)
-                and self.pool.item_ids[slots[0]] >= 0
-                and self._lip_on_item(data, int(slots[0]))
-            ):
-                return int(slots[0])
+            slots = np.flatnonzero(self.pool.body_ids == self.model.geom_bodyid[geom])
+            slot = int(slots[0]) if len(slots) else -1
+            if slot >= 0 and self.pool.item_ids[slot] >= 0 and self._lip_on_item(data, slot):
+                return slot
         return None
 
     def _lip_on_item(self, data: mujoco.MjData, slot: int) -> bool:
