@@ -1,0 +1,189 @@
+"""The thesis's decision manager (sections 3.4, 4.1.3): Q-learning over the items of a batch.
+
+Reading of the thesis, where it leaves room (each choice marked so it can be revisited):
+
+- Grid and batches (3.4): the belt is a grid of 27 columns (two bin columns and 25 across the
+  belt) whose rows are one observation period apart (0.5 s of belt travel); rows are fixed to
+  the belt, so an item keeps its row as it moves. The items are handed to the learner in batches
+  of 20 rows; the current batch is the most downstream one that still has a feasible pick, and
+  each batch starts where the last one ended (the robot at the last bin, its real position).
+  Items are centroids with continuous coordinates, as the thesis's k-means centroids are.
+- Weight (eq. 3.3): w = v / d, v the item's (expected) value and d the distance robot ->
+  item -> bin in the belt plane, the item taken at the point the cup would meet it. Variants of
+  4.1.3: 'd=1' (w = v) and 'v=1' (w = 1 / d).
+- Reward matrix: one row of weights per robot position: its current position, then each bin
+  (after a pick the robot is at that item's bin, 3.4.1). A taken item's reward is zeroed.
+- Episode: from the robot's position, "movements are selected based on their reward" (3.4.1):
+  the available item of highest reward is taken, q(item) = w + gamma * max q over the items
+  still available (eq. 3.5), its reward zeroed and the robot moved to its bin. The episode
+  ends by the stopping rule of 3.4.1: when the sum of the rewards of the remaining items (from
+  where the robot now is) is smaller than the reward of the most precious item (the highest
+  reward at the episode's start).
+- Iterations: episodes repeat until q stops changing or `iterations` (50) are done. q starts at
+  zero (the thesis initialises it randomly; zero keeps runs reproducible and is the value of
+  the terminal state). Because the behaviour policy selects by reward, every episode follows
+  the same path; it is computed once and the updates are repeated along it, which gives the
+  same q as replaying the episodes.
+- Choice (3.4.2): the item of maximum q in the batch; ties go to the item leaving first.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from planner.candidates import Candidate, candidates, choice_of
+from planner.decision import MATERIALS, Choice, DecisionContext, RobotState, TrackedItem
+from planner.errors import PlannerInputError
+
+OBJECTIVES = ("v/d", "d=1", "v=1")
+BELT_COLUMNS = 25
+GRID_COLUMNS = BELT_COLUMNS + 2
+MIN_DISTANCE = 1e-3  # [m] keeps w finite for an item under the cup
+
+
+@dataclass(frozen=True)
+class QLearningConfig:
+    """Parameters of the thesis's learner (defaults: section 3.4.1 and 4.2).
+
+    Attributes:
+        gamma: Discount factor of eq. 3.5, in [0, 1).
+        iterations: Maximum number of episodes (>= 1).
+        batch_rows: Grid rows per batch (>= 1).
+        row_period_s: Belt travel time of one grid row [s] (the observation period).
+        objective: 'v/d' (eq. 3.3), 'd=1' (value only) or 'v=1' (distance only), section 4.1.3.
+        tolerance: Largest q change that counts as converged.
+    """
+
+    gamma: float = 0.9
+    iterations: int = 50
+    batch_rows: int = 20
+    row_period_s: float = 0.5
+    objective: str = "v/d"
+    tolerance: float = 1e-12
+
+    def __post_init__(self):
+        if not (isinstance(self.gamma, int | float) and 0.0 <= self.gamma < 1.0):
+            raise PlannerInputError("gamma", "a number in [0, 1)", self.gamma)
+        for name in ("iterations", "batch_rows"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise PlannerInputError(name, "an integer >= 1", value)
+        if not (math.isfinite(self.row_period_s) and self.row_period_s > 0.0):
+            raise PlannerInputError("row_period_s", "a period > 0 [s]", self.row_period_s)
+        if self.objective not in OBJECTIVES:
+            raise PlannerInputError("objective", " | ".join(OBJECTIVES), self.objective)
+        if not (math.isfinite(self.tolerance) and self.tolerance >= 0.0):
+            raise PlannerInputError("tolerance", "a number >= 0", self.tolerance)
+
+
+def reward_path(rewards: np.ndarray, next_state: np.ndarray) -> tuple[list[int], list[float]]:
+    """The episode's path: items taken by highest reward until the stopping rule.
+
+    Args:
+        rewards: (S, n) weight of each item from each robot position; row 0 is the start.
+        next_state: (n,) row of `rewards` the robot is at after taking each item (its bin).
+
+    Returns:
+        The items taken, in order, and the reward collected at each step.
+    """
+    n = rewards.shape[1]
+    avail = np.ones(n, dtype=bool)
+    precious = float(rewards[0].max())
+    state, path, collected = 0, [], []
+    while avail.any():
+        a = int(np.argmax(np.where(avail, rewards[state], -np.inf)))
+        path.append(a)
+        collected.append(float(rewards[state, a]))
+        avail[a] = False
+        state = int(next_state[a])
+        if avail.any() and float(rewards[state][avail].sum()) < precious:
+            break
+    return path, collected
+
+
+def q_values(
+    rewards: np.ndarray, next_state: np.ndarray, gamma: float, iterations: int, tol: float = 0.0
+) -> tuple[np.ndarray, int]:
+    """q of every item after the episodes (eq. 3.5), and the number of episodes run."""
+    q = np.zeros(rewards.shape[1])
+    path, collected = reward_path(rewards, next_state)
+    for episode in range(1, iterations + 1):
+        previous = q.copy()
+        # Along the path the items still available after step k are the later path items and
+        # the never-taken ones (q = 0); q is updated in step order (later items: last episode's q).
+        for k, a in enumerate(path):
+            later = max((q[b] for b in path[k + 1 :]), default=0.0)
+            q[a] = collected[k] + gamma * max(later, 0.0)
+        if np.max(np.abs(q - previous)) <= tol:
+            return q, episode
+    return q, iterations
+
+
+def batch_index(item: TrackedItem, t: float, belt_speed: float, cfg: QLearningConfig) -> int:
+    """Batch of an item: its belt-fixed grid row // batch_rows (0 on a stopped belt)."""
+    if belt_speed <= 0.0:
+        return 0
+    row = math.floor((belt_speed * t - item.x) / (belt_speed * cfg.row_period_s))
+    return row // cfg.batch_rows
+
+
+def grid_column(y: float, half_width: float = 0.4) -> int:
+    """Grid column 2..26 of a belt position y [m] (1 and 27 are the bin columns)."""
+    k = int((y + half_width) / (2 * half_width) * BELT_COLUMNS)
+    return 2 + min(max(k, 0), BELT_COLUMNS - 1)
+
+
+def weights(
+    cands: list[Candidate], robot: RobotState, context: DecisionContext, objective: str
+) -> tuple[np.ndarray, np.ndarray]:
+    """(4, n) weights from the robot and from each bin, and each item's next row (its bin)."""
+    starts = np.array([robot.tcp[:2], *(b[:2] for b in context.bins)])
+    meet = np.array([c.meet_xy for c in cands])
+    dest = np.array([context.bin_of(c.bin_class)[:2] for c in cands])
+    d = np.linalg.norm(meet[None, :, :] - starts[:, None, :], axis=2)
+    d = np.maximum(d + np.linalg.norm(dest - meet, axis=1)[None, :], MIN_DISTANCE)
+    v = np.array([c.expected_value for c in cands])
+    if objective == "d=1":
+        w = np.broadcast_to(v, d.shape).copy()
+    elif objective == "v=1":
+        w = 1.0 / d
+    else:
+        w = v[None, :] / d
+    next_state = np.array([1 + MATERIALS.index(c.bin_class) for c in cands])
+    return w, next_state
+
+
+class QLearningPlanner:
+    """The thesis's decision manager over the current batch of feasible items."""
+
+    name = "qlearning"
+
+    def __init__(self, config: QLearningConfig | None = None):
+        self.config = config or QLearningConfig()
+
+    def reset(self) -> None:
+        """Stateless between decisions: the robot's state carries the batch-to-batch link."""
+
+    def choose(
+        self, items: list[TrackedItem], robot: RobotState, context: DecisionContext
+    ) -> Choice | None:
+        """The item of maximum q in the most downstream batch with a feasible pick."""
+        cfg = self.config
+        cands = candidates(items, robot, context)
+        if not cands:
+            return None
+        batches = [batch_index(c.item, robot.time, context.belt_speed, cfg) for c in cands]
+        current = min(batches)
+        cands = [c for c, b in zip(cands, batches, strict=True) if b == current]
+        w, next_state = weights(cands, robot, context, cfg.objective)
+        q, episodes = q_values(w, next_state, cfg.gamma, cfg.iterations, cfg.tolerance)
+        k = int(np.argmax(q))
+        col = grid_column(cands[k].item.y)
+        return choice_of(
+            cands[k],
+            f"max q {q[k]:.4f} (w {w[0, k]:.4f}), batch {current}, column {col}, "
+            f"{len(cands)} items, {episodes} episodes",
+        )
