@@ -125,3 +125,27 @@ def test_feed_drops_a_generated_flow_in_order_with_its_types_colours_and_poses()
         expected_x = X_INFEED + flow.config.belt_speed_mps * (data.time - flow.t_spawn[i])
         assert pos[0] == pytest.approx(expected_x, abs=0.002)  # riding with the belt since its drop
         assert pos[1] == pytest.approx(flow.y[i], abs=0.002)
+
+
+def test_a_dense_flow_rides_the_whole_belt_and_every_item_is_missed_in_order():
+    """At x1.5 every item of a dense flow reaches the discharge end: none falls off the sides."""
+    from sim.flow import generate_flow
+    from sim.flow_config import FlowConfig
+
+    model, data, belt, pool = belt_scene()
+    flow = generate_flow(
+        FlowConfig(n_items=39, duration_s=12.0, speed_factor=1.5, seed=1), CATALOGUE
+    )
+    belt.set_speed(flow.config.belt_speed_mps)
+    fed, missed, lowest = 0, [], np.inf
+    while data.time < flow.t_spawn[-1] + 16.0:  # 4.25 m at 0.2775 m/s: 15.3 s
+        fed = pool.feed(data, flow, fed)
+        mujoco.mj_step(model, data)
+        missed += pool.park_missed(data)
+        active = pool.active_slots()
+        if len(active):
+            lowest = min(lowest, data.xpos[pool.body_ids[active], 2].min())
+    assert fed == len(flow) and len(pool.active_slots()) == 0
+    assert sorted(missed) == list(range(len(flow)))
+    assert lowest > -0.005  # no item ever dropped below the belt surface
+    assert not any(w.number for w in data.warning)
