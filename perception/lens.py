@@ -122,13 +122,17 @@ class LensDistorter:
             cv2.CV_16SC2,
         )
 
-    def apply(self, pinhole: np.ndarray) -> np.ndarray:
-        """The distorted image (height, width, 3) uint8 of a pinhole render."""
+    def apply(self, pinhole: np.ndarray, interpolation: int = cv2.INTER_LINEAR) -> np.ndarray:
+        """The distorted image (height, width[, channels]) of a pinhole render.
+
+        Colour images are interpolated; pass cv2.INTER_NEAREST for a depth map, whose values
+        must not blend across an item's edge.
+        """
         src_w, src_h = self.source_size
         if pinhole.shape[:2] != (src_h, src_w):
             raise PerceptionInputError(
                 "pinhole image shape", f"({src_h}, {src_w}, channels)", pinhole.shape
             )
         return cv2.remap(
-            pinhole, self._map1, self._map2, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT
+            pinhole, self._map1, self._map2, interpolation, borderMode=cv2.BORDER_CONSTANT
         )

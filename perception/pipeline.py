@@ -2,6 +2,7 @@
 
     frame (distorted) --remap--> top-down belt image (undistorted + rectified in one step)
           --> band of row k --> colour labels --> 5 cell codes + item pixels
+    frame + depth --> 3-D item points --> top-down footprints (orthographic) --> same coding
 
 `CameraPipeline` is what the episode runner calls once per observation period. It locates the
 belt from the corner markers on its first frame (or on `locate`), then checks on every frame
@@ -17,9 +18,10 @@ import numpy as np
 
 from perception.calibration import CameraCalibration
 from perception.errors import PerceptionError, PerceptionInputError
+from perception.footprint import FootprintMapper
 from perception.grid import BeltGrid
-from perception.observe import CellObservation, ColourRules, code_cells
-from perception.rectify import BeltRectifier, BeltView, colour_mask, locate_belt
+from perception.observe import BELT, CellObservation, ColourRules, code_cells
+from perception.rectify import BeltRectifier, BeltView, TopDownRaster, colour_mask, locate_belt
 
 _MARKER_PATCH_PX = 4
 
@@ -50,7 +52,7 @@ class CameraPipeline:
         marker_world: (N >= 4, 3) world centres of the corner markers [m] (from the cell's MJCF).
         marker_colours: (N, 3) their colours [0..1].
         resolution_m: Side of a top-down pixel [m].
-        plane_z: Height above the belt of the rectified plane [m].
+        plane_z: Height above the belt of the rectified plane of frames without depth [m].
         max_pitch_m: Longest row the pipeline must see (top belt speed x period) [m].
         rules: Per-pixel colour rules.
     """
@@ -61,7 +63,7 @@ class CameraPipeline:
         grid: BeltGrid,
         marker_world: np.ndarray,
         marker_colours: np.ndarray,
-        resolution_m: float = 0.001,
+        resolution_m: float = 0.002,
         plane_z: float = 0.0,
         max_pitch_m: float = 0.3,
         rules: ColourRules | None = None,
@@ -74,12 +76,16 @@ class CameraPipeline:
             raise PerceptionInputError(
                 "marker_colours", f"shape {self.marker_world.shape}", self.marker_colours.shape
             )
-        self.resolution_m = resolution_m
+        half = 0.5 * max_pitch_m
+        self.raster = TopDownRaster.covering(
+            (grid.x_line - half, grid.x_line + half), (grid.y_min, grid.y_max), resolution_m
+        )
         self.plane_z = plane_z
         self.max_pitch_m = max_pitch_m
         self.rules = rules or ColourRules()
         self.view: BeltView | None = None
         self.rectifier: BeltRectifier | None = None
+        self.mapper: FootprintMapper | None = None
         self._marker_px: np.ndarray | None = None
 
     def check_frame(self, frame: np.ndarray) -> None:
@@ -94,22 +100,21 @@ class CameraPipeline:
             raise PerceptionError("frame is all black (camera or lighting off)")
 
     def locate(self, frame: np.ndarray) -> BeltView:
-        """Solves the camera's pose from the markers in `frame` and builds the rectifier."""
+        """Solves the camera's pose from the markers in `frame`; builds rectifier and mapper."""
         self.check_frame(frame)
         view = locate_belt(frame, self.calibration, self.marker_world, self.marker_colours)
-        half = 0.5 * self.max_pitch_m
-        self.rectifier = BeltRectifier(
-            view,
-            (self.grid.x_line - half, self.grid.x_line + half),
-            (self.grid.y_min, self.grid.y_max),
-            self.resolution_m,
-            self.plane_z,
-        )
+        self.rectifier = BeltRectifier(view, self.raster, self.plane_z)
+        self.mapper = FootprintMapper(view, self.raster)
         self.view = view
         self._marker_px = np.round(view.project(self.marker_world)).astype(int)
         return view
 
-    def _check_markers(self, frame: np.ndarray) -> None:
+    def check(self, frame: np.ndarray) -> None:
+        """Locates the belt on first use, then checks the frame and the markers' places."""
+        if self.view is None:
+            self.locate(frame)
+            return
+        self.check_frame(frame)
         r = _MARKER_PATCH_PX
         for index, (u, v) in enumerate(self._marker_px):
             patch = frame[max(v - r, 0) : v + r + 1, max(u - r, 0) : u + r + 1]
@@ -117,39 +122,60 @@ class CameraPipeline:
                 raise PerceptionError(f"marker {index} not seen where it was (pixel {u}, {v})")
 
     def rectify(self, frame: np.ndarray) -> np.ndarray:
-        """The top-down belt image of a raw frame (locates the belt on first use)."""
-        if self.rectifier is None:
-            self.locate(frame)
-        else:
-            self.check_frame(frame)
-            self._check_markers(frame)
+        """The top-down image of the belt plane (`plane_z`) of a raw frame."""
+        self.check(frame)
         return self.rectifier.rectify(frame)
 
-    def observe(self, frame: np.ndarray, belt_speed: float, t: float) -> RowObservation:
+    def observe(
+        self, frame: np.ndarray, belt_speed: float, t: float, depth: np.ndarray | None = None
+    ) -> RowObservation:
         """The row of codes of the frame taken at time `t` [s] at belt speed `belt_speed` [m/s].
 
-        Item pixel coordinates are belt-plane positions at the row's time t_k = k T.
+        With a depth map (registered to the frame, [m] along the optical axis) the items'
+        footprints are found in 3-D (`FootprintMapper`); without, the frame is rectified onto
+        the belt plane and tall items look larger than they lie. Item pixel coordinates are
+        belt-plane positions at the row's time t_k = k T.
+
+        Raises:
+            PerceptionError: The frame cannot be used (shape, all black, markers not seen).
         """
+        self._check_speed(belt_speed)
+        if depth is None:
+            return self.code_row(self.rectify(frame), belt_speed, t)
+        self.check(frame)
+        labels = self.mapper.footprint(frame, depth, self.rules)
+        return self._code(labels, belt_speed, t)
+
+    def code_row(self, top: np.ndarray, belt_speed: float, t: float) -> RowObservation:
+        """The row of codes of a top-down image (`rectify`) taken at time `t` [s]."""
+        self._check_speed(belt_speed)
+        if top.shape[:2] != self.raster.shape:
+            raise PerceptionInputError("top-down image", f"shape {self.raster.shape}", top.shape)
+        start, stop = self._band_rows(belt_speed, t)
+        labels = np.full(self.raster.shape, BELT, dtype=np.int8)
+        labels[start:stop] = self.rules.classify(top[start:stop])
+        return self._code(labels, belt_speed, t)
+
+    def _check_speed(self, belt_speed: float) -> None:
         pitch = self.grid.row_pitch(belt_speed)
         if pitch > self.max_pitch_m:
             raise PerceptionInputError(
                 "belt speed", f"at most {self.max_pitch_m / self.grid.period_s} m/s", belt_speed
             )
-        top = self.rectify(frame)
-        rectifier = self.rectifier
-        x_lo, x_hi = self.grid.band(belt_speed, t)
-        row_slice = rectifier.rows_of(x_lo, x_hi)
+
+    def _band_rows(self, belt_speed: float, t: float) -> tuple[int, int]:
+        return self.raster.rows_of(*self.grid.band(belt_speed, t))
+
+    def _code(self, labels: np.ndarray, belt_speed: float, t: float) -> RowObservation:
+        raster = self.raster
+        row_slice = self._band_rows(belt_speed, t)
         edges = self.grid.stripe_edges()
-        col_slices = [rectifier.cols_of(edges[j], edges[j + 1]) for j in range(len(edges) - 1)]
-        band = top[row_slice[0] : row_slice[1]]
-        labels = self.rules.classify(band)
+        col_slices = [raster.cols_of(edges[j], edges[j + 1]) for j in range(len(edges) - 1)]
         k = self.grid.row_of_time(t)
         back = belt_speed * (t - k * self.grid.period_s)
         cells = []
-        for code, fraction, colour, rows, cols in code_cells(
-            labels, (0, band.shape[0]), col_slices
-        ):
-            xy = rectifier.pixel_to_world(rows + row_slice[0], cols)
+        for code, fraction, colour, rows, cols in code_cells(labels, row_slice, col_slices):
+            xy = raster.pixel_to_world(rows, cols)
             xy[:, 0] -= back
             cells.append(CellObservation(code, fraction, colour, xy))
         codes = np.array([c.code for c in cells], dtype=np.int64)

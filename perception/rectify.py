@@ -122,50 +122,45 @@ def locate_belt(
     return BeltView(calibration, rvec.ravel(), tvec.ravel(), rms)
 
 
-class BeltRectifier:
-    """Raw frame -> top-down metric image of a belt region, one `cv2.remap`.
+@dataclass(frozen=True)
+class TopDownRaster:
+    """A metric top-down raster of the belt: pixel (i, j) is the belt point
+    x = x_min + (i + 0.5) res, y = y_min + (j + 0.5) res (rows downstream, columns from -y).
 
-    Pixel (i, j) of the output is the world point x = x_min + (i + 0.5) res,
-    y = y_min + (j + 0.5) res at height `plane_z`: rows run downstream, columns from the -y edge.
-
-    Args:
-        view: The located camera.
-        x_range: (x_min, x_max) [m] along the belt.
-        y_range: (y_min, y_max) [m] across the belt.
-        resolution_m: Side of an output pixel [m].
-        plane_z: Height of the rectified plane above the belt [m].
+    Attributes:
+        x_min: Upstream edge [m].
+        y_min: -y edge [m].
+        resolution_m: Side of a pixel [m].
+        shape: (rows, cols).
     """
 
-    def __init__(
-        self,
-        view: BeltView,
-        x_range: tuple[float, float],
-        y_range: tuple[float, float],
-        resolution_m: float = 0.001,
-        plane_z: float = 0.0,
-    ):
+    x_min: float
+    y_min: float
+    resolution_m: float
+    shape: tuple[int, int]
+
+    @classmethod
+    def covering(
+        cls, x_range: tuple[float, float], y_range: tuple[float, float], resolution_m: float
+    ) -> TopDownRaster:
+        """The raster of a region [m] at `resolution_m` [m]."""
         if not 0.0002 <= resolution_m <= 0.02:
             raise PerceptionInputError("resolution_m", "0.0002..0.02 m", resolution_m)
-        self.view = view
-        self.x_min, self.y_min = float(x_range[0]), float(y_range[0])
-        self.resolution_m = float(resolution_m)
         rows = int(round((x_range[1] - x_range[0]) / resolution_m))
         cols = int(round((y_range[1] - y_range[0]) / resolution_m))
         if rows < 1 or cols < 1:
             raise PerceptionInputError(
-                "rectified region", "a non-empty x and y range", (rows, cols)
+                "top-down region", "a non-empty x and y range", (x_range, y_range)
             )
-        self.shape = (rows, cols)
-        x = self.x_min + (np.arange(rows) + 0.5) * resolution_m
-        y = self.y_min + (np.arange(cols) + 0.5) * resolution_m
-        xx, yy = np.meshgrid(x, y, indexing="ij")
-        world = np.stack([xx.ravel(), yy.ravel(), np.full(xx.size, plane_z)], axis=1)
-        px = view.project(world).reshape(rows, cols, 2).astype(np.float32)
-        self._map1, self._map2 = cv2.convertMaps(px[..., 0], px[..., 1], cv2.CV_16SC2)
+        return cls(float(x_range[0]), float(y_range[0]), float(resolution_m), (rows, cols))
 
-    def rectify(self, frame: np.ndarray) -> np.ndarray:
-        """The top-down image (rows, cols, 3) of a raw frame."""
-        return cv2.remap(frame, self._map1, self._map2, cv2.INTER_LINEAR)
+    def centres(self) -> tuple[np.ndarray, np.ndarray]:
+        """x of the rows' centres and y of the columns' centres [m]."""
+        res = self.resolution_m
+        return (
+            self.x_min + (np.arange(self.shape[0]) + 0.5) * res,
+            self.y_min + (np.arange(self.shape[1]) + 0.5) * res,
+        )
 
     def rows_of(self, x_lo: float, x_hi: float) -> tuple[int, int]:
         """Row slice [start, stop) of the pixels whose centres lie in [x_lo, x_hi) [m]."""
@@ -180,7 +175,31 @@ class BeltRectifier:
         return max(start, 0), min(stop, self.shape[1])
 
     def pixel_to_world(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
-        """Belt-plane coordinates (N, 2) [m] of output pixels."""
+        """Belt-plane coordinates (N, 2) [m] of pixels."""
         x = self.x_min + (np.asarray(rows) + 0.5) * self.resolution_m
         y = self.y_min + (np.asarray(cols) + 0.5) * self.resolution_m
         return np.stack([x, y], axis=1)
+
+
+class BeltRectifier:
+    """Raw frame -> top-down image of a plane above the belt, one `cv2.remap`.
+
+    Args:
+        view: The located camera.
+        raster: The top-down raster (`TopDownRaster.covering`).
+        plane_z: Height of the rectified plane above the belt [m].
+    """
+
+    def __init__(self, view: BeltView, raster: TopDownRaster, plane_z: float = 0.0):
+        self.view = view
+        self.raster = raster
+        self.plane_z = float(plane_z)
+        x, y = raster.centres()
+        xx, yy = np.meshgrid(x, y, indexing="ij")
+        world = np.stack([xx.ravel(), yy.ravel(), np.full(xx.size, plane_z)], axis=1)
+        px = view.project(world).reshape(*raster.shape, 2).astype(np.float32)
+        self._map1, self._map2 = cv2.convertMaps(px[..., 0], px[..., 1], cv2.CV_16SC2)
+
+    def rectify(self, frame: np.ndarray) -> np.ndarray:
+        """The top-down image (rows, cols, 3) of a raw frame."""
+        return cv2.remap(frame, self._map1, self._map2, cv2.INTER_LINEAR)

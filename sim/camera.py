@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 
+import cv2
 import mujoco
 import numpy as np
 
@@ -126,14 +127,35 @@ class BeltCamera:
 
     def render(self, data: mujoco.MjData) -> np.ndarray:
         """The camera's frame of the current state of `data` (height, width, 3) uint8."""
+        return self._render(data, depth=False)[0]
+
+    def render_rgbd(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
+        """The frame and its registered depth map (height, width) float32 [m along the optical
+        axis], as a stereo camera like the ZED delivers them (same lens, same pixels)."""
+        return self._render(data, depth=True)
+
+    def _render(self, data: mujoco.MjData, depth: bool) -> tuple[np.ndarray, np.ndarray | None]:
         fovy = float(self.model.cam_fovy[self._cam])
         self.model.cam_fovy[self._cam] = self._fovy
+        renderer = self._renderer
         try:
-            self._renderer.update_scene(data, camera=self._cam)
-            pinhole = self._renderer.render()
+            renderer.update_scene(data, camera=self._cam)
+            rgb = renderer.render()
+            z = None
+            if depth:
+                renderer.enable_depth_rendering()
+                try:
+                    z = renderer.render()
+                finally:
+                    renderer.disable_depth_rendering()
         finally:
             self.model.cam_fovy[self._cam] = fovy
-        return pinhole if self._distorter is None else self._distorter.apply(pinhole)
+        if self._distorter is None:
+            return rgb, z
+        rgb = self._distorter.apply(rgb)
+        if z is not None:
+            z = self._distorter.apply(z, cv2.INTER_NEAREST)
+        return rgb, z
 
     def close(self) -> None:
         """Frees the renderer's GL context."""

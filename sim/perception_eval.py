@@ -20,6 +20,7 @@ from perception.calibration import CameraCalibration
 from perception.codes import COLOURS, EMPTY_CODE, N_CODES
 from perception.errors import PerceptionError
 from perception.grid import BeltGrid
+from perception.observe import ColourRules
 from perception.pipeline import CameraPipeline
 from sim.belt import Belt
 from sim.camera import BeltCamera, marker_points
@@ -112,6 +113,8 @@ def evaluate_camera(
     seed: int = 0,
     size: tuple[int, int] = (640, 360),
     plane_z: float = 0.0,
+    rules: ColourRules | None = None,
+    depth: bool = True,
 ) -> CameraScore:
     """Runs a flow through the cell and scores every observed row's codes.
 
@@ -121,7 +124,9 @@ def evaluate_camera(
         duration_s: Time over which they arrive [s].
         seed: Flow seed.
         size: Camera frame (width, height) [px].
-        plane_z: Height of the pipeline's rectified plane [m].
+        plane_z: Height of the pipeline's rectified plane [m] (frames without depth).
+        rules: Colour rules of the pipeline.
+        depth: Give the pipeline the camera's depth map as well as the frame.
     """
     start = time.perf_counter()
     catalogue = load_catalogue()
@@ -140,7 +145,9 @@ def evaluate_camera(
     calibration = CameraCalibration.load(DEFAULT_CALIBRATION).scaled(size)
     period = config.observation_period_s
     grid = BeltGrid(x_line=X_CAMERA, period_s=period)
-    pipeline = CameraPipeline(calibration, grid, *marker_points(model, data), plane_z=plane_z)
+    pipeline = CameraPipeline(
+        calibration, grid, *marker_points(model, data), plane_z=plane_z, rules=rules
+    )
     confusion = np.zeros((N_CODES, N_CODES), dtype=np.int64)
     unobserved, next_item = 0, 0
     with BeltCamera(model, *size) as camera:
@@ -157,7 +164,11 @@ def evaluate_camera(
             mujoco.mj_kinematics(model, data)
             pool.park_missed(data)
             try:
-                row = pipeline.observe(camera.render(data), speed, data.time)
+                if depth:
+                    frame, z = camera.render_rgbd(data)
+                else:
+                    frame, z = camera.render(data), None
+                row = pipeline.observe(frame, speed, data.time, z)
             except PerceptionError:
                 unobserved += 1
                 continue
@@ -191,10 +202,20 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--width", type=int, default=640)
     parser.add_argument("--height", type=int, default=360)
     parser.add_argument("--plane-z", type=float, default=0.0)
+    parser.add_argument("--relative-value", type=float, default=None)
+    parser.add_argument("--no-depth", action="store_true", help="frames only, no depth map")
     args = parser.parse_args(argv)
     for factor in args.speed_factors:
         score = evaluate_camera(
-            factor, args.items, args.duration, args.seed, (args.width, args.height), args.plane_z
+            factor,
+            args.items,
+            args.duration,
+            args.seed,
+            (args.width, args.height),
+            args.plane_z,
+            None
+            if args.relative_value is None
+            else ColourRules(min_relative_value=args.relative_value),
         )
         print(score.report(), flush=True)
     return 0

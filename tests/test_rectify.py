@@ -12,7 +12,7 @@ from perception.errors import PerceptionError
 from perception.grid import BeltGrid
 from perception.lens import ZED_HD_LEFT
 from perception.pipeline import CameraPipeline
-from perception.rectify import BeltRectifier, locate_belt, undistort
+from perception.rectify import BeltRectifier, TopDownRaster, locate_belt, undistort
 from sim.camera import BeltCamera, camera_pose, marker_points
 from sim.cmd_calibrate import DEFAULT_CALIBRATION
 from sim.paths import REPO_ROOT, SCENE_XML
@@ -97,7 +97,8 @@ def test_top_down_image_is_metric():
     """Item outlines in the top-down image sit where the fixture puts them (to 2 mm)."""
     model, data, frame, _ = _render(FIXTURE, 1280, 720)
     view = locate_belt(frame, _calibration(1280, 720), *marker_points(model, data))
-    rectifier = BeltRectifier(view, (-1.63, -1.33), (-0.4, 0.4), 0.001, plane_z=0.01)
+    raster = TopDownRaster.covering((-1.63, -1.33), (-0.4, 0.4), 0.001)
+    rectifier = BeltRectifier(view, raster, plane_z=0.01)
     top = rectifier.rectify(frame)
     assert top.shape == (300, 800, 3)
     for name, colour in (("item_white", (0, 1, 2)), ("item_green", (1,))):
@@ -109,10 +110,10 @@ def test_top_down_image_is_metric():
             if len(colour) == 3
             else ((top[..., 1] > 120) & (top[..., 0] < 100))
         )
-        near = np.abs(rectifier.pixel_to_world(np.zeros(800), np.arange(800))[:, 1] - centre[1])
+        near = np.abs(raster.pixel_to_world(np.zeros(800), np.arange(800))[:, 1] - centre[1])
         mask[:, near > 0.1] = False
         rows, cols = np.nonzero(mask)
-        xy = rectifier.pixel_to_world(rows, cols)
+        xy = raster.pixel_to_world(rows, cols)
         assert np.abs(xy.mean(axis=0) - centre).max() < 0.002
         extent = 0.5 * (xy.max(axis=0) - xy.min(axis=0) + 0.001)
         assert np.abs(extent - half).max() < 0.002

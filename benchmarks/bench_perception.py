@@ -1,0 +1,90 @@
+"""Milliseconds per frame of the camera pipeline: render, undistort+rectify, coding (medians).
+
+Scene: the cell (`models/cell/scene.xml`) with 15 catalogue items placed at random (seeded) in
+and around the camera band, robot at home. Each repetition renders the belt camera's frame
+through the lens model (`sim.camera.BeltCamera`), undistorts and rectifies it onto the belt plane
+(`CameraPipeline.rectify`: one remap plus the marker check), and codes the band's five cells
+(`CameraPipeline.code_row`: colour labels, covered fractions, codes, item pixels).
+
+Run: `.venv/bin/python benchmarks/bench_perception.py [--quick] [--width W --height H]`
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import mujoco
+import numpy as np
+
+from perception.calibration import CameraCalibration
+from perception.grid import BeltGrid
+from perception.pipeline import CameraPipeline
+from sim.belt import Belt
+from sim.camera import BeltCamera, marker_points
+from sim.catalogue import load_catalogue
+from sim.cmd_calibrate import DEFAULT_CALIBRATION
+from sim.item_pool import ItemPool
+from sim.model import load_scene
+
+N_ITEMS = 15
+SPEED = 0.185
+
+
+def _median_ms(samples: list[float]) -> float:
+    return 1000.0 * float(np.median(samples))
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--quick", action="store_true", help="10 frames instead of 60")
+    parser.add_argument("--width", type=int, default=1280)
+    parser.add_argument("--height", type=int, default=720)
+    args = parser.parse_args()
+    reps = 10 if args.quick else 60
+    size = (args.width, args.height)
+
+    catalogue = load_catalogue()
+    model = load_scene()
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
+    pool = ItemPool(model, catalogue, Belt(model))
+    rng = np.random.default_rng(0)
+    for i in range(N_ITEMS):
+        type_index = int(rng.integers(len(catalogue.types)))
+        colour = catalogue.colour_rgba(int(rng.integers(6)))
+        x, y = -1.48 + rng.uniform(-0.3, 0.3), rng.uniform(-0.3, 0.3)
+        pool.spawn(data, i, type_index, x, y, rng.uniform(-np.pi, np.pi), colour)
+    mujoco.mj_forward(model, data)
+
+    calibration = CameraCalibration.load(DEFAULT_CALIBRATION).scaled(size)
+    pipeline = CameraPipeline(calibration, BeltGrid(), *marker_points(model, data))
+    render, rectify, coding = [], [], []
+    with BeltCamera(model, *size) as camera:
+        frame = camera.render(data)
+        pipeline.locate(frame)
+        for k in range(reps):
+            t0 = time.perf_counter()
+            frame = camera.render(data)
+            t1 = time.perf_counter()
+            top = pipeline.rectify(frame)
+            t2 = time.perf_counter()
+            row = pipeline.code_row(top, SPEED, 0.5 * k)
+            t3 = time.perf_counter()
+            render.append(t1 - t0)
+            rectify.append(t2 - t1)
+            coding.append(t3 - t2)
+    print(f"frame {size[0]}x{size[1]}, {reps} frames, {N_ITEMS} items in view, codes {row.codes}")
+    print(f"render (pinhole + lens)      {_median_ms(render):8.2f} ms/frame (median)")
+    print(f"undistort + rectify          {_median_ms(rectify):8.2f} ms/frame (median)")
+    print(f"coding (5 cells)             {_median_ms(coding):8.2f} ms/frame (median)")
+    quick = " --quick" if args.quick else ""
+    print(
+        f"command: .venv/bin/python benchmarks/bench_perception.py{quick} "
+        f"--width {size[0]} --height {size[1]}"
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
