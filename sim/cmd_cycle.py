@@ -45,4 +45,9 @@ def main(args: argparse.Namespace) -> int:
         f"  payload held      {'yes' if report.payload_held else 'NO'} "
         f"(moved {report.payload_slip_mm:.3f} mm from its welded pose)"
     )
+    verdict = "would hold it" if report.vacuum_cup_holds else "would LOSE it"
+    print(
+        f"  vacuum cup        peak load {report.payload_peak_load_n:.0f} N of "
+        f"{report.vacuum_cup_budget_n:.0f} N: the cell's cup {verdict}"
+    )
     return 0

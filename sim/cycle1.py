@@ -5,7 +5,9 @@ back, 35 ms of vacuum at home. The trajectory is planned by `planner.pick_cycle.
 with the payload's limits (`planner.limits.limits_for_payload`) and played on the robot model
 (`models/abb_irb360/irb360.xml`) by `sim.executor.TrajectoryExecutor`, with the payload a body
 of that mass welded under the cup (free joint + weld equality, so "held" is measured: how far
-the payload moves from its attached pose).
+the payload moves from its attached pose). The load the attachment carries is also checked
+against the cell's vacuum cup with `sim.suction`'s criterion: the pull-off force plus the shear
+over the lip's friction must stay within lip area x vacuum for that cup to hold it.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from dataclasses import asdict, dataclass
 import mujoco
 import numpy as np
 
+from planner.dynamics import GRAVITY
 from planner.kinematics import inverse_kinematics
 from planner.limits import MAX_PAYLOAD_KG, limits_for_payload
 from planner.pick_cycle import plan_cycle1
@@ -23,6 +26,7 @@ from sim.errors import InvalidInput
 from sim.executor import TrajectoryExecutor, lumped_dynamics
 from sim.paths import ROBOT_XML
 from sim.robot import geometry_from_model, set_configuration
+from sim.suction import SuctionConfig
 
 CYCLE1_START = (-0.1525, 0.0, 0.05)
 """Point A of the cycle [m]: centred under the robot, 50 mm above the belt surface."""
@@ -38,7 +42,13 @@ _PAYLOAD_HALF = 0.03  # half side of the payload cube [m]
 
 @dataclass(frozen=True)
 class CycleReport:
-    """Figures of one Cycle 1 in physics (SI units; `_mm` fields in millimetres)."""
+    """Figures of one Cycle 1 in physics (SI units; `_mm` fields in millimetres).
+
+    `payload_held`: the payload stayed within `HELD_TOL` of its welded pose throughout.
+    `payload_peak_load_n` is the peak pull-off + shear / lip friction it puts on its attachment,
+    `vacuum_cup_budget_n` the cell's vacuum cup's lip area x vacuum, and `vacuum_cup_holds`
+    whether the first stays within the second (the cell's cup, not only a weld, would hold it).
+    """
 
     payload_kg: float
     cycle_time_s: float
@@ -54,6 +64,9 @@ class CycleReport:
     platform_tilt_max_rad: float
     payload_held: bool
     payload_slip_mm: float
+    payload_peak_load_n: float
+    vacuum_cup_budget_n: float
+    vacuum_cup_holds: bool
 
     def as_dict(self) -> dict:
         """JSON-ready dictionary."""
@@ -102,6 +115,12 @@ def _attach_payload(model: mujoco.MjModel, data: mujoco.MjData) -> None:
     mujoco.mj_forward(model, data)
 
 
+def _cup_budget(model: mujoco.MjModel) -> float:
+    """Holding force of the cell's vacuum cup, lip area x vacuum [N] (`sim.suction`)."""
+    radius = model.geom_size[model.geom("cup_collision").id, 0]
+    return float(np.pi * radius**2 * SuctionConfig().vacuum)
+
+
 def run_cycle1(payload_kg: float) -> CycleReport:
     """Plans and runs Cycle 1 with a payload; see the module docstring.
 
@@ -121,12 +140,14 @@ def run_cycle1(payload_kg: float) -> CycleReport:
     held = payload_kg > 0.0
     if held:
         _attach_payload(model, data)
-    slip = []
+    slip, where = [], []
 
     def measure_slip(_t: float) -> None:
         if held:
-            rel = data.body("payload_link").xpos - data.site("cup_site").xpos
+            pos = data.body("payload_link").xpos
+            rel = pos - data.site("cup_site").xpos
             slip.append(np.linalg.norm(rel - np.array([0.0, 0.0, -_PAYLOAD_HALF])))
+            where.append(pos.copy())
 
     executor = TrajectoryExecutor(model, data, geometry=geom, payload_kg=payload_kg)
     log = executor.execute(chain, hold=0.05, on_step=measure_slip)
@@ -142,6 +163,13 @@ def run_cycle1(payload_kg: float) -> CycleReport:
     rows = [int(np.argmin(np.abs(log.time - t))) for t in stops.values()]
     axis4_err = max(abs(log.actual[i, 3] - log.planned[i, 3]) for i in rows)
     cycle = chain.duration + delay
+    load = 0.0
+    if held:  # what the cup carries: m (a - g), a from the payload's own motion
+        dt = executor.control_dt
+        acc = np.diff(np.array(where), 2, axis=0) / dt**2
+        force = payload_kg * (acc + [0.0, 0.0, GRAVITY])
+        pull, shear = force[:, 2], np.linalg.norm(force[:, :2], axis=1)
+        load = float(np.max(np.maximum(pull, 0.0) + shear / SuctionConfig().lip_friction))
     return CycleReport(
         payload_kg=float(payload_kg),
         cycle_time_s=cycle,
@@ -157,4 +185,7 @@ def run_cycle1(payload_kg: float) -> CycleReport:
         platform_tilt_max_rad=float(np.max(log.tilt)),
         payload_held=bool(not held or max(slip) <= HELD_TOL),
         payload_slip_mm=1e3 * float(max(slip)) if held else 0.0,
+        payload_peak_load_n=load,
+        vacuum_cup_budget_n=_cup_budget(model),
+        vacuum_cup_holds=bool(load <= _cup_budget(model)),
     )

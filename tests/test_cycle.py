@@ -22,7 +22,7 @@ def test_cycle1_1kg_matches_abb(reports):
     assert abs(r.cycle_time_s - ABB_1KG_S) <= 0.10 * ABB_1KG_S
     assert r.peak_torque_ratio < 1.0  # never saturates
     assert r.tracking_error_pick_mm < 1.0 and r.tracking_error_place_mm < 1.0
-    assert r.payload_held
+    assert r.payload_held and r.vacuum_cup_holds
     assert r.platform_tilt_max_rad < 1e-3
 
 
@@ -40,6 +40,9 @@ def test_cycle1_3kg_slower_within_limits(reports):
     assert r3.peak_torque_ratio < 1.0
     assert max(r3.tracking_error_pick_mm, r3.tracking_error_place_mm) < 1.0
     assert r3.payload_held
+    # The cup's load is checked, not assumed: 3 kg loads it about twice as hard as 1 kg.
+    assert r3.payload_peak_load_n > 1.5 * r1.payload_peak_load_n
+    assert r3.vacuum_cup_holds == (r3.payload_peak_load_n <= r3.vacuum_cup_budget_n)
 
 
 def test_cycle_is_deterministic():
