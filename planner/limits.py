@@ -4,9 +4,8 @@ Cartesian limits are per axis (a box, as ruckig enforces them): each of x, y and
 `tcp_velocity`, `tcp_acceleration` and `tcp_jerk` on its own.
 
 Sources:
-- `tcp_velocity` 10 m/s and the 100 m/s^2 acceleration ceiling: ABB IRB 360 product
-  specification (3HAC029963), "Max TCP velocity 10 m/s, max TCP acceleration 100 m/s^2" for the
-  1130 variants.
+- `tcp_velocity` 10 m/s and the 100 m/s^2 acceleration ceiling: ABB's IRB 360 data sheet (max
+  TCP velocity 10 m/s, max TCP acceleration 100 m/s^2 for the 1130 variants).
 - Payload dependence of the acceleration (the datasheet is silent): derived in the simulation so
   that the motor torques stay inside the model's `forcerange` with the payload on the cup while
   the TCP tracks within 1 mm (Cycle 1 run by `sortsim cycle --payload KG`; see
@@ -17,12 +16,14 @@ Sources:
 - `tcp_jerk` (the datasheet is silent): 15 ms to ramp to full acceleration at up to 1 kg, 20 ms
   at 3 kg; shorter ramps drive the motors into their torque limit on Cycle 1's blended corners
   (x and z accelerating together), longer ones waste time (tested in physics).
-- Axis 4: ABB lists the axis-4 speed of the IRB 360 as 3600 deg/s (62.8 rad/s); acceleration
-  and jerk are derived from the axis-4 actuator's torque limit and the cup + payload inertia
-  (90 deg in about 0.1 s, well under the datasheet speed).
+- Axis 4: 62.8 rad/s (3600 deg/s) is an assumed speed ceiling (we found no datasheet figure to
+  cite; it never binds: Cycle 1 turns 90 deg with a peak near 10 rad/s). The acceleration,
+  800 rad/s^2, is what the axis-4 servo's 3 N m `forcerange` gives with its reflected inertia
+  (0.002 kg m^2) and a 3 kg, 60 mm payload (0.0018 kg m^2): 800 x 0.0038 = 3.0 N m; the jerk
+  takes the same 20 ms ramp.
 - `motor_velocity`: the motor speed needed to move the TCP at the datasheet's 10 m/s straight
-  down at the centre of the working range (24 rad/s for the geometry of the README), rounded
-  up to 25 rad/s, so that 10 m/s is reachable where ABB quotes it.
+  down at the centre of the working range at the pick height (z = 0.05 m: 24.2 rad/s for the
+  model's geometry), rounded up to 25 rad/s, so that 10 m/s is reachable where ABB quotes it.
 """
 
 from __future__ import annotations
