@@ -99,26 +99,28 @@ class Bins:
         """Judges the items that came to rest off the belt; parks them; returns the new records."""
         pool, t = self.pool, float(data.time)
         belt = pool.belt.geometry
+        slots = pool.active_slots()
+        slots = slots[slots != (-1 if held_slot is None else held_slot)]
+        if held_slot is not None:
+            self._rest_since[held_slot] = np.nan
+        pos = data.xpos[pool.body_ids[slots]]
+        vel = data.qvel[pool.dof_adr[slots, None] + np.arange(3)]
+        fell = pos[:, 2] < self.lowest_z - 0.05
+        moving = (np.linalg.norm(vel, axis=1) > REST_SPEED) & ~fell
+        self._rest_since[slots[moving]] = np.nan
+        still = slots[~moving]
+        self._rest_since[still] = np.where(
+            np.isnan(self._rest_since[still]), t, self._rest_since[still]
+        )
+        riding = belt.on_belt(pos[:, :2]) & (pos[:, 2] > belt.top_z - 0.01)
+        settled = (t - self._rest_since[slots] >= REST_TIME - 1e-9) & ~riding
+        judged = ~moving & (settled | fell)
         new = []
-        for slot in pool.active_slots():
+        for slot, p, fell_through in zip(slots[judged], pos[judged], fell[judged], strict=True):
             slot = int(slot)
-            if slot == held_slot:
-                self._rest_since[slot] = np.nan
-                continue
-            dof = pool.dof_adr[slot]
-            pos = data.xpos[pool.body_ids[slot]]
-            on_belt = belt.on_belt(pos[:2]) and pos[2] > belt.top_z - 0.01
-            fell_through = pos[2] < self.lowest_z - 0.05
-            if np.linalg.norm(data.qvel[dof : dof + 3]) > REST_SPEED and not fell_through:
-                self._rest_since[slot] = np.nan
-                continue
-            if np.isnan(self._rest_since[slot]):
-                self._rest_since[slot] = t
-            if on_belt or (t - self._rest_since[slot] < REST_TIME - 1e-9 and not fell_through):
-                continue
-            where = None if fell_through else self.bin_at(pos)
+            where = None if fell_through else self.bin_at(p)
             true_class = pool.item_type(slot).class_id
-            record = Landing(int(pool.item_ids[slot]), true_class, where, t, tuple(map(float, pos)))
+            record = Landing(int(pool.item_ids[slot]), true_class, where, t, tuple(map(float, p)))
             (self.landed if where else self.dropped).append(record)
             new.append(record)
             self._rest_since[slot] = np.nan

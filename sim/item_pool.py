@@ -233,9 +233,6 @@ class ItemPool:
 
         These are the items the robot did not pick (the thesis's discarded items).
         """
-        missed = []
-        x_end = self.belt.geometry.x_discharge
-        for slot in self.active_slots():
-            if data.xpos[self.body_ids[slot], 0] > x_end:
-                missed.append(self.park(data, int(slot)))
-        return missed
+        active = self.active_slots()
+        past = active[data.xpos[self.body_ids[active], 0] > self.belt.geometry.x_discharge]
+        return [self.park(data, int(slot)) for slot in past]
