@@ -16,7 +16,7 @@ from typing import Protocol
 import mujoco
 import numpy as np
 
-from planner.dynamics import LumpedDynamics
+from planner.dynamics import GRAVITY, LumpedDynamics
 from planner.kinematics import DeltaGeometry
 from planner.motor_rates import motor_rates
 from sim.errors import InvalidInput
@@ -146,7 +146,9 @@ class TrajectoryExecutor:
         self.substeps = substeps
         self.control_dt = substeps * step
         self.geometry = geometry or geometry_from_model(model)
-        self.dynamics = lumped_dynamics(model, self.geometry, payload_kg)
+        self.dynamics = lumped_dynamics(model, self.geometry)
+        self.payload_kg = 0.0
+        self.set_payload(payload_kg)
         self._kp = np.array([model.actuator_gainprm[i, 0] for i in self._motor_ids_of(model)])
         self._motor_ids = [model.actuator(n).id for n in MOTOR_ACTUATORS]
         self._limits = np.array([model.actuator_forcerange[i, 1] for i in self._motor_ids])
@@ -160,8 +162,12 @@ class TrajectoryExecutor:
         self._axis4_kp = float(model.actuator("axis4").gainprm[0])
 
     def set_payload(self, payload_kg: float) -> None:
-        """Load now held by the cup outside the robot's tree [kg] (feed-forward only)."""
-        self.dynamics = lumped_dynamics(self.model, self.geometry, payload_kg)
+        """Load now held by the cup outside the robot's tree [kg] (feed-forward only); may be
+        called from `on_step` (e.g. when an item is sealed or released) and applies from the
+        next control period."""
+        if not (np.isfinite(payload_kg) and payload_kg >= 0.0):
+            raise InvalidInput("payload_kg", "a finite mass >= 0 [kg]", payload_kg)
+        self.payload_kg = float(payload_kg)
 
     @staticmethod
     def _motor_ids_of(model):
@@ -171,14 +177,17 @@ class TrajectoryExecutor:
         """Planned states, motor set-points and feed-forward torques at `times` [s].
 
         Returns:
-            pos (n, 4), vel (n, 4), acc (n, 4), q (n, 3), qdot (n, 3), torque (n, 3)
-            [m, rad, s, N m].
+            pos (n, 4), vel (n, 4), acc (n, 4), q (n, 3), qdot (n, 3), torque of the robot
+            without payload (n, 3), and torque per kilogram of payload (n, 3)
+            [m, rad, s, N m, N m/kg].
         """
         states = np.array([np.concatenate(trajectory.at_time(float(t))) for t in times])
         pos, vel, acc = states[:, :4], states[:, 4:8], states[:, 8:]
         q, qdot, qddot, jac = motor_rates(self.geometry, pos[:, :3], vel[:, :3], acc[:, :3])
         torque = self.dynamics.torque(q, qdot, qddot, jac, acc[:, :3])
-        return pos, vel, acc, q, qdot, torque
+        lift = acc[:, :3] + np.array([0.0, 0.0, GRAVITY])
+        per_kg = np.einsum("nji,nj->ni", jac, lift)  # J^T (a + g): the payload's share
+        return pos, vel, acc, q, qdot, torque, per_kg
 
     def execute(
         self,
@@ -198,19 +207,18 @@ class TrajectoryExecutor:
         """
         n = int(np.ceil((trajectory.duration + hold) / self.control_dt - 1e-9))
         times = (np.arange(n) + 1) * self.control_dt
-        pos, vel, acc, q, qdot, tau = self.references(trajectory, times)
-        q_cmd, axis4_cmd = q, pos[:, 3]
-        if self.feedforward:
-            q_cmd = q + tau / self._kp
-            tau4 = self._axis4_inertia * acc[:, 3] + self._axis4_damping * vel[:, 3]
-            axis4_cmd = pos[:, 3] + tau4 / self._axis4_kp
+        pos, vel, acc, q, qdot, tau, per_kg = self.references(trajectory, times)
+        ff = 1.0 if self.feedforward else 0.0
+        tau4 = self._axis4_inertia * acc[:, 3] + self._axis4_damping * vel[:, 3]
+        axis4_cmd = pos[:, 3] + ff * tau4 / self._axis4_kp
         model, data = self.model, self.data
         actual = np.empty((n, 4))
         torque = np.empty((n, 3))
         tilt = np.empty(n)
         for k in range(n):
             # Aim at where the TCP should be at the end of this control period.
-            set_motor_targets(model, data, q_cmd[k], axis4_cmd[k], qdot[k], vel[k, 3])
+            q_cmd = q[k] + ff * (tau[k] + self.payload_kg * per_kg[k]) / self._kp
+            set_motor_targets(model, data, q_cmd, axis4_cmd[k], qdot[k], vel[k, 3])
             for _ in range(self.substeps):
                 mujoco.mj_step(model, data)
             actual[k, :3] = tcp_position(model, data)
