@@ -12,8 +12,9 @@ import pytest
 
 from planner.blending import plan_chain
 from planner.errors import PlannerInputError
-from planner.kinematics import reachable_mask
+from planner.kinematics import inverse_kinematics, jacobian, reachable_mask
 from planner.limits import MotionLimits, limits_for_payload
+from planner.motor_rates import motor_rates
 from planner.pick_cycle import PickPlaceConfig, pick_place_waypoints
 from planner.ruckig_trajectory import (
     TORQUE_MARGIN,
@@ -144,3 +145,19 @@ def test_limits_validation_and_payload_dependence():
     assert accels[0] == accels[1] == 100.0  # datasheet
     assert accels[1] > accels[2] > accels[3]
     assert limits_for_payload(0.5).tcp_velocity == 10.0
+
+
+def test_motor_rates_match_kinematics_and_finite_differences(robot):
+    geom, _, _ = robot
+    rng = np.random.default_rng(5)
+    p = np.c_[rng.uniform(-0.3, 0.3, 20), rng.uniform(-0.3, 0.3, 20), rng.uniform(0.03, 0.2, 20)]
+    v, a = rng.normal(size=(20, 3)), 50.0 * rng.normal(size=(20, 3))
+    rates = motor_rates(geom, p, v, a)
+    assert np.allclose(rates.jac, jacobian(geom, rates.q), atol=1e-12)
+    h = 1e-5
+
+    def q_at(t):
+        return inverse_kinematics(geom, p + v * t + 0.5 * a * t * t)
+
+    assert np.allclose(rates.qdot, (q_at(h) - q_at(-h)) / (2 * h), atol=1e-7)
+    assert np.allclose(rates.qddot, (q_at(h) - 2 * q_at(0.0) + q_at(-h)) / h**2, atol=1e-3)
