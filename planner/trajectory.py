@@ -162,6 +162,48 @@ class Chain:
         return SampledTrajectory(times, out[0], out[1], out[2])
 
 
+@dataclass(frozen=True, eq=False)
+class Waypoint:
+    """A point the chain passes through.
+
+    Attributes:
+        position: (x, y, z [m], axis4 [rad]).
+        velocity: Velocity at the point [m/s, rad/s]; `None` marks a corner whose velocity the
+            blending chooses (zero without blending).
+        dwell: Time spent after arriving, moving at `velocity` (e.g. sealing, releasing) [s].
+        label: Name of the segment that ends here.
+        dwell_label: Name of the dwell.
+        arrival_time: If set, arrive exactly at this time from the chain's start [s] (the
+            segment is stretched with ruckig's minimum duration; it must be reachable by then).
+        zone: How far [m] the chain may pass from a corner, along the corner's longer leg.
+        slow: Plan the segment that ends here with the limits of a motion `slow` (>= 1) times
+            slower (a gentle touch-down the servos can follow without lag).
+    """
+
+    position: np.ndarray
+    velocity: np.ndarray | None = None
+    dwell: float = 0.0
+    label: str = ""
+    dwell_label: str = "dwell"
+    arrival_time: float | None = None
+    zone: float = 0.0
+    slow: float = 1.0
+
+    def __post_init__(self):
+        pos = np.asarray(self.position, dtype=float).reshape(DOF)
+        object.__setattr__(self, "position", pos)
+        if self.velocity is not None:
+            object.__setattr__(self, "velocity", np.asarray(self.velocity, float).reshape(DOF))
+        if not (np.isfinite(self.dwell) and self.dwell >= 0.0):
+            raise PlannerInputError("dwell", "a finite time >= 0 [s]", self.dwell)
+        if self.dwell > 0.0 and self.velocity is None:
+            raise PlannerInputError("velocity", "given (not None) where the chain dwells", None)
+        if not (np.isfinite(self.slow) and self.slow >= 1.0):
+            raise PlannerInputError("slow", "a finite factor >= 1", self.slow)
+        if not (np.isfinite(self.zone) and self.zone >= 0.0):
+            raise PlannerInputError("zone", "a finite distance >= 0 [m]", self.zone)
+
+
 class TrajectoryGenerator(abc.ABC):
     """Plans one state-to-state segment."""
 
