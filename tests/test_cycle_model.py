@@ -65,7 +65,10 @@ def test_pick_and_place_times_against_ruckig(fresh):
         f"place: mean {1e3 * err_place.mean():+.1f} ms, sd {1e3 * err_place.std():.1f} ms, "
         f"max |err| {1e3 * np.abs(err_place).max():.1f} ms"
     )
-    assert abs(err.mean()) < 0.003 and err.std() < 0.006 and np.abs(err).max() < 0.030
+    assert abs(err.mean()) < 0.003 and err.std() < 0.006
+    # Under-estimates would let a planner chase items it cannot reach: keep them small. The
+    # worst over-estimates are short hops where the blended corner skips the 25 mm approach.
+    assert err.min() > -0.010 and err.max() < 0.040
     assert abs(err_place.mean()) < 0.003 and np.abs(err_place).max() < 0.010
     # The calibrated model beats the raw closed form (it is not a constant either).
     raw = np.abs(fresh.pick_raw - fresh.pick_planned)
