@@ -38,6 +38,11 @@ from sim.tracking import Tracker
 
 DECIDE_PERIOD_S = 0.02
 """How often an idle robot asks the decision manager again [s]."""
+MAX_LEAD_S = 1.0
+"""A pick is started only if the cup meets the item within this time; an item further
+upstream is waited for and decided on again (its position is fresher by then) [s]."""
+WAIT_STEP_S = 0.25
+"""Longest wait before deciding again on an item still upstream [s]."""
 CHECK_PERIOD_S = 0.02
 """How often items leaving the belt, landing in bins or falling are looked for [s]."""
 BELOW_BELT_Z = -0.1
@@ -153,6 +158,7 @@ class Episode:
         f, cat = self.flow, self.cell.catalogue
         rgba = cat.colour_rgba(int(f.colour[i]))
         self.cell.pool.spawn(self.data, i, int(f.type_index[i]), X_INFEED, f.y[i], f.yaw[i], rgba)
+        mujoco.mj_kinematics(self.model, self.data)  # poses of the new item for the checks
         self.metrics.on_entered(i, int(f.class_id[i]))
 
     def _observe(self, t: float) -> None:
@@ -205,12 +211,19 @@ class Episode:
         self.decisions += 1
         if choice is None:
             return False
+        if choice.meet_time - t > MAX_LEAD_S:
+            # Far upstream: wait where we are and decide again with fresher positions.
+            self.next_decision = t + min(choice.meet_time - t - MAX_LEAD_S, WAIT_STEP_S)
+            return False
         track = self.tracker.get(choice.item_id)
         x = track.x_at(t, self.speed)
         intercept = self.robot.plan(x, track.y, choice.bin_class)
         self.timings["planning"] += time.perf_counter() - t1
         if not intercept.feasible:
             self.tracker.remove(track.track_id)  # cannot be met: let it go
+            return False
+        if intercept.meet_time > MAX_LEAD_S + WAIT_STEP_S:
+            self.next_decision = t + WAIT_STEP_S  # the cycle model was optimistic: wait
             return False
         self.next_pick_track = track.track_id
         self.tracker.remove(track.track_id)
@@ -263,8 +276,10 @@ class Episode:
         while not self._finished():
             t = data.time
             if t + 1e-9 >= self.next_decision:
+                self.next_decision = t + DECIDE_PERIOD_S
                 picked = self._decide_and_pick(t)
-                self.next_decision = data.time + (0.0 if picked else DECIDE_PERIOD_S)
+                if picked:
+                    self.next_decision = data.time
                 if picked:
                     continue
             n = self._idle_steps()

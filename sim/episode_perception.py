@@ -2,9 +2,9 @@
 
 Two sources with one interface, `observe(t) -> list[Detection]`:
 
-- `TruthPerception` (`--perception truth`, the fast path): no rendering; every item whose
-  centre crossed the camera line during the last period is reported where the simulation has
-  it, with its true class as a certainty.
+- `TruthPerception` (`--perception truth`, the fast path): no rendering; every period, each
+  item past the camera line is reported where the simulation has it, with its true class as
+  a certainty (perfect perception: an item that slips on the belt is still tracked exactly).
 - `CameraPerception`: the belt camera's frame is rendered (`sim.camera.BeltCamera`, real lens
   distortion), turned into a row of 5 observation codes (`perception.pipeline`), filtered by
   the online stripe HMMs (`perception.hmm_online`), and items are extracted from the decoded
@@ -34,11 +34,13 @@ from perception.hmm_online import OnlineStripeHmms
 from perception.items_from_grid import GridGeometry, items_components
 from perception.pipeline import CameraPipeline
 from sim.flow import Flow
-from sim.flow_config import X_CAMERA
+from sim.flow_config import BELT_HALF_WIDTH, X_CAMERA
 from sim.item_pool import ItemPool
 from sim.paths import REPO_ROOT
 from sim.tracking import Detection
 
+ON_BELT_TOL_M = 0.02
+"""An item whose centre is higher than its resting height plus this is not on the belt [m]."""
 HMM_CACHE = REPO_ROOT / "runs" / "cache" / "stripe_hmms.npz"
 CAMERA_SIZE = (640, 360)
 WINDOW_ROWS = 12
@@ -60,21 +62,17 @@ class TruthPerception:
         self, data: mujoco.MjData, pool: ItemPool, flow: Flow, belt_speed: float, period_s: float
     ):
         self.data, self.pool, self.flow = data, pool, flow
-        self.band = belt_speed * period_s
-        self.seen: set[int] = set()
         self.rows = self.unobserved = 0
 
     def observe(self, t: float) -> list[Detection]:
-        """Items whose centre is within one period's travel past the camera line."""
+        """Every item on the belt past the camera line, where the simulation has it now."""
         self.rows += 1
         out = []
         for slot in self.pool.active_slots():
             item_id = int(self.pool.item_ids[slot])
-            if item_id in self.seen:
-                continue
-            x, y, _ = self.data.xpos[self.pool.body_ids[slot]]
-            if X_CAMERA <= x:
-                self.seen.add(item_id)
+            x, y, z = self.data.xpos[self.pool.body_ids[slot]]
+            resting = -0.05 < z < self.pool.item_type(int(slot)).rest_height + ON_BELT_TOL_M
+            if X_CAMERA <= x and resting and abs(y) <= BELT_HALF_WIDTH:
                 cls = int(self.flow.class_id[item_id])
                 out.append(Detection(t, float(x), float(y), one_hot(cls), true_id=item_id))
         return out

@@ -68,17 +68,26 @@ class PickController:
         self.suction = SuctionCup(cell.model, cell.pool)
         mujoco.mj_forward(cell.model, cell.data)
         self.rest = cell.tcp()
+        self.axis4 = float(cell.data.joint("axis4_joint").qpos[0])
         self.plan_failures = 0
 
-    def top_z_near(self, x: float, y: float) -> float:
-        """Top height [m] of the item nearest (x, y) now (the stereo camera's depth)."""
+    def item_near(self, x: float, y: float) -> tuple[float, float]:
+        """(top height [m], heading [rad]) of the item nearest (x, y) now.
+
+        The stand-in for what a stereo camera (the thesis's ZED) measures of an item's shape:
+        read from the simulation in both perception modes. (DEFAULT_TOP_Z, 0) when no item
+        is near.
+        """
         pool, data = self.cell.pool, self.cell.data
-        best, best_d = DEFAULT_TOP_Z, NEAR_M
+        best, best_d = (DEFAULT_TOP_Z, 0.0), NEAR_M
         for slot in pool.active_slots():
-            px, py, pz = data.xpos[pool.body_ids[slot]]
+            body = pool.body_ids[slot]
+            px, py, pz = data.xpos[body]
             d = float(np.hypot(px - x, py - y))
             if d < best_d and pz > -0.05:
-                best, best_d = float(pz + pool.item_type(int(slot)).rest_height), d
+                xmat = data.xmat[body]
+                yaw = float(np.arctan2(xmat[3], xmat[0]))  # heading of the body's x axis
+                best, best_d = (float(pz + pool.item_type(int(slot)).rest_height), yaw), d
         return best
 
     def plan(self, x: float, y: float, bin_class: int) -> Intercept:
@@ -86,9 +95,12 @@ class PickController:
 
         The item hangs under the cup by its height (its top is where the cup seals), so the
         lift and the release point keep its bottom `CLEARANCE_M` above the rails (the bins'
-        rims are lower).
+        rims are lower); axis 4 turns the item's long axis along the bin's long side.
         """
-        top = self.top_z_near(x, y)
+        top, yaw = self.item_near(x, y)
+        # Turn axis 4 on the way so the item's long axis ends along the bins' long side (x).
+        turn = -float(np.arctan2(np.sin(yaw), np.cos(yaw)))
+        turn = (turn + np.pi / 2) % np.pi - np.pi / 2
         pick_z = max(top - PRESS_DEPTH_M, 0.0)
         height = max(top, 0.0)
         lift = max(self.config.lift_height, RAIL_TOP_Z + CLEARANCE_M + height - pick_z)
@@ -105,6 +117,7 @@ class PickController:
                 self.cell.generator,
                 pick_z,
                 config,
+                axis4=(self.axis4, self.axis4 + turn),
             )
         except PlannerInputError as exc:
             self.plan_failures += 1
@@ -145,4 +158,5 @@ class PickController:
         released = any(e.kind == "released" and e.item_id == item_id for e in events)
         end = plan.chain.at_time(plan.chain.duration)[0]
         self.rest = np.asarray(end[:3], dtype=float)
+        self.axis4 = float(end[3])
         return PickOutcome(t_start, float(data.time), item_id, bool(sealed), released)
