@@ -192,6 +192,11 @@ class SuctionCup:
         margin = self.config.edge_margin * self.radius
         kind, a, b = item_type.footprint
         lx, ly = abs(local[0]), abs(local[1])
+        if item_type.pose == "lying":  # a can or bottle may roll about its long axis (body x)
+            axis = data.xmat[body].reshape(3, 3)[:, 0]
+            d = data.site_xpos[self.site_id] - data.xpos[body]
+            perp = d - (d @ axis) * axis
+            ly = math.hypot(perp[0], perp[1])
         if kind == "disc":
             return bool(math.hypot(lx, ly) <= a - margin)
         if kind == "rect":
