@@ -23,9 +23,9 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
+from planner.cycle_model import CycleTimeModel
 from planner.decision import DecisionContext, RobotState, TrackedItem
 from planner.registry import make_planner
-from planner.straight_line_timing import StraightLineCycleModel
 from sim.bins import BIN_CLASSES, Bins
 from sim.cell import PICK_Z_NOMINAL, Cell
 from sim.config import EpisodeConfig
@@ -38,6 +38,8 @@ from sim.tracking import Tracker
 
 DECIDE_PERIOD_S = 0.02
 """How often an idle robot asks the decision manager again [s]."""
+TYPICAL_LIFT_M = 0.05
+"""Lift the cycle-time model assumes: an item's bottom clears the rails (see episode_robot)."""
 MAX_LEAD_S = 1.0
 """A pick is started only if the cup meets the item within this time; an item further
 upstream is waited for and decided on again (its position is fresher by then) [s]."""
@@ -108,8 +110,8 @@ class Episode:
         limits = cell.limits
         self.context = DecisionContext(
             belt_speed=self.speed,
-            cycle_model=StraightLineCycleModel(
-                v_max=limits.tcp_velocity, a_max=limits.tcp_acceleration, pick_z=PICK_Z_NOMINAL
+            cycle_model=CycleTimeModel(
+                limits=limits, pick_z=PICK_Z_NOMINAL, lift_height=TYPICAL_LIFT_M
             ),
             window=cell.window,
             bins=cell.bins_tuple(),
