@@ -110,6 +110,10 @@ def intercept_item(
     times = np.arange(0.0, HORIZON + SCAN_DT, SCAN_DT)
     inside = window_mask(geom, x0 + belt_speed * times, y, pick_z, belt_speed, config)
     if not np.any(inside):
+        line = np.linspace(x0 - 3.0, x0 + 3.0, 601)
+        crossed = window_mask(geom, line, y, pick_z, belt_speed, config)
+        if np.any(crossed) and x0 > line[crossed].max():
+            return _refuse("the item has already left the reachable window")
         return _refuse("the item's path never enters the reachable window")
     first_in = int(np.argmax(inside))
     gone = np.flatnonzero(~inside[first_in:])

@@ -96,6 +96,8 @@ def test_item_leaving_the_window_is_refused(robot):
     assert np.isnan(hit.meet_time) and hit.plan is None
     off_belt = intercept_item(start, (0.0, 1.5), 0.185, BINS[0], gen, PICK_Z)
     assert not off_belt.feasible and "never enters" in off_belt.reason
+    gone = intercept_item(start, (0.9, 0.0), 0.185, BINS[0], gen, PICK_Z)
+    assert not gone.feasible and "already left" in gone.reason
 
 
 def test_upstream_item_is_met_inside_the_window(robot):
