@@ -37,6 +37,8 @@ def main(args: argparse.Namespace) -> int:
     config = sweep_config.load(args.config)
     if args.workers is not None and args.workers < 1:
         raise InvalidInput("--workers", "an integer >= 1", args.workers)
+    if args.ray is not None:
+        sweep.require_ray(args.ray)
 
     def say(line: str) -> None:
         print(line, file=sys.stderr, flush=True)

@@ -63,14 +63,20 @@ def _keyed(spec: EpisodeSpec) -> tuple[str, dict]:
     return spec.key, run_spec(spec)
 
 
-def _ray(specs: list[EpisodeSpec], address: str, workers: int, on_row: RowCallback) -> None:
+def require_ray(address: str):
+    """The `ray` module, or a refusal saying how to install the optional extra."""
     try:
-        import ray  # noqa: PLC0415 - optional extra
-        from ray.util import ActorPool
+        import ray
     except ImportError:
         raise InvalidInput(
             "--ray", "a Python with ray installed: pip install 'sortsim[cluster]'", address
         ) from None
+    return ray
+
+
+def _ray(specs: list[EpisodeSpec], address: str, workers: int, on_row: RowCallback) -> None:
+    ray = require_ray(address)
+    from ray.util import ActorPool
 
     @ray.remote
     class EpisodeActor:

@@ -1,0 +1,119 @@
+"""`sortsim sweep`: a small grid, resume after a kill, the thesis's table printed beside ours."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+from sim import outputs, sweep, sweep_config, thesis_report
+
+GRID = """
+[sweep]
+name = "tiny"
+table = "4.5"
+speed_factors = [1.0]
+items = [3]
+planners = ["proximity", "qlearning"]
+seeds = 1
+
+[base]
+perception = "truth"
+duration_s = 3.0
+"""
+
+
+@pytest.fixture(scope="module")
+def swept(tmp_path_factory):
+    root = tmp_path_factory.mktemp("sweep")
+    path = root / "tiny.toml"
+    path.write_text(GRID)
+    out = root / "out"
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "sim.cli",
+            "sweep",
+            "--config",
+            path,
+            "--out",
+            out,
+            "--workers",
+            "1",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert proc.returncode == 0, proc.stderr
+    return path, out, proc
+
+
+def test_one_row_per_episode_in_grid_order(swept):
+    _, out, _ = swept
+    rows = outputs.read_rows(out / "episodes.csv")
+    assert [r["planner"] for r in rows] == ["proximity", "qlearning"]
+    assert all(r["n_items"] == "3" and r["variant"] == "base" for r in rows)
+
+
+def test_prints_the_thesis_table_and_saves_the_figures(swept):
+    _, out, proc = swept
+    assert "Table 4.5" in proc.stdout and "(0.842)" in proc.stdout  # thesis's 84.15 %
+    for name in ("figure_4_4_accuracy", "figure_4_5_time", "figure_4_6_profit"):
+        assert (out / f"{name}.png").stat().st_size > 1000
+
+
+def test_resume_runs_only_the_missing_episodes(swept, monkeypatch):
+    path, out, _ = swept
+    csv_path = out / "episodes.csv"
+    rows = outputs.read_rows(csv_path)
+    outputs.write_episodes(csv_path, rows[:1])  # as if killed after the first episode
+    config = sweep_config.load(path)
+    assert [s.key for s in sweep.pending(config, csv_path)] == [config.episodes[1].key]
+    ran = []
+
+    def fake_run(spec):
+        ran.append(spec.key)
+        return {**rows[1]}
+
+    monkeypatch.setattr(sweep, "run_spec", fake_run)
+    again = sweep.run_sweep(config, out, workers=1)
+    assert ran == [config.episodes[1].key]
+    assert [r["planner"] for r in again] == ["proximity", "qlearning"]
+    assert outputs.strip_wall_clock(csv_path.read_text()).count("\n") == 3
+    assert sweep.run_sweep(config, out, workers=1) == again and ran == [config.episodes[1].key]
+
+
+def test_table_formatter_uses_means_over_seeds():
+    rows = [
+        {"planner": "qlearning", "n_items": "80", "speed_factor": "1.000", "accuracy": a,
+         "sim_s": "60", "profit_eur": "10", "variant": "base"}
+        for a in ("0.5", "0.7")
+    ]  # fmt: skip
+    text = thesis_report.format_table("4.5", rows)
+    assert "0.600 (0.842)" in text
+
+
+def test_ray_is_refused_without_the_extra(swept):
+    try:
+        import ray  # noqa: F401
+    except ImportError:
+        path, out, _ = swept
+        proc = subprocess.run(
+            [sys.executable, "-m", "sim.cli", "sweep", "--config", path, "--out", out / "r",
+             "--ray", "local"],
+            capture_output=True, text=True, timeout=120,
+        )  # fmt: skip
+        assert proc.returncode == 2
+        assert "sortsim[cluster]" in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
+    else:
+        pytest.skip("ray installed: see test_sweep_on_local_ray")
+
+
+def test_sweep_on_local_ray(swept, tmp_path):
+    pytest.importorskip("ray")
+    path, _, _ = swept
+    rows = sweep.run_sweep(sweep_config.load(path), tmp_path, workers=2, ray_address="local")
+    assert len(rows) == 2
