@@ -160,5 +160,7 @@ def intercept_item(
                 pick = np.array([x0 + belt_speed * hi, y, pick_z])
         in_window = window_mask(geom, [pick[0]], y, pick_z, belt_speed, config)[0]
         if plan is None or not in_window:
-            return _refuse("no pick within the motor limits meets the item inside the window")
+            return _refuse(
+                "no pick within the motor limits and the workspace meets the item inside the window"
+            )
     return Intercept(True, "", float(hi), pick, plan)
