@@ -49,6 +49,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="which model's table to print (both are compared)",
     )
     parser.add_argument("--no-items", action="store_true", help="skip the item extraction")
+    parser.add_argument(
+        "--batch-rows", type=int, default=20, help="rows per k-means batch (20, thesis 3.4)"
+    )
     parser.add_argument("--save", default=None, help="write the printed model to this .npz")
 
 
@@ -67,7 +70,7 @@ def _recordings(seeds, catalogue, perception):
     return [record(s, catalogue, perception) for s in seeds]
 
 
-def _items(train, test, evaluation):
+def _items(train, test, evaluation, batch_rows):
 
     from perception.items_from_grid import GridGeometry, items_components, items_kmeans
     from perception.items_score import pooled, score_items
@@ -83,14 +86,15 @@ def _items(train, test, evaluation):
         for rec, grid, post in zip(test, grids, posts, strict=True):
             geo = GridGeometry(row_pitch_m=rec.row_pitch_m)
             truth = (rec.item_b, rec.item_y, rec.item_class, rec.item_cell)
-            found = items_kmeans(grid, geo, size, post)
+            found = items_kmeans(grid, geo, size, post, batch_rows=batch_rows)
             scores[source, "k-means"].append(score_items(found, *truth))
             found = items_components(grid, geo, post)
             scores[source, "components"].append(score_items(found, *truth))
     print(
         f"\nItems on the held-out flows, from the decoded grid and (for reference) the true class "
         f"grid; cells per item of paper/plastic/aluminium {size[1]:.1f}/{size[2]:.1f}/"
-        f"{size[3]:.1f} expanded cells; matched = same class within 0.25 m"
+        f"{size[3]:.1f} expanded cells; k-means in batches of {batch_rows} rows; matched = same "
+        "class within 0.25 m"
     )
     print(
         f"{'grid':<9}{'method':<12}{'true':>6}{'found':>7}{'matched':>9}{'median mm':>11}"
@@ -201,7 +205,7 @@ def main(args: argparse.Namespace) -> int:
             f"cell acc {e.cell_accuracy:.4f}  pred acc {e.prediction_accuracy:.4f}"
         )
     if not args.no_items:
-        _items(train_recs, test_recs, ev)
+        _items(train_recs, test_recs, ev, args.batch_rows)
     if args.save:
         from sim.hmm_models import item_sizes
 
@@ -210,6 +214,6 @@ def main(args: argparse.Namespace) -> int:
         f"\n({time.perf_counter() - t0:.1f} s) reproduce: sortsim hmm-eval --perception "
         f"{args.perception} --train-seeds {args.train_seeds} --extra-seeds '{args.extra_seeds}' "
         f"--test-seeds {args.test_seeds} --iterations {args.iterations} --anchor {args.anchor} "
-        f"--coupling {args.coupling} --decode {args.decode}"
+        f"--coupling {args.coupling} --decode {args.decode} --batch-rows {args.batch_rows}"
     )
     return 0
