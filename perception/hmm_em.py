@@ -33,14 +33,6 @@ class Prior:
     A: np.ndarray
     B: np.ndarray
 
-    @staticmethod
-    def anchored(models, strength: float) -> Prior:
-        """Pseudo-counts `strength` x the given models' probabilities (a MAP anchor)."""
-        if not np.isfinite(strength) or strength < 0.0:
-            raise PerceptionInputError("strength", "a finite pseudo-count >= 0", strength)
-        pi, A, B = stack(models)
-        return Prior(strength * pi, strength * A, strength * B)
-
 
 def e_step(pi: np.ndarray, A: np.ndarray, B: np.ndarray, obs: np.ndarray) -> dict:
     """Expected counts of K models on K sequences of codes obs (K, T).
