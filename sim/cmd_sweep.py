@@ -22,6 +22,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--workers", type=int, default=None, help="local worker processes (default: CPU count)"
     )
     parser.add_argument(
+        "--seeds",
+        type=int,
+        default=None,
+        help="run only the first N seeds of each grid point (a reduced sweep; resumable)",
+    )
+    parser.add_argument(
         "--ray",
         default=None,
         metavar="ADDRESS",
@@ -35,6 +41,10 @@ def main(args: argparse.Namespace) -> int:
     from sim.errors import InvalidInput
 
     config = sweep_config.load(args.config)
+    if args.seeds is not None:
+        if args.seeds < 1:
+            raise InvalidInput("--seeds", "an integer >= 1", args.seeds)
+        config = sweep_config.first_seeds(config, args.seeds)
     if args.workers is not None and args.workers < 1:
         raise InvalidInput("--workers", "an integer >= 1", args.workers)
     if args.ray is not None:

@@ -161,3 +161,10 @@ def from_dict(data: dict[str, Any], where: str) -> SweepConfig:
 def load(path: Path) -> SweepConfig:
     """The sweep of TOML `path`, refused in one line if anything in it is wrong."""
     return from_dict(read_toml(Path(path)), str(path))
+
+
+def first_seeds(sweep: SweepConfig, n: int) -> SweepConfig:
+    """The same sweep with only the `n` smallest seeds of each grid point."""
+    seeds = sorted({e.config.seed for e in sweep.episodes})[:n]
+    kept = tuple(e for e in sweep.episodes if e.config.seed in seeds)
+    return SweepConfig(name=sweep.name, table=sweep.table, episodes=kept, path=sweep.path)
