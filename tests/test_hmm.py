@@ -156,3 +156,16 @@ def test_codes_out_of_range_are_refused():
         log_likelihood(model, np.array([1, 20]))
     with pytest.raises(PerceptionInputError, match="obs"):
         posteriors(model, np.array([0, 3]))
+
+
+def test_prior_pseudo_counts_keep_unseen_codes_possible():
+    from perception.hmm_em import Prior
+
+    rng = np.random.default_rng(5)
+    model = random_model(rng)
+    seq = np.array([19, 19, 3, 3, 19] * 10)
+    (plain,), _ = baum_welch([model], [seq], max_iter=3, tol=0.0)
+    prior = Prior(np.full((1, 4), 0.5), np.full((1, 4, 4), 0.5), np.full((1, 4, 19), 0.5))
+    (smoothed,), _ = baum_welch([model], [seq], max_iter=3, tol=0.0, prior=prior)
+    assert plain.B[:, 0].max() < 1e-12
+    assert smoothed.B.min() > 0 and smoothed.A.min() > 0
