@@ -66,6 +66,7 @@ class EpisodeResult:
     episode_row: dict
     pick_rows: list[dict]
     timings: dict[str, float] = field(default_factory=dict)
+    latencies: dict[str, list[float]] = field(default_factory=dict)
 
 
 def make_decision_manager(config: EpisodeConfig):
@@ -136,6 +137,7 @@ class Episode:
             ("physics", "perception", "decision", "planning", "video"), 0.0
         )
         self.decisions = 0
+        self.latencies: dict[str, list[float]] = {"perception": [], "decision": [], "plan": []}
 
     # ----- per-step bookkeeping (also called by the executor between its steps) ---------------
 
@@ -167,7 +169,9 @@ class Episode:
         t0 = time.perf_counter()
         mujoco.mj_kinematics(self.model, self.data)
         self.tracker.update(self.perception.observe(t))
-        self.timings["perception"] += time.perf_counter() - t0
+        dt = time.perf_counter() - t0
+        self.timings["perception"] += dt
+        self.latencies["perception"].append(dt)
 
     def _check_items(self, t: float) -> None:
         pool, data = self.cell.pool, self.data
@@ -210,6 +214,7 @@ class Episode:
         choice = self.planner.choose(items, robot, self.context)
         t1 = time.perf_counter()
         self.timings["decision"] += t1 - t0
+        self.latencies["decision"].append(t1 - t0)
         self.decisions += 1
         if choice is None:
             return False
@@ -221,6 +226,7 @@ class Episode:
         x = track.x_at(t, self.speed)
         intercept = self.robot.plan(x, track.y, choice.bin_class)
         self.timings["planning"] += time.perf_counter() - t1
+        self.latencies["plan"].append(time.perf_counter() - t1)
         if not intercept.feasible:
             self.tracker.remove(track.track_id)  # cannot be met: let it go
             return False
@@ -378,4 +384,6 @@ def run_episode(
     timings = dict(episode.timings)
     timings["total"] = wall
     timings["decisions"] = episode.decisions
-    return EpisodeResult(config, variant, row, episode.metrics.pick_rows(), timings)
+    return EpisodeResult(
+        config, variant, row, episode.metrics.pick_rows(), timings, episode.latencies
+    )
