@@ -24,6 +24,15 @@ from perception.rectify import BeltView, TopDownRaster
 _UNDISTORT_CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 30, 1e-9)
 
 
+def _solid(image: np.ndarray, item: np.ndarray, rim_fraction: float) -> np.ndarray:
+    """Item pixels at least `rim_fraction` as bright as their blob's brightest pixel."""
+    value = image.max(axis=2)
+    count, blobs = cv2.connectedComponents(item.astype(np.uint8), connectivity=8)
+    peak = np.zeros(count, dtype=np.uint8)
+    np.maximum.at(peak, blobs[item], value[item])
+    return item & (value >= rim_fraction * peak[blobs])
+
+
 class FootprintMapper:
     """Raw frame + depth -> top-down colour labels of item footprints.
 
@@ -32,6 +41,8 @@ class FootprintMapper:
         raster: The top-down raster (`TopDownRaster.covering`).
         max_height_m: Tallest item [m]; bounds the frame region that can see the raster.
         min_height_m: Item pixels stand at least this high above the belt [m].
+        rim_fraction: Pixels dimmer than this fraction of their item's brightest pixel are its
+            antialiased rim (partly belt) or its shaded side, and left out.
     """
 
     def __init__(
@@ -40,8 +51,10 @@ class FootprintMapper:
         raster: TopDownRaster,
         max_height_m: float = 0.15,
         min_height_m: float = 0.0008,
+        rim_fraction: float = 0.5,
     ):
         self.min_height_m = float(min_height_m)
+        self.rim_fraction = float(rim_fraction)
         self.raster = raster
         x_range = (raster.x_min, raster.x_min + raster.shape[0] * raster.resolution_m)
         y_range = (raster.y_min, raster.y_min + raster.shape[1] * raster.resolution_m)
@@ -79,19 +92,28 @@ class FootprintMapper:
         if depth is None or depth.shape != frame.shape[:2]:
             shape = None if depth is None else depth.shape
             raise PerceptionError(f"depth map shape {shape}, expected {frame.shape[:2]}")
-        labels = rules.classify(frame[self.roi]).ravel()
-        z = depth[self.roi].ravel()
-        valid = np.isfinite(z) & (z > 0.0)
+        crop = frame[self.roi]
+        labels = rules.classify(crop)
+        labels[~_solid(crop, labels != BELT, self.rim_fraction)] = BELT
+        labels = labels.ravel()
+        z = depth[self.roi].astype(np.float32)
+        valid = (np.isfinite(z) & (z > 0.0)).ravel()
+        height = self._origin[2] + z * self._direction[:, 2].reshape(z.shape)
+        height[~np.isfinite(height)] = -1.0
         belt = np.flatnonzero(valid & (labels == BELT))[::4]
         if len(belt) < 100:
             raise PerceptionError("depth map: too few valid belt pixels")
         # The belt's height as this camera measures it (a pose error shifts it by a millimetre
-        # or so): item pixels must stand above it, which drops the pixels on an item's rim or
-        # the belt's edge that blend a bright colour with the belt's depth.
-        height = self._origin[2] + z * self._direction[:, 2]
-        belt_z = float(np.median(height[belt]))
-        item = np.flatnonzero(valid & (labels != BELT) & (height > belt_z + self.min_height_m))
-        points = self._origin[None, :2] + z[item, None] * self._direction[item, :2]
+        # or so); item pixels stand above it.
+        belt_z = float(np.median(height.ravel()[belt]))
+        # A pixel on an item's rim blends the item's colour with whatever lies behind it, and
+        # its depth may be the belt's: it is placed at the highest surface seen around it, on
+        # its own ray, which puts a rim pixel on the item's top edge (a belt-edge pixel next to
+        # a rail goes onto the rail, off the grid).
+        top_z = cv2.dilate(height, np.ones((3, 3), np.uint8)).ravel()
+        item = np.flatnonzero(valid & (labels != BELT) & (top_z > belt_z + self.min_height_m))
+        reach = (top_z[item] - self._origin[2]) / self._direction[item, 2]
+        points = self._origin[None, :2] + reach[:, None] * self._direction[item, :2]
         raster = self.raster
         i = np.floor((points[:, 0] - raster.x_min) / raster.resolution_m).astype(np.int64)
         j = np.floor((points[:, 1] - raster.y_min) / raster.resolution_m).astype(np.int64)

@@ -23,16 +23,17 @@ BELT = -1
 class ColourRules:
     """Per-pixel colour rules on OpenCV's HSV (H in degrees 0..360, S and V 0..255).
 
-    Hued pixels take the colour of their hue band. Greyish pixels are white or transparent by
-    the item they belong to (a connected blob of greyish pixels): a white item has a core at
-    full brightness, while a transparent one, blended with the black belt, stays dimmer even at
-    its highlights; pixel by pixel, the shaded rim of a white bottle would look transparent.
+    Hued pixels take the colour of their hue band. Greyish pixels are white at full brightness
+    (a white item's lit top) and transparent at mid brightness (a clear item blended with the
+    black belt stays dimmer even at its highlights); dimmer greyish pixels are shade, e.g. the
+    side wall of a white can, and follow the item they belong to (their connected greyish blob:
+    white if it holds at least as many white as transparent pixels).
 
     Attributes:
         item_min_value: Brightness above which a pixel is an item, not the black belt.
         grey_max_saturation: Below it a pixel is greyish (white or transparent).
-        white_min_value: Brightness of a white item's core.
-        white_min_core: Fraction of a greyish blob at white brightness that makes it white.
+        white_min_value: Greyish pixels at least this bright are white.
+        transparent_min_value: Greyish pixels from this bright up to white are transparent.
         red_max_hue: Hues below it (or from blue_max_hue on) are red [deg].
         brown_max_hue: Hues from red_max_hue below it are brown [deg].
         green_max_hue: Hues from brown_max_hue below it are green [deg].
@@ -42,19 +43,28 @@ class ColourRules:
     item_min_value: int = 45
     grey_max_saturation: int = 90
     white_min_value: int = 235
-    white_min_core: float = 0.2
+    transparent_min_value: int = 150
     red_max_hue: float = 16.0
     brown_max_hue: float = 50.0
     green_max_hue: float = 170.0
     blue_max_hue: float = 265.0
 
     def __post_init__(self) -> None:
-        for name in ("item_min_value", "grey_max_saturation", "white_min_value"):
+        for name in (
+            "item_min_value",
+            "grey_max_saturation",
+            "white_min_value",
+            "transparent_min_value",
+        ):
             value = getattr(self, name)
             if not 0 <= value <= 255:
                 raise PerceptionInputError(f"colour_rules.{name}", "0..255", value)
-        if not 0.0 < self.white_min_core <= 1.0:
-            raise PerceptionInputError("colour_rules.white_min_core", "(0, 1]", self.white_min_core)
+        if not self.transparent_min_value < self.white_min_value:
+            raise PerceptionInputError(
+                "colour_rules.transparent_min_value",
+                f"< white_min_value = {self.white_min_value}",
+                self.transparent_min_value,
+            )
         if not self.red_max_hue < self.brown_max_hue < self.green_max_hue < self.blue_max_hue:
             raise PerceptionInputError(
                 "colour_rules hue bounds", "red < brown < green < blue [deg]", self.blue_max_hue
@@ -77,15 +87,17 @@ class ColourRules:
         )
         for name, band in bands:
             labels[hued & band] = COLOURS.index(name)
-        count, blobs = cv2.connectedComponents(grey.astype(np.uint8), connectivity=8)
-        if count > 1:
-            size = np.bincount(blobs.ravel(), minlength=count)
-            core = np.bincount(
-                blobs.ravel(), weights=(val >= self.white_min_value).ravel(), minlength=count
-            )
-            white = core >= self.white_min_core * np.maximum(size, 1)
-            names = np.where(white, COLOURS.index("white"), COLOURS.index("transparent"))
-            labels[grey] = names[blobs[grey]]
+        core = grey & (val >= self.white_min_value)
+        mid = grey & ~core & (val >= self.transparent_min_value)
+        shade = grey & ~core & ~mid
+        labels[core] = COLOURS.index("white")
+        labels[mid] = COLOURS.index("transparent")
+        if np.any(shade):
+            count, blobs = cv2.connectedComponents(grey.astype(np.uint8), connectivity=8)
+            n_core = np.bincount(blobs[core], minlength=count)
+            n_mid = np.bincount(blobs[mid], minlength=count)
+            names = np.where(n_core >= n_mid, COLOURS.index("white"), COLOURS.index("transparent"))
+            labels[shade] = names[blobs[shade]]
         return labels
 
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 from perception.calibration import CameraCalibration
@@ -24,6 +25,7 @@ from perception.observe import BELT, CellObservation, ColourRules, code_cells
 from perception.rectify import BeltRectifier, BeltView, TopDownRaster, colour_mask, locate_belt
 
 _MARKER_PATCH_PX = 4
+_KERNEL = np.ones((3, 3), np.uint8)
 
 
 @dataclass(frozen=True)
@@ -153,7 +155,11 @@ class CameraPipeline:
             raise PerceptionInputError("top-down image", f"shape {self.raster.shape}", top.shape)
         start, stop = self._band_rows(belt_speed, t)
         labels = np.full(self.raster.shape, BELT, dtype=np.int8)
-        labels[start:stop] = self.rules.classify(top[start:stop])
+        band = self.rules.classify(top[start:stop])
+        # One-pixel lines are the belt's edge seen through antialiasing, not items.
+        solid = cv2.morphologyEx((band != BELT).astype(np.uint8), cv2.MORPH_OPEN, _KERNEL)
+        band[solid == 0] = BELT
+        labels[start:stop] = band
         return self._code(labels, belt_speed, t)
 
     def _check_speed(self, belt_speed: float) -> None:

@@ -202,7 +202,6 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--width", type=int, default=640)
     parser.add_argument("--height", type=int, default=360)
     parser.add_argument("--plane-z", type=float, default=0.0)
-    parser.add_argument("--relative-value", type=float, default=None)
     parser.add_argument("--no-depth", action="store_true", help="frames only, no depth map")
     args = parser.parse_args(argv)
     for factor in args.speed_factors:
@@ -213,9 +212,7 @@ def main(argv: list[str] | None = None) -> int:
             args.seed,
             (args.width, args.height),
             args.plane_z,
-            None
-            if args.relative_value is None
-            else ColourRules(min_relative_value=args.relative_value),
+            depth=not args.no_depth,
         )
         print(score.report(), flush=True)
     return 0
