@@ -30,7 +30,8 @@ class PickPlaceConfig:
         release_time: Vacuum release over the bin [s].
         touchdown_slow: The descent onto the item is planned with the limits of a motion this
             many times slower, so the servos have caught up with it when the cup touches down
-            (1: full limits).
+            (1: full limits). 1.6 keeps the simulated cup within 1 % of the belt's velocity
+            while it seals (about 0.1 mm of settling left at touch-down), for ~18 ms per pick.
         blend: Pass the corners with non-zero velocity where that is faster.
     """
 
@@ -38,7 +39,7 @@ class PickPlaceConfig:
     lift_height: float = 0.025
     seal_time: float = 0.035
     release_time: float = 0.035
-    touchdown_slow: float = 1.0
+    touchdown_slow: float = 1.6
     blend: bool = True
 
     def __post_init__(self):
