@@ -2,9 +2,13 @@
 
 Scene: the cell (`models/cell/scene.xml`) with 15 catalogue items placed at random (seeded) in
 and around the camera band, robot at home. Each repetition renders the belt camera's frame
-through the lens model (`sim.camera.BeltCamera`), undistorts and rectifies it onto the belt plane
-(`CameraPipeline.rectify`: one remap plus the marker check), and codes the band's five cells
-(`CameraPipeline.code_row`: colour labels, covered fractions, codes, item pixels).
+through the lens model (`sim.camera.BeltCamera`, with the registered depth map a stereo camera
+gives), undistorts and rectifies it onto the belt plane (`CameraPipeline.rectify`: one remap
+plus the marker check), codes the band's five cells from that image (`CameraPipeline.code_row`)
+and, the pipeline's default when depth is given, maps the items' footprints from frame + depth
+and codes them (`CameraPipeline.observe(..., depth)`: undistortion of the item pixels' rays,
+3-D points, top-down splat, coding). It also prints the geometry figures of the located camera:
+marker reprojection error and the grid corners' error on the belt against the true camera.
 
 Run: `.venv/bin/python benchmarks/bench_perception.py [--quick] [--width W --height H]`
 """
@@ -19,9 +23,11 @@ import numpy as np
 
 from perception.calibration import CameraCalibration
 from perception.grid import BeltGrid
+from perception.lens import ZED_HD_LEFT
 from perception.pipeline import CameraPipeline
 from sim.belt import Belt
 from sim.camera import BeltCamera, marker_points
+from sim.camera_checks import grid_corner_errors
 from sim.catalogue import load_catalogue
 from sim.cmd_calibrate import DEFAULT_CALIBRATION
 from sim.item_pool import ItemPool
@@ -59,25 +65,35 @@ def main() -> int:
 
     calibration = CameraCalibration.load(DEFAULT_CALIBRATION).scaled(size)
     pipeline = CameraPipeline(calibration, BeltGrid(), *marker_points(model, data))
-    render, rectify, coding = [], [], []
+    times: dict[str, list[float]] = {k: [] for k in ("render", "rgbd", "rect", "code", "depth")}
     with BeltCamera(model, *size) as camera:
-        frame = camera.render(data)
-        pipeline.locate(frame)
+        view = pipeline.locate(camera.render(data))
         for k in range(reps):
             t0 = time.perf_counter()
             frame = camera.render(data)
             t1 = time.perf_counter()
             top = pipeline.rectify(frame)
             t2 = time.perf_counter()
-            row = pipeline.code_row(top, SPEED, 0.5 * k)
+            pipeline.code_row(top, SPEED, 0.5 * k)
             t3 = time.perf_counter()
-            render.append(t1 - t0)
-            rectify.append(t2 - t1)
-            coding.append(t3 - t2)
+            frame, depth = camera.render_rgbd(data)
+            t4 = time.perf_counter()
+            row = pipeline.observe(frame, SPEED, 0.5 * k, depth)
+            t5 = time.perf_counter()
+            for key, dt in zip(times, (t1 - t0, t4 - t3, t2 - t1, t3 - t2, t5 - t4), strict=True):
+                times[key].append(dt)
+        errors = grid_corner_errors(model, data, camera.camera_matrix, ZED_HD_LEFT, view, SPEED)
     print(f"frame {size[0]}x{size[1]}, {reps} frames, {N_ITEMS} items in view, codes {row.codes}")
-    print(f"render (pinhole + lens)      {_median_ms(render):8.2f} ms/frame (median)")
-    print(f"undistort + rectify          {_median_ms(rectify):8.2f} ms/frame (median)")
-    print(f"coding (5 cells)             {_median_ms(coding):8.2f} ms/frame (median)")
+    print(f"render (pinhole + lens)          {_median_ms(times['render']):8.2f} ms/frame (median)")
+    print(f"render frame + depth map         {_median_ms(times['rgbd']):8.2f} ms/frame (median)")
+    print(f"undistort + rectify (one remap)  {_median_ms(times['rect']):8.2f} ms/frame (median)")
+    print(f"coding the rectified band        {_median_ms(times['code']):8.2f} ms/frame (median)")
+    print(f"footprints from depth + coding   {_median_ms(times['depth']):8.2f} ms/frame (median)")
+    print(f"marker reprojection RMS          {view.marker_rms_px:8.3f} px")
+    print(
+        f"grid corners on the belt         {1000 * errors.max():8.2f} mm max,"
+        f" {1000 * errors.mean():.2f} mm mean (x1 grid, vs the true camera)"
+    )
     quick = " --quick" if args.quick else ""
     print(
         f"command: .venv/bin/python benchmarks/bench_perception.py{quick} "

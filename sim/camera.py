@@ -19,11 +19,16 @@ import cv2
 import mujoco
 import numpy as np
 
+from perception.calibration import CameraCalibration
+from perception.grid import BeltGrid
 from perception.lens import ZED_HD_LEFT, LensDistorter, LensModel, source_canvas
+from perception.pipeline import CameraPipeline
 from sim.errors import InvalidInput, ModelFileError
+from sim.paths import MODELS_DIR
 
 CAMERA_NAME = "belt_camera"
 MARKER_NAMES = ("marker_0", "marker_1", "marker_2", "marker_3")
+DEFAULT_CALIBRATION = MODELS_DIR / "cell" / "belt_camera_calibration.json"
 
 
 def camera_id(model: mujoco.MjModel, name: str = CAMERA_NAME) -> int:
@@ -166,3 +171,17 @@ class BeltCamera:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def camera_pipeline(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    size: tuple[int, int] = (1280, 720),
+    grid: BeltGrid | None = None,
+    calibration_path=DEFAULT_CALIBRATION,
+) -> CameraPipeline:
+    """The perception pipeline of the cell's camera: the calibration file (scaled to `size`),
+    the belt grid (default: camera line x = -1.48 m, T = 0.5 s) and the markers' MJCF positions
+    and colours, the cell's drawings. The belt is located from the markers on the first frame."""
+    calibration = CameraCalibration.load(calibration_path).scaled(size)
+    return CameraPipeline(calibration, grid or BeltGrid(), *marker_points(model, data))

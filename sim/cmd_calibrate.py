@@ -15,6 +15,7 @@ from pathlib import Path
 from sim.paths import MODELS_DIR, SCENE_XML
 
 DEFAULT_CALIBRATION = MODELS_DIR / "cell" / "belt_camera_calibration.json"
+"""Same path as `sim.camera.DEFAULT_CALIBRATION` (kept here so `--help` stays import-light)."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

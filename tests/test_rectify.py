@@ -14,6 +14,7 @@ from perception.lens import ZED_HD_LEFT
 from perception.pipeline import CameraPipeline
 from perception.rectify import BeltRectifier, TopDownRaster, locate_belt, undistort
 from sim.camera import BeltCamera, camera_pose, marker_points
+from sim.camera_checks import edge_residual, grid_corner_errors
 from sim.cmd_calibrate import DEFAULT_CALIBRATION
 from sim.paths import REPO_ROOT, SCENE_XML
 
@@ -35,37 +36,18 @@ def _calibration(width, height):
     return CameraCalibration.load(DEFAULT_CALIBRATION).scaled((width, height))
 
 
-def _edge_columns(grey: np.ndarray, rows: range, lo: int, hi: int) -> np.ndarray:
-    """Sub-pixel column of the first dark -> bright crossing in [lo, hi) on each row."""
-    cols = []
-    for v in rows:
-        profile = grey[v, lo:hi].astype(np.float64)
-        level = 0.5 * (profile.min() + profile.max())
-        k = int(np.argmax(profile > level))
-        cols.append(lo + k - 1 + (level - profile[k - 1]) / (profile[k] - profile[k - 1]))
-    return np.array(cols)
-
-
-def _straightness(grey: np.ndarray, lo: int, hi: int, flip: bool) -> float:
-    # Every 4th row over the full height, except the band where the fixture's items lie.
-    rows = [v for v in range(20, grey.shape[0] - 20, 4) if not 280 <= v <= 440]
-    image = grey[:, ::-1] if flip else grey
-    width = grey.shape[1]
-    cols = _edge_columns(image, rows, width - hi if flip else lo, width - lo if flip else hi)
-    fit = np.polyfit(np.array(rows, dtype=np.float64), cols, 1)
-    return float(np.max(np.abs(np.polyval(fit, np.array(rows)) - cols)))
-
-
 def test_undistorted_belt_edges_are_straight_within_1px():
     """The belt's black/grey edges (y = +-0.4 m) over the full frame height at 1280x720."""
     _, _, frame, _ = _render(FIXTURE, 1280, 720)
     calibration = _calibration(1280, 720)
     straight = cv2.cvtColor(undistort(frame, calibration), cv2.COLOR_RGB2GRAY)
     raw = cv2.cvtColor(frame, cv2.COLOR_RGB2GRAY)
-    # Left edge (+y side): grey rail -> black belt read right to left; right edge: belt -> rail.
+    # Every 4th row over the full height, except the band where the fixture's items lie.
+    rows = [v for v in range(20, 700, 4) if not 280 <= v <= 440]
+    # Left edge (+y side) read from the belt leftwards onto the rail; right edge rightwards.
     for grey, limit in ((straight, 1.0), (raw, None)):
-        left = _straightness(grey, 200, 370, flip=True)
-        right = _straightness(grey, 910, 1080, flip=False)
+        left = edge_residual(grey, rows, 370, 200)
+        right = edge_residual(grey, rows, 910, 1080)
         if limit is None:
             assert min(left, right) > 5.0  # the raw frame's edges bow: the lens is real
         else:
@@ -77,19 +59,10 @@ def test_grid_corners_lie_within_5mm_of_their_belt_positions(speed):
     """Cell corners as the pipeline places them in the frame, cast back onto the belt through
     the true camera (renderer intrinsics, applied lens, MJCF pose)."""
     model, data, frame, truth = _render(SCENE_XML, 640, 360)
-    calibration = _calibration(640, 360)
-    view = locate_belt(frame, calibration, *marker_points(model, data))
-    corners = BeltGrid().cell_corners(speed).reshape(-1, 3)
-    pixels = view.project(corners)
-    criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 50, 1e-12)
-    norm = cv2.undistortPoints(
-        pixels.reshape(-1, 1, 2), truth, ZED_HD_LEFT.dist_coeffs(), None, None, None, criteria
-    ).reshape(-1, 2)
-    rot, pos = camera_pose(model, data)
-    rays = np.c_[norm, np.ones(len(norm))] @ rot.T
-    hits = pos + rays * (-pos[2] / rays[:, 2:3])
-    error = np.linalg.norm(hits[:, :2] - corners[:, :2], axis=1)
+    view = locate_belt(frame, _calibration(640, 360), *marker_points(model, data))
+    error = grid_corner_errors(model, data, truth, ZED_HD_LEFT, view, speed)
     assert error.max() < 0.005, error.max()
+    _, pos = camera_pose(model, data)
     assert np.linalg.norm(view.camera_position() - pos) < 0.01
 
 
