@@ -98,7 +98,8 @@ def summary(result) -> str:
     ]
     timing = getattr(result, "timings", None)
     if timing:
-        parts = ", ".join(f"{k} {v:.1f} s" for k, v in timing.items())
+        keys = ("physics", "perception", "decision", "planning", "video")
+        parts = ", ".join(f"{k} {timing[k]:.1f} s" for k in keys if k in timing)
         lines.append(f"wall time by stage     {parts}")
     return "\n".join(lines)
 

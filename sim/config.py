@@ -23,7 +23,7 @@ TOML layout (every key optional; defaults are DESIGN.md's headline episode)::
     batch_rows = 20
     objective = "value_over_distance"   # | value_only (d = 1) | distance_only (v = 1)
     [video]
-    fps = 15.0                  # frames per simulated second
+    fps = 10.0                  # frames per simulated second
     width = 640
     height = 360
 """
@@ -109,7 +109,7 @@ class QLearning:
 class Video:
     """Settings of the episode's MP4 (frames per simulated second, frame size [px])."""
 
-    fps: float = 15.0
+    fps: float = 10.0
     width: int = 640
     height: int = 360
 

@@ -101,7 +101,10 @@ class Episode:
         )
         self.flow = generate_flow(flow_config, cell.catalogue, cell.pool.size)
         self.t_last_spawn = float(self.flow.t_spawn[-1]) if len(self.flow) else 0.0
-        self.t_cap = self.t_last_spawn + flow_config.residence_s + 10.0
+        self.x_discard = float(np.nanmax(cell.window.x_exit)) + DISCARD_MARGIN_M
+        # When the last item has passed the robot (the end of a normal episode) and a cap.
+        self.t_end = self.t_last_spawn + (self.x_discard - X_INFEED) / self.speed + SETTLE_S
+        self.t_cap = self.t_end + 10.0
         self.metrics = EpisodeMetrics(config.values.by_class())
         self.tracker = Tracker(self.speed)
         self.planner = make_decision_manager(config)
@@ -127,7 +130,6 @@ class Episode:
             )
         # The thesis discards an item once it passes the robot's working space; parking it there
         # (rather than at the belt's end) also spares the physics the items nobody can reach.
-        self.x_discard = float(np.nanmax(cell.window.x_exit)) + DISCARD_MARGIN_M
         self.next_spawn = 0
         self.next_obs = 0.0
         self.next_check = 0.0
@@ -297,7 +299,7 @@ class Episode:
             self.tick()
             if self.progress is not None and data.time - last_report >= 1.0:
                 last_report = data.time
-                self.progress(min(data.time / self.t_cap, 1.0), self.status_text())
+                self.progress(min(data.time / self.t_end, 1.0), self.status_text())
         for slot in self.cell.pool.active_slots():  # still on the belt at the time cap
             self.metrics.on_missed(int(self.cell.pool.park(data, int(slot))))
 

@@ -1,4 +1,4 @@
-"""The episode's video: the cell from `overview_camera` with overlays, as H.264 MP4.
+"""The episode's video: the cell from a free camera over the belt with overlays, as H.264 MP4.
 
 Frames are rendered off-screen with one reused `mujoco.Renderer` at a small size (default
 640x360) at a fixed rate of simulated time, then annotated with OpenCV: each tracked item's
@@ -9,7 +9,6 @@ renamed into place when the episode ends, so a killed run leaves no half-written
 
 from __future__ import annotations
 
-import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -19,7 +18,11 @@ import imageio.v2 as imageio
 import mujoco
 import numpy as np
 
-CAMERA = "overview_camera"
+# The view: the belt from the camera box (x = -1.48) to the robot and its bins.
+LOOKAT = (-0.55, 0.0, 0.0)
+DISTANCE = 2.5
+AZIMUTH = 115.0
+ELEVATION = -25.0
 # BGR-free: frames are RGB; one colour per predicted class (paper, plastic, aluminium).
 CLASS_COLOURS = {2: (230, 170, 60), 3: (80, 200, 255), 4: (235, 235, 235)}
 CLASS_SHORT = {2: "PAP", 3: "PL", 4: "AL"}
@@ -40,17 +43,27 @@ class Overlay:
     counters: list[str] = field(default_factory=list)
 
 
-def project(model: mujoco.MjModel, data: mujoco.MjData, cam: int, points: np.ndarray, size):
-    """Pixel coordinates (N, 2) of world `points` (N, 3) in camera `cam`; NaN behind it."""
+def view_camera() -> mujoco.MjvCamera:
+    """A free camera framing the belt from the camera box to the robot and the bins."""
+    cam = mujoco.MjvCamera()
+    cam.type = mujoco.mjtCamera.mjCAMERA_FREE
+    cam.lookat[:] = LOOKAT
+    cam.distance, cam.azimuth, cam.elevation = DISTANCE, AZIMUTH, ELEVATION
+    return cam
+
+
+def project(scene: mujoco.MjvScene, points: np.ndarray, size) -> np.ndarray:
+    """Pixel coordinates (N, 2) of world `points` (N, 3) in the scene's rendered view."""
     width, height = size
-    pos = data.cam_xpos[cam]
-    rot = data.cam_xmat[cam].reshape(3, 3)  # columns: camera x (right), y (up), -z (forward)
-    rel = (np.asarray(points, dtype=float) - pos) @ rot
-    focal = 0.5 * height / math.tan(0.5 * math.radians(model.cam_fovy[cam]))
-    depth = -rel[:, 2]
+    gl = scene.camera[0]
+    forward, up = np.array(gl.forward), np.array(gl.up)
+    right = np.cross(forward, up)
+    rel = np.asarray(points, dtype=float) - np.array(gl.pos)
+    depth = rel @ forward
+    focal = 0.5 * height * gl.frustum_near / gl.frustum_top
     with np.errstate(divide="ignore", invalid="ignore"):
-        u = width / 2.0 + focal * rel[:, 0] / depth
-        v = height / 2.0 - focal * rel[:, 1] / depth
+        u = width / 2.0 + focal * (rel @ right) / depth
+        v = height / 2.0 - focal * (rel @ up) / depth
     uv = np.column_stack([u, v])
     uv[depth <= 1e-6] = np.nan
     return uv
@@ -74,10 +87,14 @@ def annotate(frame: np.ndarray, uv: np.ndarray, overlay: Overlay) -> np.ndarray:
             cv2.putText(
                 frame, "next", (p[0] - 12, p[1] + 22), font, 0.35, (255, 60, 60), 1, cv2.LINE_AA
             )
+    if overlay.counters:
+        h = 8 + 16 * len(overlay.counters)
+        w = 12 + max(cv2.getTextSize(t, font, 0.42, 1)[0][0] for t in overlay.counters)
+        patch = frame[0:h, 0:w]
+        patch[:] = (0.35 * patch).astype(frame.dtype)  # darkened panel behind the text
     y = 16
     for line in overlay.counters:
-        cv2.putText(frame, line, (8, y), font, 0.42, (0, 0, 0), 3, cv2.LINE_AA)
-        cv2.putText(frame, line, (8, y), font, 0.42, (255, 255, 255), 1, cv2.LINE_AA)
+        cv2.putText(frame, line, (6, y), font, 0.42, (255, 255, 255), 1, cv2.LINE_AA)
         y += 16
     return frame
 
@@ -98,7 +115,7 @@ class VideoRecorder:
         self.path = Path(path)
         self.fps = float(fps)
         self.size = (int(width), int(height))
-        self.cam = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, CAMERA)
+        self.cam = view_camera()
         self.renderer = mujoco.Renderer(model, height=self.size[1], width=self.size[0])
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self._tmp = self.path.with_name(f".{self.path.stem}.{os.getpid()}.tmp.mp4")
@@ -123,7 +140,7 @@ class VideoRecorder:
         self.renderer.update_scene(data, camera=self.cam)
         frame = self.renderer.render().copy()
         pts = np.array([it[1:4] for it in overlay.items], dtype=float).reshape(-1, 3)
-        annotate(frame, project(self.model, data, self.cam, pts, self.size), overlay)
+        annotate(frame, project(self.renderer.scene, pts, self.size), overlay)
         self._writer.append_data(frame)
         self.frames += 1
         self._next_t = self.frames / self.fps
