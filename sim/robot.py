@@ -224,11 +224,26 @@ def set_motor_targets(
         qdot: Reference motor speeds, shape (3,) [rad/s]; None for a fixed set-point.
         axis4_dot: Reference axis 4 speed [rad/s].
     """
-    targets = list(np.asarray(q, dtype=float).reshape(3)) + [float(axis4)]
-    speeds = [0.0] * 3 if qdot is None else list(np.asarray(qdot, dtype=float).reshape(3))
-    speeds.append(float(axis4_dot))
-    for name, target, speed in zip((*MOTOR_ACTUATORS, "axis4"), targets, speeds, strict=True):
-        act = model.actuator(name)
-        kp, kv = act.gainprm[0], -act.biasprm[2]
-        value = target + (kv / kp) * speed
-        data.ctrl[act.id] = np.clip(value, act.ctrlrange[0], act.ctrlrange[1])
+    ids = _servo_ids(model)  # called every control period: no name lookups here
+    targets = np.empty(4)
+    targets[:3], targets[3] = np.asarray(q, dtype=float).reshape(3), axis4
+    speeds = np.zeros(4)
+    if qdot is not None:
+        speeds[:3] = np.asarray(qdot, dtype=float).reshape(3)
+    speeds[3] = axis4_dot
+    kp, kv = model.actuator_gainprm[ids, 0], -model.actuator_biasprm[ids, 2]
+    value = targets + (kv / kp) * speeds
+    ctrlrange = model.actuator_ctrlrange[ids]
+    data.ctrl[ids] = np.clip(value, ctrlrange[:, 0], ctrlrange[:, 1])
+
+
+_SERVO_IDS: dict[int, tuple[mujoco.MjModel, np.ndarray]] = {}
+
+
+def _servo_ids(model: mujoco.MjModel) -> np.ndarray:
+    """Actuator ids of the three motors and axis 4 (cached per model)."""
+    hit = _SERVO_IDS.get(id(model))
+    if hit is None or hit[0] is not model:
+        ids = np.array([model.actuator(n).id for n in (*MOTOR_ACTUATORS, "axis4")])
+        hit = _SERVO_IDS[id(model)] = (model, ids)
+    return hit[1]
