@@ -2,7 +2,8 @@
 
 The seed's flow is dropped through the item pool and carried by the belt in MuJoCo physics (the
 robot holds its home pose); every observation period the belt camera's frame goes through
-`perception.pipeline.CameraPipeline`, which gives the row's codes. The row's true classes come
+`perception.pipeline.CameraPipeline` with its registered depth map (as a stereo camera gives),
+which gives the row's codes. The row's true classes come
 from the items' simulated poses (`sim.truth.cell_truth_from_poses`), so the labels follow the
 items where the belt really carried them. The true item centres for the item scores are the
 flow's nominal ones (an item that rolled or slid on the belt is scored where it was dropped to
@@ -69,7 +70,8 @@ def camera_recording(seed: int, catalogue) -> Recording:
             mujoco.mj_kinematics(model, data)
             pool.park_missed(data)
             try:
-                codes[k] = pipeline.observe(camera.render(data), speed, data.time).codes
+                frame, depth = camera.render_rgbd(data)
+                codes[k] = pipeline.observe(frame, speed, data.time, depth).codes
             except PerceptionError:
                 refused += 1
                 codes[k] = codes[k - 1] if k else EMPTY_CODE
