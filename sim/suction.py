@@ -234,10 +234,10 @@ class SuctionCup:
         dof = self.pool.dof_adr[slot]
         force = m.body_mass[body] * (data.qacc[dof : dof + 3] - m.opt.gravity)
         geom = self.pool.geom_id(slot)
-        for i in range(data.ncon):
-            pair = data.contact.geom[i]
-            if geom not in pair or self.geom_id in pair:
-                continue
+        pairs = data.contact.geom[: data.ncon]  # runs every step while holding: filter at once
+        mine = (pairs == geom).any(axis=1) & ~(pairs == self.geom_id).any(axis=1)
+        for i in np.flatnonzero(mine):
+            pair = pairs[i]
             mujoco.mj_contactForce(m, data, i, self._force)
             frame = data.contact.frame[i].reshape(3, 3)
             world = frame.T @ self._force[:3]  # force on geom[1] from geom[0], world frame
