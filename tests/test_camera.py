@@ -81,3 +81,20 @@ def test_refusals(fixture_model):
         BeltCamera(model, 8, 8)
     with pytest.raises(ModelFileError, match="no camera named"):
         BeltCamera(model, 64, 64, name="nope")
+
+
+def test_depth_map_is_registered_to_the_frame(fixture_model):
+    """Depth along the optical axis: the belt 0.75 m below the camera, the 1 cm boxes closer;
+    bright pixels and near pixels are the same pixels (one lens, one pixel grid)."""
+    model, data = fixture_model
+    with BeltCamera(model, 640, 360) as camera:
+        frame, depth = camera.render_rgbd(data)
+        alone = camera.render(data)
+    assert depth.shape == (360, 640) and depth.dtype == np.float32
+    assert np.array_equal(frame, alone)
+    belt = depth[40, 320]  # upstream of the boxes, on the black belt
+    assert belt == pytest.approx(0.75, abs=1e-3)
+    raised = np.abs(depth - 0.74) < 1e-3  # the boxes' tops, 1 cm above the belt
+    bright = frame.max(axis=2) > 100
+    overlap = (raised & bright).sum() / raised.sum()
+    assert raised.sum() > 1000 and overlap > 0.97
