@@ -5,8 +5,9 @@ Two sources with one interface, `observe(t) -> list[Detection]`:
 - `TruthPerception` (`--perception truth`, the fast path): no rendering; every period, each
   item past the camera line is reported where the simulation has it, with its true class as
   a certainty (perfect perception: an item that slips on the belt is still tracked exactly).
-- `CameraPerception`: the belt camera's frame is rendered (`sim.camera.BeltCamera`, real lens
-  distortion), turned into a row of 5 observation codes (`perception.pipeline`), filtered by
+- `CameraPerception`: the belt camera's frame and its registered depth map (a stereo camera's
+  output) are rendered (`sim.camera.BeltCamera`, real lens distortion), turned into a row of 5
+  observation codes from the items' footprints (`perception.pipeline`), filtered by
   the online stripe HMMs (`perception.hmm_online`), and items are extracted from the decoded
   class grid (`perception.items_from_grid`). The thesis runs k-means on batches of 20 rows;
   online that would report an item 10 s after it passed the camera, 1.85 m downstream at x1
@@ -22,17 +23,14 @@ from __future__ import annotations
 
 import os
 import time
-from pathlib import Path
 
 import mujoco
 import numpy as np
 
 from perception.codes import EMPTY_CODE, N_STATES, VOID
 from perception.errors import PerceptionError
-from perception.grid import BeltGrid
 from perception.hmm_online import OnlineStripeHmms
 from perception.items_from_grid import GridGeometry, items_components
-from perception.pipeline import CameraPipeline
 from sim.flow import Flow
 from sim.flow_config import BELT_HALF_WIDTH, X_CAMERA
 from sim.item_pool import ItemPool
@@ -103,14 +101,12 @@ class CameraPerception:
     name = "camera"
 
     def __init__(self, model, data, catalogue, belt_speed: float, period_s: float, camera=None):
-        from perception.calibration import CameraCalibration
-        from sim.camera import BeltCamera, marker_points
-        from sim.cmd_calibrate import DEFAULT_CALIBRATION
+        from perception.grid import BeltGrid
+        from sim.camera import BeltCamera, camera_pipeline
 
         self.data, self.speed, self.period = data, float(belt_speed), float(period_s)
-        calibration = CameraCalibration.load(Path(DEFAULT_CALIBRATION)).scaled(CAMERA_SIZE)
         grid = BeltGrid(x_line=X_CAMERA, period_s=period_s)
-        self.pipeline = CameraPipeline(calibration, grid, *marker_points(model, data))
+        self.pipeline = camera_pipeline(model, data, CAMERA_SIZE, grid)
         self.camera = camera if camera is not None else BeltCamera(model, *CAMERA_SIZE)
         models, self.cells_per_item = stripe_models(catalogue)
         self.hmm = OnlineStripeHmms(models)
@@ -126,11 +122,11 @@ class CameraPerception:
     def observe(self, t: float) -> list[Detection]:
         """Take the frame of time `t` [s]; return the items whose last row was the previous."""
         t0 = time.perf_counter()
-        frame = self.camera.render(self.data)
+        frame, depth = self.camera.render_rgbd(self.data)
         t1 = time.perf_counter()
         stripes = self.classes.shape[1]
         try:
-            row = self.pipeline.observe(frame, self.speed, t)
+            row = self.pipeline.observe(frame, self.speed, t, depth)
             codes = row.codes
             pixels = [np.asarray(c.pixels, dtype=float).reshape(-1, 2) for c in row.cells]
         except PerceptionError:
