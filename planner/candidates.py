@@ -32,6 +32,7 @@ class Candidate:
         end_time: Time the item is released over its bin [s].
         exit_time: Time the item would leave the reachable window [s].
         start_time: Decision time these times are counted from [s].
+        waits: Whether the robot must wait at the window's entry for the item.
     """
 
     item: TrackedItem
@@ -42,6 +43,7 @@ class Candidate:
     end_time: float
     exit_time: float
     start_time: float
+    waits: bool = False
 
     @property
     def cycle_s(self) -> float:
@@ -51,8 +53,13 @@ class Candidate:
 
 def intercept(
     context: DecisionContext, start_xyz, t0: float, x: float, y: float
-) -> tuple[float, float] | None:
-    """Earliest (meet_time [s], meet_x [m]) for an item at (x, y) at time t0, or None if lost."""
+) -> tuple[float, float, bool] | None:
+    """Earliest meeting with an item at (x, y) at time t0, or None if it is lost.
+
+    Returns:
+        (meet_time [s], meet_x [m], waits): waits is True when the robot must wait at the
+        window's entry for the item.
+    """
     bounds = context.window.bounds(y)
     if bounds is None:
         return None
@@ -65,10 +72,10 @@ def intercept(
     if x_meet < x_in:
         if v <= 0.0:
             return None
-        dt, x_meet = (x_in - x) / v, x_in
+        return t0 + (x_in - x) / v, x_in, True
     if x_meet > x_out:
         return None
-    return t0 + dt, x_meet
+    return t0 + dt, x_meet, False
 
 
 def exit_time(context: DecisionContext, t0: float, x: float, y: float) -> float:
@@ -95,7 +102,7 @@ def evaluate(
     met = intercept(context, start_xyz, t0, item.x, item.y)
     if met is None:
         return None
-    meet_time, meet_x = met
+    meet_time, meet_x, waits = met
     c = item.bin_class if bin_class is None else bin_class
     ev = context.expected_value(item) if expected_value is None else expected_value
     meet_xyz = (meet_x, item.y, context.window.pick_z)
@@ -109,13 +116,22 @@ def evaluate(
         end_time=end,
         exit_time=exit_time(context, t0, item.x, item.y),
         start_time=t0,
+        waits=waits,
     )
 
 
 def candidates(
-    items: list[TrackedItem], robot: RobotState, context: DecisionContext
+    items: list[TrackedItem],
+    robot: RobotState,
+    context: DecisionContext,
+    immediate_only: bool = False,
 ) -> list[Candidate]:
-    """Feasible picks worth something (expected value > 0), most urgent (earliest exit) first."""
+    """Feasible picks worth something (expected value > 0), most urgent (earliest exit) first.
+
+    With `immediate_only`, items the robot would have to wait for at the window's entry are
+    left out: planners blind to time use it so they never commit to idling for an item while
+    others pass (they decide again once it has entered the window).
+    """
     out = []
     for item in items:
         if context.expected_value(item) <= 0.0:
@@ -124,6 +140,8 @@ def candidates(
         if cand is not None:
             out.append(cand)
     out.sort(key=lambda c: (c.exit_time, c.item.item_id))
+    if immediate_only:
+        out = [c for c in out if not c.waits]
     return out
 
 

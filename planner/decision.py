@@ -25,9 +25,9 @@ from planner.reach_window import ReachWindow
 MATERIALS = (PAPER, PLASTIC, ALUMINIUM)
 # Table 3.3 of the thesis [EUR per item], in the order of MATERIALS.
 THESIS_VALUES = (0.22, 0.25, 0.27)
-# Release points above the bins [m]: paper on -y, plastic and aluminium on +y (DESIGN.md); the
-# episode runner passes the positions it reads from the model instead.
-DEFAULT_BINS = ((0.0, -0.52, 0.10), (-0.22, 0.52, 0.10), (0.22, 0.52, 0.10))
+# Release points above the bins [m] (sites bin_<class>_drop of models/cell/scene.xml): paper on
+# -y, plastic and aluminium on +y; the episode runner passes the positions it reads from the model.
+DEFAULT_BINS = ((0.0, -0.51, 0.06), (-0.21, 0.51, 0.06), (0.21, 0.51, 0.06))
 
 
 @runtime_checkable

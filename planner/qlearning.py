@@ -172,7 +172,7 @@ class QLearningPlanner:
     ) -> Choice | None:
         """The item of maximum q in the most downstream batch with a feasible pick."""
         cfg = self.config
-        cands = candidates(items, robot, context)
+        cands = candidates(items, robot, context, immediate_only=True)
         if not cands:
             return None
         batches = [batch_index(c.item, robot.time, context.belt_speed, cfg) for c in cands]

@@ -1,0 +1,46 @@
+"""The cell as the decision managers see it, read once from the compiled scene.
+
+Geometry, bins and limits come from the MJCF through `sim` (as the episode runner reads them);
+the planners themselves never touch MuJoCo.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import mujoco
+
+from planner.cycle_model import CycleTimeModel
+from planner.decision import DecisionContext
+from planner.kinematics import reachable_mask
+from planner.limits import limits_for_payload
+from planner.reach_window import ReachWindow
+
+PICK_Z = 0.02  # TCP height at contact, as the episode runner uses [m]
+LIFT = 0.05  # lift height the episode runner times picks with [m]
+PAYLOAD_KG = 1.0  # the payload the runner plans trajectories for
+
+
+@functools.lru_cache(maxsize=1)
+def cell_parts():
+    """(window, bins, cycle model) of the scene in models/cell."""
+    from sim.model import load_scene
+    from sim.robot import geometry_from_model
+
+    model = load_scene()
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    geometry = geometry_from_model(model)
+    window = ReachWindow.from_reachable(lambda p: reachable_mask(geometry, p), PICK_Z)
+    bins = tuple(
+        tuple(float(c) for c in data.site(f"bin_{name}_drop").xpos)
+        for name in ("paper", "plastic", "aluminium")
+    )
+    model_t = CycleTimeModel(limits=limits_for_payload(PAYLOAD_KG), pick_z=PICK_Z, lift_height=LIFT)
+    return window, bins, model_t
+
+
+def cell_context(belt_speed: float, values=(0.22, 0.25, 0.27)) -> DecisionContext:
+    """Decision context of the cell at `belt_speed` [m/s] with the ruckig-fitted cycle model."""
+    window, bins, model_t = cell_parts()
+    return DecisionContext(belt_speed, model_t, window, bins, tuple(values))

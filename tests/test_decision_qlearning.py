@@ -1,0 +1,131 @@
+"""The thesis's Q-learning (eq. 3.3, 3.5, stopping rule of 3.4.1) against hand computations."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from planner.candidates import candidates
+from planner.decision import RobotState, TrackedItem
+from planner.qlearning import (
+    QLearningConfig,
+    QLearningPlanner,
+    batch_index,
+    grid_column,
+    q_values,
+    reward_path,
+    weights,
+)
+from tests.decision_cell import cell_context
+
+# Rows: robot, paper bin, plastic bin, aluminium bin; items go to paper, plastic, aluminium.
+REWARDS = np.array(
+    [
+        [0.50, 0.40, 0.30],
+        [0.00, 0.60, 0.20],
+        [0.10, 0.00, 0.35],
+        [0.20, 0.45, 0.00],
+    ]
+)
+NEXT = np.array([1, 2, 3])
+
+
+def test_path_follows_rewards_and_stops_by_the_thesis_rule():
+    # Start: item 0 (0.50, the most precious). From the paper bin 0.60 + 0.20 >= 0.50: go on,
+    # item 1. From the plastic bin the rest is 0.35 < 0.50: stop.
+    path, collected = reward_path(REWARDS, NEXT)
+    assert path == [0, 1]
+    assert collected == [0.50, 0.60]
+
+
+def test_q_values_match_the_hand_computation():
+    q, episodes = q_values(REWARDS, NEXT, gamma=0.9, iterations=50)
+    # Episode 1: q1 = 0.6 (nothing after it yet), q0 = 0.5 + 0.9 * 0 (q1 still 0 when q0 was
+    # updated). Episode 2: q0 = 0.5 + 0.9 * 0.6 = 1.04. Episode 3 changes nothing.
+    assert q == pytest.approx([1.04, 0.60, 0.0], abs=1e-12)
+    assert episodes == 3
+    q1, _ = q_values(REWARDS, NEXT, gamma=0.9, iterations=1)
+    assert q1 == pytest.approx([0.50, 0.60, 0.0], abs=1e-12)
+
+
+def test_without_the_stopping_rule_firing_q_chains_over_the_whole_batch():
+    rewards = REWARDS.copy()
+    rewards[2, 2] = 0.55  # from the plastic bin, the last item is now worth going on for
+    q, _ = q_values(rewards, NEXT, gamma=0.9, iterations=50)
+    q2 = 0.55
+    q1 = 0.60 + 0.9 * q2
+    q0 = 0.50 + 0.9 * max(q1, q2)
+    assert q == pytest.approx([q0, q1, q2], abs=1e-12)
+
+
+def test_gamma_zero_is_myopic():
+    q, _ = q_values(REWARDS, NEXT, gamma=0.0, iterations=50)
+    assert q == pytest.approx([0.50, 0.60, 0.0])
+
+
+def test_weights_are_value_over_robot_item_bin_distance():
+    ctx = cell_context(0.185)
+    robot = RobotState((0.0, 0.3, 0.06), 10.0)
+    items = [
+        TrackedItem.certain(7, 0.10, 0.20, 4),
+        TrackedItem.certain(8, -0.20, -0.25, 2),
+        TrackedItem.certain(9, 0.05, 0.0, 3),
+    ]
+    cands = candidates(items, robot, ctx)
+    assert len(cands) == 3
+    for objective in ("v/d", "d=1", "v=1"):
+        w, nxt = weights(cands, robot, ctx, objective)
+        for k, c in enumerate(cands):
+            mx, my = c.meet_xy
+            bx, by, _ = ctx.bin_of(c.bin_class)
+            for s, (sx, sy) in enumerate([robot.tcp[:2], *(b[:2] for b in ctx.bins)]):
+                d = math.hypot(mx - sx, my - sy) + math.hypot(bx - mx, by - my)
+                v = ctx.value_of(c.bin_class)
+                want = {"v/d": v / d, "d=1": v, "v=1": 1 / d}[objective]
+                assert w[s, k] == pytest.approx(want, rel=1e-12)
+            assert nxt[k] == c.bin_class - 1
+
+
+def test_planner_picks_the_max_q_item_of_the_current_batch():
+    ctx = cell_context(0.185)
+    robot = RobotState((0.0, -0.51, 0.06), 3.0)
+    items = [
+        TrackedItem.certain(1, -0.05, -0.30, 2),  # paper next to the paper bin
+        TrackedItem.certain(2, 0.10, 0.25, 4),
+        TrackedItem.certain(3, -0.30, 0.0, 3),
+    ]
+    choice = QLearningPlanner().choose(items, robot, ctx)
+    cands = candidates(items, robot, ctx, immediate_only=True)
+    w, nxt = weights(cands, robot, ctx, "v/d")
+    q, _ = q_values(w, nxt, 0.9, 50)
+    assert choice.item_id == cands[int(np.argmax(q))].item.item_id == 1
+    assert "max q" in choice.reason
+
+
+def test_batches_are_20_rows_fixed_to_the_belt():
+    cfg = QLearningConfig()
+    v = 0.185
+    pitch = v * cfg.row_period_s
+    item = TrackedItem.certain(1, -0.5 * pitch, 0.0, 2)  # row 0 at t = 0
+    assert batch_index(item, 0.0, v, cfg) == 0
+    upstream = TrackedItem.certain(2, -20.5 * pitch, 0.0, 2)  # row 20
+    assert batch_index(upstream, 0.0, v, cfg) == 1
+    # Ten seconds later both moved 20 rows downstream with the belt: same rows, same batches.
+    moved = TrackedItem.certain(2, -20.5 * pitch + 10.0 * v, 0.0, 2)
+    assert batch_index(moved, 10.0, v, cfg) == 1
+    assert grid_column(-0.4) == 2 and grid_column(0.0) == 14 and grid_column(0.4) == 26
+
+
+def test_an_earlier_batch_keeps_priority_over_a_better_later_one():
+    ctx = cell_context(0.185)
+    cfg = QLearningConfig(batch_rows=2)  # batches of 2 rows = 0.185 m so both are in reach
+    pitch = 0.185 * cfg.row_period_s
+    robot = RobotState((0.2, 0.51, 0.06), 0.0)
+    downstream_paper = TrackedItem.certain(1, -0.5 * pitch, -0.3, 2)  # batch 0, far from robot
+    upstream_alu = TrackedItem.certain(2, -2.5 * pitch, 0.35, 4)  # batch 1, next to the robot
+    choice = QLearningPlanner(cfg).choose([upstream_alu, downstream_paper], robot, ctx)
+    assert choice.item_id == 1
+    choice = QLearningPlanner().choose([upstream_alu, downstream_paper], robot, ctx)
+    assert choice.item_id == 2  # one 20-row batch: the close, valuable item wins
