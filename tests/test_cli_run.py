@@ -64,6 +64,8 @@ def test_video_decodes_with_frames_of_the_configured_size(run_dir):
     assert frames[0].shape == (184, 320, 3)
     assert meta["fps"] == pytest.approx(6.0)
     assert np.std(frames[len(frames) // 2]) > 10  # a rendered scene, not a blank frame
+    moving = [np.abs(frames[i + 1].astype(int) - frames[i]).mean() for i in range(len(frames) - 1)]
+    assert max(moving) > 1.0  # the robot and the items move
 
 
 @pytest.mark.parametrize(

@@ -92,3 +92,16 @@ def test_two_processes_give_byte_identical_csvs():
         assert r.returncode == 0, r.stderr
     assert runs[0].stdout == runs[1].stdout
     assert "qlearning" in runs[0].stdout
+
+
+@pytest.mark.slow
+def test_camera_episode_sees_and_picks_items(cell):
+    result = run_episode(
+        config.load(None, items=6, duration_s=5.0, perception="camera", planner="qlearning"),
+        cell=cell,
+    )
+    row = result.episode_row
+    assert row["entered"] == 6
+    assert row["attempts"] >= 2, row
+    assert row["picked"] >= 1, row
+    assert result.latencies["perception"], "no frame went through the camera pipeline"
