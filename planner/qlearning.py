@@ -4,7 +4,8 @@ Reading of the thesis, where it leaves room (each choice marked so it can be rev
 
 - Grid and batches (3.4): the belt is a grid of 27 columns (two bin columns and 25 across the
   belt) whose rows are one observation period apart (0.5 s of belt travel); rows are fixed to
-  the belt, so an item keeps its row as it moves. The items are handed to the learner in batches
+  the belt, so an item keeps its row as it moves, and row 0 holds the first item the planner
+  sees (the start of the thesis's sequence). The items are handed to the learner in batches
   of 20 rows; the current batch is the most downstream one that still has a feasible pick, and
   each batch starts where the last one ended (the robot at the last bin, its real position).
   Items are centroids with continuous coordinates, as the thesis's k-means centroids are.
@@ -122,11 +123,20 @@ def q_values(
     return q, iterations
 
 
-def batch_index(item: TrackedItem, t: float, belt_speed: float, cfg: QLearningConfig) -> int:
-    """Batch of an item: its belt-fixed grid row // batch_rows (0 on a stopped belt)."""
+def belt_coordinate(item: TrackedItem, t: float, belt_speed: float) -> float:
+    """Where the item was at t = 0 [m]: a coordinate fixed to the belt."""
+    return item.x - belt_speed * t
+
+
+def batch_index(
+    item: TrackedItem, t: float, belt_speed: float, cfg: QLearningConfig, origin: float = 0.0
+) -> int:
+    """Batch of an item: its grid row // batch_rows, rows counted upstream from the belt
+    coordinate `origin` [m] (row 0 holds the first item seen); 0 on a stopped belt."""
     if belt_speed <= 0.0:
         return 0
-    row = math.floor((belt_speed * t - item.x) / (belt_speed * cfg.row_period_s))
+    u = belt_coordinate(item, t, belt_speed)
+    row = math.floor((origin - u) / (belt_speed * cfg.row_period_s))
     return row // cfg.batch_rows
 
 
@@ -163,9 +173,11 @@ class QLearningPlanner:
 
     def __init__(self, config: QLearningConfig | None = None):
         self.config = config or QLearningConfig()
+        self._origin: float | None = None
 
     def reset(self) -> None:
-        """Stateless between decisions: the robot's state carries the batch-to-batch link."""
+        """Forget the grid's first row (start of an episode)."""
+        self._origin = None
 
     def choose(
         self, items: list[TrackedItem], robot: RobotState, context: DecisionContext
@@ -175,7 +187,10 @@ class QLearningPlanner:
         cands = candidates(items, robot, context, immediate_only=True)
         if not cands:
             return None
-        batches = [batch_index(c.item, robot.time, context.belt_speed, cfg) for c in cands]
+        v = context.belt_speed
+        if self._origin is None:  # the stream's first row is where the first item seen is
+            self._origin = max(belt_coordinate(it, robot.time, v) for it in items)
+        batches = [batch_index(c.item, robot.time, v, cfg, self._origin) for c in cands]
         current = min(batches)
         cands = [c for c, b in zip(cands, batches, strict=True) if b == current]
         w, next_state = weights(cands, robot, context, cfg.objective)

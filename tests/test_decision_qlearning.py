@@ -115,6 +115,9 @@ def test_batches_are_20_rows_fixed_to_the_belt():
     # Ten seconds later both moved 20 rows downstream with the belt: same rows, same batches.
     moved = TrackedItem.certain(2, -20.5 * pitch + 10.0 * v, 0.0, 2)
     assert batch_index(moved, 10.0, v, cfg) == 1
+    # Rows counted from another origin: the item 20.5 rows upstream of it is in batch 1.
+    assert batch_index(upstream, 0.0, v, cfg, origin=-1.0 * pitch) == 0
+    assert batch_index(upstream, 0.0, v, cfg, origin=0.6 * pitch) == 1
     assert grid_column(-0.4) == 2 and grid_column(0.0) == 14 and grid_column(0.4) == 26
 
 
@@ -125,7 +128,16 @@ def test_an_earlier_batch_keeps_priority_over_a_better_later_one():
     robot = RobotState((0.2, 0.51, 0.06), 0.0)
     downstream_paper = TrackedItem.certain(1, -0.5 * pitch, -0.3, 2)  # batch 0, far from robot
     upstream_alu = TrackedItem.certain(2, -2.5 * pitch, 0.35, 4)  # batch 1, next to the robot
-    choice = QLearningPlanner(cfg).choose([upstream_alu, downstream_paper], robot, ctx)
-    assert choice.item_id == 1
+    planner = QLearningPlanner(cfg)
+    assert planner.choose([upstream_alu, downstream_paper], robot, ctx).item_id == 1
+    # The first row is the first item seen: the same two items, seen first at another time,
+    # are still two rows apart, so still in two batches.
+    later = RobotState(robot.tcp, 0.3)
+    moved = [
+        TrackedItem(i.item_id, i.x + 0.185 * 0.3, i.y, i.class_probs)
+        for i in (upstream_alu, downstream_paper)
+    ]
+    planner.reset()
+    assert planner.choose(moved, later, ctx).item_id == 1
     choice = QLearningPlanner().choose([upstream_alu, downstream_paper], robot, ctx)
     assert choice.item_id == 2  # one 20-row batch: the close, valuable item wins
