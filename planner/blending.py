@@ -22,13 +22,26 @@ from planner.errors import PlannerInputError
 from planner.ruckig_trajectory import RuckigTrajectoryGenerator
 from planner.trajectory import DOF, Chain, Dwell, State, Waypoint
 
-__all__ = ["FRACTIONS", "CUTS", "Z_TOL", "Waypoint", "plan_chain", "search_corners"]
+__all__ = [
+    "FRACTIONS",
+    "CUTS",
+    "Z_TOL",
+    "Waypoint",
+    "plan_chain",
+    "search_corners",
+    "FINE_FRACTIONS",
+    "FINE_CUTS",
+]
 
 FRACTIONS = (0.0, 0.5, 1.0, 1.5, 2.0)
 """Multiples of the neighbouring segments' average velocities tried at each corner."""
 
 CUTS = (0.0, 0.5, 1.0)
 """Fractions of a corner's zone tried as the distance by which it is cut."""
+
+FINE_FRACTIONS = (0.0, 0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0, 2.5)
+FINE_CUTS = (0.0, 0.25, 0.5, 0.75, 1.0)
+"""Denser grids for paths planned once (ABB's Cycle 1): ~4 times the search time."""
 
 Z_TOL = 1e-9
 """How far [m] a segment may dip below the lower of its two end heights."""
@@ -139,6 +152,8 @@ def search_corners(
     generator: RuckigTrajectoryGenerator,
     blend: bool = True,
     sweeps: int = 2,
+    fractions: Sequence[float] = FRACTIONS,
+    cuts: Sequence[float] = CUTS,
 ) -> tuple[dict, float]:
     """Corner offsets and velocities that shorten the chain, and its duration (no checks of the
     motor limits yet: `plan_chain` applies them). inf when no candidate is feasible.
@@ -149,6 +164,8 @@ def search_corners(
         generator: Segment planner.
         blend: Search non-zero corner velocities and cuts; False keeps every corner at rest.
         sweeps: Rounds of coordinate descent over the corners.
+        fractions: Multiples of the neighbouring average velocities tried at each corner.
+        cuts: Fractions of each corner's zone tried.
 
     Returns:
         ({waypoint index: (offset (4,), velocity (4,))}, duration [s]).
@@ -177,9 +194,9 @@ def search_corners(
     axes = _corner_axes(start, waypoints, generator)
     for _ in range(sweeps):
         for k, (e_in, e_out, cut) in axes.items():
-            for c in CUTS if np.any(cut) else (0.0,):
-                for alpha in FRACTIONS:
-                    for beta in FRACTIONS:
+            for c in cuts if np.any(cut) else (0.0,):
+                for alpha in fractions:
+                    for beta in fractions:
                         v = alpha * e_in + beta * e_out
                         if not _within(v, generator):
                             continue
@@ -199,6 +216,8 @@ def plan_chain(
     generator: RuckigTrajectoryGenerator,
     blend: bool = True,
     sweeps: int = 2,
+    fractions: Sequence[float] = FRACTIONS,
+    cuts: Sequence[float] = CUTS,
 ) -> Chain:
     """The chain through `waypoints`, with corner velocities chosen to shorten it.
 
@@ -208,6 +227,8 @@ def plan_chain(
         generator: Segment planner (its limits and motor checks apply to every segment).
         blend: Search non-zero corner velocities; False stops at every corner.
         sweeps: Rounds of coordinate descent over the corners.
+        fractions: As in `search_corners`.
+        cuts: As in `search_corners`.
 
     Returns:
         The shorter of the blended chain and the chain with zero corner velocities.
@@ -215,7 +236,7 @@ def plan_chain(
     Raises:
         PlannerInputError: no chain meets the limits (e.g. a waypoint outside the workspace).
     """
-    best_corners, _ = search_corners(start, waypoints, generator, blend, sweeps)
+    best_corners, _ = search_corners(start, waypoints, generator, blend, sweeps, fractions, cuts)
     zero = {k: (np.zeros(DOF), np.zeros(DOF)) for k in best_corners}
     best = _try_build(start, waypoints, best_corners, generator, True) if blend else None
     if best is not None and zero:

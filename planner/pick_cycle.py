@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from planner.blending import Waypoint, plan_chain
+from planner.blending import FINE_CUTS, FINE_FRACTIONS, Waypoint, plan_chain
 from planner.errors import PlannerInputError
 from planner.ruckig_trajectory import RuckigTrajectoryGenerator
 from planner.trajectory import Chain, State
@@ -193,5 +193,13 @@ def cycle1_waypoints(
 def plan_cycle1(
     a_xyz: Sequence[float], generator: RuckigTrajectoryGenerator, blend: bool = True
 ) -> Chain:
-    """ABB's Cycle 1 starting at rest at A with axis 4 at 0 (see `cycle1_waypoints`)."""
-    return plan_chain(State.at_rest(a_xyz), cycle1_waypoints(a_xyz), generator, blend=blend)
+    """ABB's Cycle 1 starting at rest at A with axis 4 at 0 (see `cycle1_waypoints`), its
+    corners searched on the fine grids (it is planned once)."""
+    return plan_chain(
+        State.at_rest(a_xyz),
+        cycle1_waypoints(a_xyz),
+        generator,
+        blend=blend,
+        fractions=FINE_FRACTIONS,
+        cuts=FINE_CUTS,
+    )
