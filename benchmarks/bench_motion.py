@@ -129,6 +129,20 @@ def bench_physics(repeats):
         f"physics while moving (Cycle 1 played {repeats}x, control + IK included): "
         f"{1e6 * per_step:.1f} us per {1e3 * model.opt.timestep:g} ms step, real-time x{rtf:.1f}"
     )
+    # mj_step alone: replay the servo commands the executor wrote, on the same motion.
+    ctrls = []
+    set_configuration(model, data, inverse_kinematics(geom, a), 0.0)
+    ex.execute(chain, on_step=lambda _t: ctrls.append(data.ctrl.copy()))
+    replay = []
+    for _ in range(repeats):
+        set_configuration(model, data, inverse_kinematics(geom, a), 0.0)
+        t0 = time.perf_counter()
+        for ctrl in ctrls:
+            data.ctrl[:] = ctrl
+            for _ in range(ex.substeps):
+                mujoco.mj_step(model, data)
+        replay.append((time.perf_counter() - t0) / (len(ctrls) * ex.substeps))
+    print(f"  of which mj_step alone: {1e6 * np.median(replay):.1f} us per step")
 
 
 def main() -> None:

@@ -23,9 +23,6 @@ from sim.errors import InvalidInput
 from sim.robot import (
     MOTOR_ACTUATORS,
     geometry_from_model,
-    platform_tilt,
-    set_motor_targets,
-    tcp_position,
 )
 
 
@@ -160,6 +157,15 @@ class TrajectoryExecutor:
         )
         self._axis4_damping = float(model.dof_damping[axis4.dofadr[0]])
         self._axis4_kp = float(model.actuator("axis4").gainprm[0])
+        # Servo commands written in one go: the same law as `sim.robot.set_motor_targets`
+        # (set-point led by kv/kp x reference speed), without its per-call name lookups.
+        self._act_ids = np.array(self._motor_ids + [model.actuator("axis4").id])
+        gains = model.actuator_gainprm[self._act_ids, 0]
+        self._lead = -model.actuator_biasprm[self._act_ids, 2] / gains
+        self._ctrl_lo = model.actuator_ctrlrange[self._act_ids, 0]
+        self._ctrl_hi = model.actuator_ctrlrange[self._act_ids, 1]
+        self._site = model.site("cup_site").id
+        self._platform = model.body("platform_link").id
 
     def set_payload(self, payload_kg: float) -> None:
         """Load now held by the cup outside the robot's tree [kg] (feed-forward only); may be
@@ -215,16 +221,21 @@ class TrajectoryExecutor:
         actual = np.empty((n, 4))
         torque = np.empty((n, 3))
         tilt = np.empty(n)
+        # Servo set-points [q1, q2, q3, axis4] and reference speeds, one row per period.
+        base = np.c_[q + ff * tau / self._kp, axis4_cmd] + self._lead * np.c_[qdot, vel[:, 3]]
+        shift = np.c_[ff * per_kg / self._kp, np.zeros(n)]  # per kg of payload
+        acts, motors, site = self._act_ids, self._motor_ids, self._site
+        xmat = data.xmat[self._platform]
         for k in range(n):
             # Aim at where the TCP should be at the end of this control period.
-            q_cmd = q[k] + ff * (tau[k] + self.payload_kg * per_kg[k]) / self._kp
-            set_motor_targets(model, data, q_cmd, axis4_cmd[k], qdot[k], vel[k, 3])
+            cmd = base[k] + self.payload_kg * shift[k]
+            data.ctrl[acts] = np.minimum(np.maximum(cmd, self._ctrl_lo), self._ctrl_hi)
             for _ in range(self.substeps):
                 mujoco.mj_step(model, data)
-            actual[k, :3] = tcp_position(model, data)
+            actual[k, :3] = data.site_xpos[site]
             actual[k, 3] = data.qpos[self._axis4_qpos]
-            torque[k] = data.actuator_force[self._motor_ids]
-            tilt[k] = platform_tilt(model, data)
+            torque[k] = data.actuator_force[motors]
+            tilt[k] = np.arccos(min(1.0, max(-1.0, xmat[8])))
             if on_step is not None:
                 on_step(float(times[k]))
         return ExecutionLog(times, pos, actual, torque, self._limits, tilt)
