@@ -1,0 +1,65 @@
+"""Decision managers on seeded random belts: the oracle's bound, the extreme-value experiment."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from planner.belt_sim import oracle_bound, simulate
+from planner.evaluation import extreme_value_picks, oracle_fractions, short_belt
+from planner.registry import make_planner
+from tests.decision_cell import cell_context
+
+PLANNERS = ("qlearning", "proximity", "fifo", "greedy")
+
+
+def _check(result, n_belts):
+    f = result.fractions()
+    assert f.shape == (n_belts, len(PLANNERS))
+    # The oracle bounds every planner on every belt, and nobody is hopeless.
+    assert np.all(f <= 1.0 + 1e-9)
+    assert np.all(f > 0.3)
+    summary = result.summary()
+    assert summary["qlearning"][2] > summary["proximity"][2]
+    return summary
+
+
+def test_oracle_bounds_the_planners_and_qlearning_beats_proximity_on_60_belts():
+    _check(oracle_fractions(cell_context, range(60), PLANNERS), 60)
+
+
+@pytest.mark.slow
+def test_oracle_fractions_on_200_belts():
+    summary = _check(oracle_fractions(cell_context, range(200), PLANNERS), 200)
+    for name, (mean, low, total) in summary.items():
+        print(f"{name:10s} mean {mean:.3f} min {low:.3f} profit {total:.2f} EUR")
+
+
+def test_the_oracle_plays_its_own_bound():
+    """Replanning over what it sees, the oracle planner reaches the bound on belts it sees
+    whole (every item in view, at most 12 items)."""
+    for seed in range(5):
+        belt = short_belt(seed, items=(6, 9))
+        ctx = cell_context(belt.speed)
+        bound = oracle_bound(belt, ctx).profit
+        played = simulate(make_planner("oracle"), belt, ctx, view_start=-10.0).profit
+        assert played == pytest.approx(bound, abs=1e-9)
+
+
+def test_same_seed_same_picks():
+    belt = short_belt(11)
+    ctx = cell_context(belt.speed)
+    for name in PLANNERS:
+        a = simulate(make_planner(name), belt, ctx)
+        b = simulate(make_planner(name), short_belt(11), ctx)
+        assert a.picks == b.picks
+
+
+@pytest.mark.parametrize("planner", ["qlearning", "greedy"])
+def test_extreme_values_raise_the_boosted_class_share(planner):
+    """Table 4.3 in the planner alone: +150 on one class raises its share of the picks."""
+    picks = extreme_value_picks(cell_context, planner, seeds=range(3))
+    normal = picks["normal"] / picks["normal"].sum()
+    for k, code in enumerate((2, 3, 4)):
+        boosted = picks[f"class {code} +150"]
+        assert boosted[k] / boosted.sum() > normal[k] + 0.01, (code, picks)
