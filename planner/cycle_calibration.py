@@ -15,6 +15,7 @@ import numpy as np
 
 from planner.cycle_model import CycleTimeModel, fit_affine
 from planner.intercept import intercept_item
+from planner.pick_cycle import PickPlaceConfig
 from planner.ruckig_trajectory import RuckigTrajectoryGenerator
 from planner.trajectory import State
 
@@ -51,8 +52,10 @@ def draw_samples(
     bins: Sequence[Sequence[float]],
     rng: np.random.Generator,
     n: int,
+    config: PickPlaceConfig | None = None,
 ) -> Samples:
-    """`n` feasible random picks and places planned with ruckig (refused items are redrawn)."""
+    """`n` feasible random picks and places planned with ruckig (refused items are redrawn),
+    with the pick configuration `config` (heights, times; the default when None)."""
     rows = []
     while len(rows) < n:
         if rng.random() < 0.5:
@@ -66,7 +69,7 @@ def draw_samples(
         drop = np.asarray(bins[rng.integers(len(bins))], dtype=float)
         try:
             hit = intercept_item(
-                State.at_rest(start), item, speed, drop, generator, pick_z=model.pick_z
+                State.at_rest(start), item, speed, drop, generator, model.pick_z, config
             )
         except ValueError:  # start point outside the workspace
             continue
