@@ -97,16 +97,23 @@ def evaluate(
     item: TrackedItem,
     bin_class: int | None = None,
     expected_value: float | None = None,
+    with_place: bool = True,
 ) -> Candidate | None:
-    """One item's pick from `start_xyz` at time t0 (item.x is its position at t0), or None."""
+    """One item's pick from `start_xyz` at time t0 (item.x is its position at t0), or None.
+
+    Without `with_place` the place is not timed (end_time is nan): for planners that never
+    look at it, as the place time is a third of a candidate's cost.
+    """
     met = intercept(context, start_xyz, t0, item.x, item.y)
     if met is None:
         return None
     meet_time, meet_x, waits = met
     c = item.bin_class if bin_class is None else bin_class
     ev = context.expected_value(item) if expected_value is None else expected_value
-    meet_xyz = (meet_x, item.y, context.window.pick_z)
-    end = meet_time + context.cycle_model.time_to_place(meet_xyz, context.bin_of(c))
+    end = math.nan
+    if with_place:
+        meet_xyz = (meet_x, item.y, context.window.pick_z)
+        end = meet_time + context.cycle_model.time_to_place(meet_xyz, context.bin_of(c))
     return Candidate(
         item=item,
         expected_value=ev,
@@ -125,18 +132,20 @@ def candidates(
     robot: RobotState,
     context: DecisionContext,
     immediate_only: bool = False,
+    with_place: bool = True,
 ) -> list[Candidate]:
     """Feasible picks worth something (expected value > 0), most urgent (earliest exit) first.
 
     With `immediate_only`, items the robot would have to wait for at the window's entry are
     left out: planners blind to time use it so they never commit to idling for an item while
-    others pass (they decide again once it has entered the window).
+    others pass (they decide again once it has entered the window). `with_place`: see
+    `evaluate`.
     """
     out = []
     for item in items:
         if context.expected_value(item) <= 0.0:
             continue
-        cand = evaluate(context, robot.tcp, robot.time, item)
+        cand = evaluate(context, robot.tcp, robot.time, item, with_place=with_place)
         if cand is not None:
             out.append(cand)
     out.sort(key=lambda c: (c.exit_time, c.item.item_id))

@@ -65,7 +65,10 @@ class TrackedItem:
             raise PlannerInputError("class_probs", "probabilities summing to 1", probs.sum())
         if not (math.isfinite(self.x) and math.isfinite(self.y)):
             raise PlannerInputError("x, y", "finite positions [m]", (self.x, self.y))
-        object.__setattr__(self, "class_probs", tuple(float(p) for p in probs))
+        probs_t = tuple(float(p) for p in probs)
+        object.__setattr__(self, "class_probs", probs_t)
+        materials = probs_t[1:]
+        object.__setattr__(self, "_bin_class", MATERIALS[materials.index(max(materials))])
 
     @classmethod
     def certain(cls, item_id: int, x: float, y: float, class_code: int) -> TrackedItem:
@@ -81,7 +84,7 @@ class TrackedItem:
     @property
     def bin_class(self) -> int:
         """Most probable material class (2..4): the bin the item goes to."""
-        return MATERIALS[int(np.argmax(self.class_probs[1:]))]
+        return self._bin_class
 
 
 @dataclass(frozen=True)

@@ -18,7 +18,7 @@ class FifoPlanner:
         self, items: list[TrackedItem], robot: RobotState, context: DecisionContext
     ) -> Choice | None:
         """The candidate with the earliest exit time (candidates come sorted that way)."""
-        cands = candidates(items, robot, context)
+        cands = candidates(items, robot, context, with_place=False)
         if not cands:
             return None
         first = cands[0]

@@ -24,7 +24,7 @@ class ProximityPlanner:
         self, items: list[TrackedItem], robot: RobotState, context: DecisionContext
     ) -> Choice | None:
         """The reachable item whose meeting point is nearest to the TCP."""
-        cands = candidates(items, robot, context, immediate_only=True)
+        cands = candidates(items, robot, context, immediate_only=True, with_place=False)
         if not cands:
             return None
         tx, ty, tz = robot.tcp

@@ -90,17 +90,19 @@ def reward_path(rewards: np.ndarray, next_state: np.ndarray) -> tuple[list[int],
     Returns:
         The items taken, in order, and the reward collected at each step.
     """
-    n = rewards.shape[1]
-    avail = np.ones(n, dtype=bool)
-    precious = float(rewards[0].max())
+    table = rewards.tolist()
+    nxt = [int(s) for s in next_state]
+    avail = list(range(rewards.shape[1]))
+    precious = max(table[0])
     state, path, collected = 0, [], []
-    while avail.any():
-        a = int(np.argmax(np.where(avail, rewards[state], -np.inf)))
+    while avail:
+        row = table[state]
+        a = max(avail, key=lambda i: (row[i], -i))  # ties: the earlier (more urgent) item
         path.append(a)
-        collected.append(float(rewards[state, a]))
-        avail[a] = False
-        state = int(next_state[a])
-        if avail.any() and float(rewards[state][avail].sum()) < precious:
+        collected.append(row[a])
+        avail.remove(a)
+        state = nxt[a]
+        if avail and sum(table[state][i] for i in avail) < precious:
             break
     return path, collected
 
@@ -109,18 +111,24 @@ def q_values(
     rewards: np.ndarray, next_state: np.ndarray, gamma: float, iterations: int, tol: float = 0.0
 ) -> tuple[np.ndarray, int]:
     """q of every item after the episodes (eq. 3.5), and the number of episodes run."""
-    q = np.zeros(rewards.shape[1])
     path, collected = reward_path(rewards, next_state)
+    qp = [0.0] * len(path)  # q of the path's items; the never-taken ones stay 0
+    episodes = iterations
     for episode in range(1, iterations + 1):
-        previous = q.copy()
-        # Along the path the items still available after step k are the later path items and
-        # the never-taken ones (q = 0); q is updated in step order (later items: last episode's q).
-        for k, a in enumerate(path):
-            later = max((q[b] for b in path[k + 1 :]), default=0.0)
-            q[a] = collected[k] + gamma * max(later, 0.0)
-        if np.max(np.abs(q - previous)) <= tol:
-            return q, episode
-    return q, iterations
+        # Items still available after step k: the later path items (this episode updates them
+        # after step k, so their q is the last episode's) and the never-taken ones (q = 0).
+        later = [0.0] * (len(path) + 1)
+        for k in range(len(path) - 1, -1, -1):
+            later[k] = max(later[k + 1], qp[k])
+        new = [collected[k] + gamma * later[k + 1] for k in range(len(path))]
+        change = max((abs(a - b) for a, b in zip(new, qp, strict=True)), default=0.0)
+        qp = new
+        if change <= tol:
+            episodes = episode
+            break
+    q = np.zeros(rewards.shape[1])
+    q[path] = qp
+    return q, episodes
 
 
 def belt_coordinate(item: TrackedItem, t: float, belt_speed: float) -> float:
@@ -184,7 +192,7 @@ class QLearningPlanner:
     ) -> Choice | None:
         """The item of maximum q in the most downstream batch with a feasible pick."""
         cfg = self.config
-        cands = candidates(items, robot, context, immediate_only=True)
+        cands = candidates(items, robot, context, immediate_only=True, with_place=False)
         if not cands:
             return None
         v = context.belt_speed

@@ -8,6 +8,7 @@ height.
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass
 
@@ -40,6 +41,11 @@ class ReachWindow:
             raise PlannerInputError("x_entry, x_exit", "arrays shaped like y")
         if not math.isfinite(self.pick_z):
             raise PlannerInputError("pick_z", "a finite height [m]", self.pick_z)
+        # Plain lists: bounds() is called for every item at every decision, and scalar
+        # np.interp costs several microseconds a call.
+        object.__setattr__(self, "_ys", [float(v) for v in y])
+        object.__setattr__(self, "_lo", [float(v) for v in np.asarray(self.x_entry, float)])
+        object.__setattr__(self, "_hi", [float(v) for v in np.asarray(self.x_exit, float)])
 
     @classmethod
     def disc(cls, radius: float = 0.565, pick_z: float = 0.02, samples: int = 401) -> ReachWindow:
@@ -78,10 +84,13 @@ class ReachWindow:
 
     def bounds(self, y: float) -> tuple[float, float] | None:
         """(x_entry, x_exit) at `y` [m], or None when no x at that y is reachable."""
-        if y < self.y[0] or y > self.y[-1]:
+        ys = self._ys
+        if not ys[0] <= y <= ys[-1]:
             return None
-        lo = float(np.interp(y, self.y, self.x_entry))
-        hi = float(np.interp(y, self.y, self.x_exit))
+        k = min(max(bisect.bisect_right(ys, y) - 1, 0), len(ys) - 2)
+        f = (y - ys[k]) / (ys[k + 1] - ys[k])
+        lo = self._lo[k] + f * (self._lo[k + 1] - self._lo[k])
+        hi = self._hi[k] + f * (self._hi[k + 1] - self._hi[k])
         if not (math.isfinite(lo) and math.isfinite(hi)) or hi <= lo:
             return None
         return lo, hi
