@@ -108,6 +108,11 @@ def main() -> int:
     for name, (mean, low, total) in result.summary().items():
         print(f"  {name:10s} mean {mean:.3f}  min {low:.3f}  profit {total:.2f} EUR")
     print(f"  oracle     bound profit {result.bound.sum():.2f} EUR")
+    light = oracle_fractions(context_for, range(n_belts), front_x=-0.7)
+    print("the same belts arriving from upstream of the window (front_x = -0.7 m): light load")
+    for name, (mean, low, total) in light.summary().items():
+        print(f"  {name:10s} mean {mean:.3f}  min {low:.3f}  profit {total:.2f} EUR")
+    print(f"  oracle     bound profit {light.bound.sum():.2f} EUR")
     seeds = range(3 if args.quick else 10)
     print(f"extreme values (table 4.3): picks per class, {len(seeds)} belts of 118 items in 45 s")
     for planner in ("qlearning", "greedy", "proximity"):

@@ -4,7 +4,9 @@ Two experiments, both on the kinematic belt of `planner.belt_sim`:
 
 - `oracle_fractions`: many short belts (8-12 items, arrival rate 2-8 items/s, speed factors
   x1, x1.2, x1.5); on each, every planner's profit divided by the oracle's bound (the best profit
-  any pick sequence reaches on the true classes).
+  any pick sequence reaches on the true classes). By default the belt is a snapshot of a busy
+  stream (the first items already in the window, some about to leave); with front_x upstream
+  of the window (e.g. -0.7 m) the robot sees the items arrive and can usually pick them all.
 - `extreme_value_picks`: the thesis's table 4.3 in the planner alone: picks per class with the
   values of table 3.3 and with one class's value raised by 150.
 """
@@ -57,12 +59,16 @@ class OracleComparison:
 
 
 def oracle_fractions(
-    context_for: ContextFor, seeds, planners=("qlearning", "proximity", "fifo", "greedy")
+    context_for: ContextFor,
+    seeds,
+    planners=("qlearning", "proximity", "fifo", "greedy"),
+    **belt_kw,
 ) -> OracleComparison:
-    """Each planner's profit on `short_belt(seed)` for every seed, and the oracle's bound."""
+    """Each planner's profit on `short_belt(seed, **belt_kw)` for every seed, and the oracle's
+    bound."""
     profits, bound = [], []
     for seed in seeds:
-        belt = short_belt(seed)
+        belt = short_belt(seed, **belt_kw)
         ctx = context_for(belt.speed, THESIS_VALUES)
         bound.append(oracle_bound(belt, ctx).profit)
         profits.append([simulate(make_planner(p), belt, ctx).profit for p in planners])

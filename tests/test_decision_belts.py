@@ -63,3 +63,17 @@ def test_extreme_values_raise_the_boosted_class_share(planner):
     for k, code in enumerate((2, 3, 4)):
         boosted = picks[f"class {code} +150"]
         assert boosted[k] / boosted.sum() > normal[k] + 0.01, (code, picks)
+
+
+def test_a_wrong_bin_earns_nothing():
+    """Class probabilities that favour the wrong class send the item to the wrong bin."""
+    from planner.belt_sim import Belt, BeltItem
+
+    ctx = cell_context(0.185)
+    fooled = BeltItem(0, -0.1, 0.2, 4, (0.0, 0.1, 0.6, 0.3))  # aluminium taken for plastic
+    right = BeltItem(1, -0.3, -0.2, 2, (0.0, 0.9, 0.05, 0.05))
+    result = simulate(make_planner("greedy"), Belt((fooled, right), 0.185), ctx)
+    by_id = {p.item_id: p for p in result.picks}
+    assert by_id[0].bin_class == 3 and by_id[0].earned == 0.0
+    assert by_id[1].bin_class == 2 and by_id[1].earned == pytest.approx(0.22)
+    assert result.profit == pytest.approx(0.22)
