@@ -26,6 +26,13 @@ Reading of the thesis, where it leaves room (each choice marked so it can be rev
   the same path; it is computed once and the updates are repeated along it, which gives the
   same q as replaying the episodes.
 - Choice (3.4.2): the item of maximum q in the batch; ties go to the item leaving first.
+- Time (3.4.2, "how much time the robot would have in the real world"): only items the cup can
+  meet now, inside the reachable window, by the cycle-time model, are candidates; an item still
+  upstream of the window waits for a later decision (the reward has no notion of waiting).
+- q is one value per item (the thesis's q matrix has the reward matrix's 20 x 27 shape), not per
+  (robot position, item): the continuation term of an item is the best q among the items left,
+  whatever bin the robot would then be at. Objective O_total (eq. 3.4) is the thesis's score
+  of a finished path and plays no part in the choice.
 """
 
 from __future__ import annotations

@@ -2,8 +2,10 @@
 
 Each move is a straight line travelled with a trapezoidal speed profile (rest to rest, maximum
 speed `v_max`, acceleration `a_max`); 35 ms of vacuum are added at the pick and at the place
-(ABB's Cycle 1 convention). It has no jerk limit and no corner blending, so it is a lower bound
-on the ruckig trajectories' durations; the episode runner uses the ruckig-fitted model instead.
+(ABB's Cycle 1 convention). It has no jerk limit, no corner blending and no per-axis
+synchronisation; it serves tests that need a model independent of the motion planner. The
+episode runner and the decision benchmark use `planner.cycle_model.CycleTimeModel`, fitted to
+the ruckig trajectories.
 """
 
 from __future__ import annotations

@@ -77,3 +77,22 @@ def test_a_wrong_bin_earns_nothing():
     assert by_id[0].bin_class == 3 and by_id[0].earned == 0.0
     assert by_id[1].bin_class == 2 and by_id[1].earned == pytest.approx(0.22)
     assert result.profit == pytest.approx(0.22)
+
+
+def test_any_cycle_time_estimator_plugs_in():
+    """The planners only use the CycleTimeEstimator protocol: a straight-line model works too,
+    and a slower robot earns less on the same belt."""
+    from planner.decision import DecisionContext
+    from planner.straight_line_timing import StraightLineCycleModel
+
+    fitted = cell_context(0.185)
+    belt = short_belt(5)
+    belt = type(belt)(belt.items, 0.185)
+    fast = DecisionContext(0.185, StraightLineCycleModel(a_max=100.0), fitted.window, fitted.bins)
+    slow = DecisionContext(0.185, StraightLineCycleModel(a_max=10.0), fitted.window, fitted.bins)
+    for name in PLANNERS:
+        quick = simulate(make_planner(name), belt, fast).profit
+        sluggish = simulate(make_planner(name), belt, slow).profit
+        assert quick <= oracle_bound(belt, fast).profit + 1e-9
+        assert sluggish <= oracle_bound(belt, slow).profit + 1e-9
+        assert sluggish < quick, name
