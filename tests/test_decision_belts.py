@@ -24,12 +24,7 @@ def _check(result, n_belts):
     return summary
 
 
-def test_oracle_bounds_the_planners_and_qlearning_beats_proximity_on_60_belts():
-    _check(oracle_fractions(cell_context, range(60), PLANNERS), 60)
-
-
-@pytest.mark.slow
-def test_oracle_fractions_on_200_belts():
+def test_oracle_bounds_the_planners_and_qlearning_beats_proximity_on_200_belts():
     summary = _check(oracle_fractions(cell_context, range(200), PLANNERS), 200)
     for name, (mean, low, total) in summary.items():
         print(f"{name:10s} mean {mean:.3f} min {low:.3f} profit {total:.2f} EUR")
