@@ -21,8 +21,10 @@ Two sources with one interface, `observe(t) -> list[Detection]`:
 
 from __future__ import annotations
 
+import hashlib
 import os
 import time
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -39,7 +41,17 @@ from sim.tracking import Detection
 
 ON_BELT_TOL_M = 0.02
 """An item whose centre is higher than its resting height plus this is not on the belt [m]."""
-HMM_CACHE = REPO_ROOT / "runs" / "cache" / "stripe_hmms.npz"
+HMM_CACHE_DIR = REPO_ROOT / "runs" / "cache"
+_HMM_INPUTS = (
+    "sim/data/items.toml",
+    "sim/flow.py",
+    "sim/flow_config.py",
+    "sim/truth.py",
+    "sim/hmm_dataset.py",
+    "sim/hmm_models.py",
+    "perception/hmm_train.py",
+    "perception/hmm_stripes.py",
+)
 CAMERA_SIZE = (640, 360)
 WINDOW_ROWS = 12
 
@@ -79,19 +91,29 @@ class TruthPerception:
         """Nothing to free."""
 
 
+def hmm_cache_path() -> Path:
+    """Cache file of the trained stripe HMMs, named after what the training depends on (the
+    catalogue, the flow generator, the recordings and the training code), so a change to any
+    of them trains afresh instead of reusing stale models."""
+    digest = hashlib.sha1()
+    for rel in _HMM_INPUTS:
+        digest.update((REPO_ROOT / rel).read_bytes())
+    return HMM_CACHE_DIR / f"stripe_hmms-{digest.hexdigest()[:12]}.npz"
+
+
 def stripe_models(catalogue):
     """(stripe HMMs, cells per item): trained once, cached in runs/cache (written atomically)."""
+    from perception.hmm_io import save_models
     from sim.hmm_models import trained_models
 
-    if HMM_CACHE.exists():
-        return trained_models(catalogue, cache=HMM_CACHE)
+    path = hmm_cache_path()
+    if path.exists():
+        return trained_models(catalogue, cache=path)
     models, sizes = trained_models(catalogue, cache=None)
-    from perception.hmm_io import save_models
-
-    HMM_CACHE.parent.mkdir(parents=True, exist_ok=True)
-    tmp = HMM_CACHE.with_name(f".{HMM_CACHE.stem}.{os.getpid()}.npz")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.npz")
     save_models(tmp, models, sizes)
-    os.replace(tmp, HMM_CACHE)
+    os.replace(tmp, path)
     return models, sizes
 
 
