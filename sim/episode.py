@@ -348,7 +348,7 @@ def run_episode(
     progress=None,
 ) -> EpisodeResult:
     """Run one episode; returns its episodes.csv row and picks.csv rows."""
-    wall0 = time.perf_counter()
+    wall0, cpu0 = time.perf_counter(), time.process_time()
     cell = cell if cell is not None else shared_cell()
     video = None
     if video_path is not None:
@@ -386,6 +386,7 @@ def run_episode(
     # Physics: stepping, the executor's control loop, the cup and bins (everything else).
     timings["physics"] = wall - sum(v for k, v in timings.items() if k != "physics")
     timings["total"] = wall
+    timings["cpu"] = time.process_time() - cpu0  # this process's CPU time (shared machines)
     timings["decisions"] = episode.decisions
     return EpisodeResult(
         config, variant, row, episode.metrics.pick_rows(), timings, episode.latencies
