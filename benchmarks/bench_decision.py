@@ -15,7 +15,7 @@ import numpy as np
 
 from planner.cycle_model import CycleTimeModel
 from planner.decision import DecisionContext, RobotState, TrackedItem
-from planner.evaluation import extreme_value_picks, oracle_fractions
+from planner.evaluation import extreme_value_picks, objective_variants, oracle_fractions
 from planner.kinematics import reachable_mask
 from planner.limits import limits_for_payload
 from planner.reach_window import ReachWindow
@@ -114,6 +114,13 @@ def main() -> int:
         print(f"  {name:10s} mean {mean:.3f}  min {low:.3f}  profit {total:.2f} EUR")
     print(f"  oracle     bound profit {light.bound.sum():.2f} EUR")
     seeds = range(3 if args.quick else 10)
+    print(f"objective variants (section 4.1.3), {len(seeds)} belts of 118 items in 45 s")
+    for factor in (1.0, 1.2):
+        for objective, (share, profit) in objective_variants(context_for, seeds, factor).items():
+            print(
+                f"  x{factor:g} qlearning {objective:4s} picked {share:.3f} of the items, "
+                f"profit {profit:.2f} EUR per belt"
+            )
     print(f"extreme values (table 4.3): picks per class, {len(seeds)} belts of 118 items in 45 s")
     for planner in ("qlearning", "greedy", "proximity"):
         for variant, counts in extreme_value_picks(context_for, planner, seeds).items():

@@ -91,3 +91,13 @@ def test_any_cycle_time_estimator_plugs_in():
         assert quick <= oracle_bound(belt, fast).profit + 1e-9
         assert sluggish <= oracle_bound(belt, slow).profit + 1e-9
         assert sluggish < quick, name
+
+
+def test_objective_variants_order_accuracy_as_the_thesis():
+    """Section 4.1.3: ignoring value (v = 1) picks more items than ignoring distance (d = 1);
+    v/d lies above d = 1 too."""
+    from planner.evaluation import objective_variants
+
+    out = objective_variants(cell_context, seeds=range(3))
+    assert out["v=1"][0] > out["d=1"][0]
+    assert out["v/d"][0] > out["d=1"][0]
