@@ -159,3 +159,23 @@ class VideoRecorder:
         finally:
             self.renderer.close()
             Path(self._tmp).unlink(missing_ok=True)
+
+
+def overlay_of(episode, t: float) -> Overlay:
+    """The annotations of an episode's frame at sim time `t` [s]."""
+    items = []
+    tracks = episode.tracker.tracks()
+    if episode.current_pick is not None:
+        tracks.append(episode.current_pick)
+    for tr in tracks:
+        cls = tr.predicted_class
+        items.append((tr.track_id, tr.x_at(t, episode.speed), tr.y, 0.03, cls, tr.probs[cls - 1]))
+    m = episode.metrics
+    counters = [
+        f"t {t:5.1f} s  x{episode.config.speed_factor:g}  {episode.config.planner}  "
+        f"{episode.config.perception}",
+        f"entered {m.n_entered}  picked {m.n_picked}  missed {len(m.missed)}",
+        f"profit {m.profit:.2f} EUR",
+    ]
+    pick = None if episode.current_pick is None else episode.current_pick.track_id
+    return Overlay(items=items, next_pick=pick, counters=counters)
