@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from sim import outputs, sweep, sweep_config, thesis_report
+from sim import cli, outputs, sweep, sweep_config, thesis_report
 
 GRID = """
 [sweep]
@@ -96,22 +96,17 @@ def test_table_formatter_uses_means_over_seeds():
     assert "0.600 (0.842)" in text
 
 
-def test_ray_is_refused_without_the_extra(swept):
-    try:
-        import ray  # noqa: F401
-    except ImportError:
-        path, out, _ = swept
-        proc = subprocess.run(
-            [sys.executable, "-m", "sim.cli", "sweep", "--config", path, "--out", out / "r",
-             "--ray", "local"],
-            capture_output=True, text=True, timeout=120,
-        )  # fmt: skip
-        assert proc.returncode == 2
-        assert "sortsim[cluster]" in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
-    else:
-        pytest.skip("ray installed: see test_sweep_on_local_ray")
+def test_ray_is_refused_without_the_extra(swept, monkeypatch, capsys):
+    path, out, _ = swept
+    monkeypatch.setitem(sys.modules, "ray", None)  # as if sortsim[cluster] were not installed
+    code = cli.main(["sweep", "--config", str(path), "--out", str(out / "r"), "--ray", "local"])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert "sortsim[cluster]" in err and len(err.strip().splitlines()) == 1
+    assert not (out / "r").exists()
 
 
+@pytest.mark.slow
 def test_sweep_on_local_ray(swept, tmp_path):
     pytest.importorskip("ray")
     path, _, _ = swept
