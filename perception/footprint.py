@@ -21,6 +21,7 @@ from perception.errors import PerceptionError
 from perception.observe import BELT, ColourRules
 from perception.rectify import BeltView, TopDownRaster
 
+_BELT_MARGIN_M = 0.005
 _UNDISTORT_CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 30, 1e-9)
 
 
@@ -51,7 +52,7 @@ class FootprintMapper:
         raster: TopDownRaster,
         max_height_m: float = 0.15,
         min_height_m: float = 0.0008,
-        rim_fraction: float = 0.5,
+        rim_fraction: float = 0.35,
     ):
         self.min_height_m = float(min_height_m)
         self.rim_fraction = float(rim_fraction)
@@ -93,27 +94,37 @@ class FootprintMapper:
             shape = None if depth is None else depth.shape
             raise PerceptionError(f"depth map shape {shape}, expected {frame.shape[:2]}")
         crop = frame[self.roi]
-        labels = rules.classify(crop)
+        z = depth[self.roi].astype(np.float32)
+        valid = np.isfinite(z) & (z > 0.0)
+        z[~valid] = 0.0
+        shape = z.shape
+        direction = self._direction
+        height = self._origin[2] + z * direction[:, 2].reshape(shape)
+        y = self._origin[1] + z * direction[:, 1].reshape(shape)
+        # Only pixels that see the belt (or what lies on it) can be items: not its rails.
+        raster = self.raster
+        y_lo = raster.y_min - _BELT_MARGIN_M
+        y_hi = raster.y_min + raster.shape[1] * raster.resolution_m + _BELT_MARGIN_M
+        labels = rules.classify(crop, valid & (y >= y_lo) & (y <= y_hi))
         labels[~_solid(crop, labels != BELT, self.rim_fraction)] = BELT
         labels = labels.ravel()
-        z = depth[self.roi].astype(np.float32)
-        valid = (np.isfinite(z) & (z > 0.0)).ravel()
-        height = self._origin[2] + z * self._direction[:, 2].reshape(z.shape)
-        height[~np.isfinite(height)] = -1.0
+        valid = valid.ravel()
         belt = np.flatnonzero(valid & (labels == BELT))[::4]
         if len(belt) < 100:
             raise PerceptionError("depth map: too few valid belt pixels")
         # The belt's height as this camera measures it (a pose error shifts it by a millimetre
         # or so); item pixels stand above it.
-        belt_z = float(np.median(height.ravel()[belt]))
-        # A pixel on an item's rim blends the item's colour with whatever lies behind it, and
-        # its depth may be the belt's: it is placed at the highest surface seen around it, on
-        # its own ray, which puts a rim pixel on the item's top edge (a belt-edge pixel next to
-        # a rail goes onto the rail, off the grid).
-        top_z = cv2.dilate(height, np.ones((3, 3), np.uint8)).ravel()
-        item = np.flatnonzero(valid & (labels != BELT) & (top_z > belt_z + self.min_height_m))
-        reach = (top_z[item] - self._origin[2]) / self._direction[item, 2]
-        points = self._origin[None, :2] + reach[:, None] * self._direction[item, :2]
+        own_z = height.ravel()
+        floor = float(np.median(own_z[belt])) + self.min_height_m
+        # A pixel on an item's rim blends the item's colour with the belt behind it and may
+        # carry the belt's depth: it is placed at the highest surface seen around it, on its
+        # own ray, which puts it on the item's top edge. Pixels with a depth on the item keep
+        # their own height.
+        around = cv2.dilate(np.where(valid.reshape(shape), height, -1.0), np.ones((3, 3), np.uint8))
+        top_z = np.where(own_z > floor, own_z, around.ravel())
+        item = np.flatnonzero(valid & (labels != BELT) & (top_z > floor))
+        reach = (top_z[item] - self._origin[2]) / direction[item, 2]
+        points = self._origin[None, :2] + reach[:, None] * direction[item, :2]
         raster = self.raster
         i = np.floor((points[:, 0] - raster.x_min) / raster.resolution_m).astype(np.int64)
         j = np.floor((points[:, 1] - raster.y_min) / raster.resolution_m).astype(np.int64)

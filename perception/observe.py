@@ -23,17 +23,19 @@ BELT = -1
 class ColourRules:
     """Per-pixel colour rules on OpenCV's HSV (H in degrees 0..360, S and V 0..255).
 
-    Hued pixels take the colour of their hue band. Greyish pixels are white at full brightness
-    (a white item's lit top) and transparent at mid brightness (a clear item blended with the
-    black belt stays dimmer even at its highlights); dimmer greyish pixels are shade, e.g. the
-    side wall of a white can, and follow the item they belong to (their connected greyish blob:
-    white if it holds at least as many white as transparent pixels).
+    Hued pixels take the colour of their hue band. Greyish pixels are white or transparent by
+    the item they belong to (their connected greyish blob): a white item's lit surface reaches
+    full brightness, while a clear item blended with the black belt stays dimmer even at its
+    highlights. Pixel by pixel, the shaded rim of a white bottle or the side wall of a white can
+    would look transparent.
 
     Attributes:
         item_min_value: Brightness above which a pixel is an item, not the black belt.
         grey_max_saturation: Below it a pixel is greyish (white or transparent).
         white_min_value: Greyish pixels at least this bright are white.
-        transparent_min_value: Greyish pixels from this bright up to white are transparent.
+        transparent_min_value: Greyish pixels at least this bright are lit (not shade).
+        white_min_share: A greyish blob is white when at least this share of its lit pixels
+            is at white brightness, else transparent.
         red_max_hue: Hues below it (or from blue_max_hue on) are red [deg].
         brown_max_hue: Hues from red_max_hue below it are brown [deg].
         green_max_hue: Hues from brown_max_hue below it are green [deg].
@@ -44,6 +46,7 @@ class ColourRules:
     grey_max_saturation: int = 90
     white_min_value: int = 235
     transparent_min_value: int = 150
+    white_min_share: float = 0.25
     red_max_hue: float = 16.0
     brown_max_hue: float = 50.0
     green_max_hue: float = 170.0
@@ -65,18 +68,30 @@ class ColourRules:
                 f"< white_min_value = {self.white_min_value}",
                 self.transparent_min_value,
             )
+        if not 0.0 < self.white_min_share <= 1.0:
+            raise PerceptionInputError(
+                "colour_rules.white_min_share", "(0, 1]", self.white_min_share
+            )
         if not self.red_max_hue < self.brown_max_hue < self.green_max_hue < self.blue_max_hue:
             raise PerceptionInputError(
                 "colour_rules hue bounds", "red < brown < green < blue [deg]", self.blue_max_hue
             )
 
-    def classify(self, image: np.ndarray) -> np.ndarray:
-        """Colour index into COLOURS of each pixel (rows, cols) int8; BELT (-1) for the belt."""
+    def classify(self, image: np.ndarray, where: np.ndarray | None = None) -> np.ndarray:
+        """Colour index into COLOURS of each pixel (rows, cols) int8; BELT (-1) for the belt.
+
+        Args:
+            image: RGB image (rows, cols, 3) uint8.
+            where: Optional (rows, cols) bool mask of the pixels that may be items (e.g. those
+                that see the belt, not its rails); the others are BELT.
+        """
         hsv = cv2.cvtColor(image, cv2.COLOR_RGB2HSV_FULL)
         hue = hsv[..., 0].astype(np.float32) * (360.0 / 256.0)
         sat, val = hsv[..., 1], hsv[..., 2]
         labels = np.full(image.shape[:2], BELT, dtype=np.int8)
         item = val >= self.item_min_value
+        if where is not None:
+            item &= where
         grey = item & (sat < self.grey_max_saturation)
         hued = item & ~grey
         bands = (
@@ -87,17 +102,15 @@ class ColourRules:
         )
         for name, band in bands:
             labels[hued & band] = COLOURS.index(name)
-        core = grey & (val >= self.white_min_value)
-        mid = grey & ~core & (val >= self.transparent_min_value)
-        shade = grey & ~core & ~mid
-        labels[core] = COLOURS.index("white")
-        labels[mid] = COLOURS.index("transparent")
-        if np.any(shade):
+        if np.any(grey):
+            core = grey & (val >= self.white_min_value)
+            lit = grey & (val >= self.transparent_min_value)
             count, blobs = cv2.connectedComponents(grey.astype(np.uint8), connectivity=8)
             n_core = np.bincount(blobs[core], minlength=count)
-            n_mid = np.bincount(blobs[mid], minlength=count)
-            names = np.where(n_core >= n_mid, COLOURS.index("white"), COLOURS.index("transparent"))
-            labels[shade] = names[blobs[shade]]
+            n_lit = np.bincount(blobs[lit], minlength=count)
+            white = n_core >= self.white_min_share * np.maximum(n_lit, 1)
+            names = np.where(white, COLOURS.index("white"), COLOURS.index("transparent"))
+            labels[grey] = names[blobs[grey]]
         return labels
 
 
