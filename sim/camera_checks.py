@@ -62,3 +62,54 @@ def edge_residual(grey: np.ndarray, rows: list[int], lo: int, hi: int) -> float:
     rows_f = np.asarray(rows, dtype=np.float64)
     fit = np.polyfit(rows_f, cols, 1)
     return float(np.max(np.abs(np.polyval(fit, rows_f) - cols)))
+
+
+def main() -> int:
+    """Prints the camera geometry figures: calibration against the renderer, straightness of
+    the belt's edges before and after undistortion, grid corner errors on the belt."""
+    from perception.calibration import CameraCalibration
+    from perception.lens import ZED_HD_LEFT
+    from perception.rectify import locate_belt, undistort
+    from sim.camera import DEFAULT_CALIBRATION, BeltCamera, marker_points, true_camera_matrix
+    from sim.paths import REPO_ROOT, SCENE_XML
+
+    size = (1280, 720)
+    calibration = CameraCalibration.load(DEFAULT_CALIBRATION).scaled(size)
+    scene = mujoco.MjModel.from_xml_path(str(SCENE_XML))
+    truth = true_camera_matrix(scene, *size)
+    focal = calibration.camera_matrix[[0, 1], [0, 1]] / truth[0, 0] - 1.0
+    print(
+        f"calibration {DEFAULT_CALIBRATION.name}: focal error {100 * focal[0]:+.3f} % (fx),"
+        f" {100 * focal[1]:+.3f} % (fy); RMS reprojection {calibration.rms_px:.3f} px,"
+        f" {calibration.n_views} views"
+    )
+    fixture = mujoco.MjModel.from_xml_path(str(REPO_ROOT / "tests" / "models" / "belt_camera.xml"))
+    data = mujoco.MjData(fixture)
+    mujoco.mj_forward(fixture, data)
+    with BeltCamera(fixture, *size) as camera:
+        frame = camera.render(data)
+    rows = [v for v in range(20, 700, 4) if not 280 <= v <= 440]
+    for name, image in (("raw", frame), ("undistorted", undistort(frame, calibration))):
+        grey = cv2.cvtColor(image, cv2.COLOR_RGB2GRAY)
+        left, right = edge_residual(grey, rows, 370, 285), edge_residual(grey, rows, 910, 995)
+        print(
+            f"belt edges, {name:>11} frame: {left:.3f} px / {right:.3f} px from straight"
+            " (largest residual of a line fit over the frame height, fixture, 1280x720)"
+        )
+    data = mujoco.MjData(scene)
+    mujoco.mj_forward(scene, data)
+    with BeltCamera(scene, *size) as camera:
+        frame = camera.render(data)
+    view = locate_belt(frame, calibration, *marker_points(scene, data))
+    print(f"camera pose from the markers: reprojection RMS {view.marker_rms_px:.3f} px")
+    for factor in (1.0, 1.2, 1.5):
+        errors = grid_corner_errors(scene, data, truth, ZED_HD_LEFT, view, 0.185 * factor)
+        print(
+            f"grid corners at x{factor:g}: {1000 * errors.max():.2f} mm max,"
+            f" {1000 * errors.mean():.2f} mm mean on the belt (cell scene, 1280x720)"
+        )
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
