@@ -72,6 +72,14 @@ class Cell:
         self.executor.set_payload(0.0)
         mujoco.mj_forward(self.model, self.data)
 
+    def belt_camera(self, size: tuple[int, int]):
+        """The belt camera's renderer at `size`, created once and kept for later episodes."""
+        from sim.camera import BeltCamera
+
+        if getattr(self, "_camera", None) is None or self._camera.size != tuple(size):
+            self._camera = BeltCamera(self.model, *size)
+        return self._camera
+
     def tcp(self) -> np.ndarray:
         """Cup lip centre now [m]."""
         return tcp_position(self.model, self.data)

@@ -21,7 +21,7 @@ from planner.registry import make_planner
 from sim.bins import BIN_CLASSES, Bins
 from sim.cell import PICK_Z_NOMINAL, Cell
 from sim.config import EpisodeConfig
-from sim.episode_perception import CameraPerception, TruthPerception
+from sim.episode_perception import CAMERA_SIZE, CameraPerception, TruthPerception
 from sim.episode_robot import PickController
 from sim.flow import generate_flow
 from sim.flow_config import X_INFEED, FlowConfig
@@ -107,7 +107,12 @@ class Episode:
             self.perception = TruthPerception(self.data, cell.pool, self.flow, self.speed, period)
         else:
             self.perception = CameraPerception(
-                self.model, self.data, cell.catalogue, self.speed, period
+                self.model,
+                self.data,
+                cell.catalogue,
+                self.speed,
+                period,
+                camera=cell.belt_camera(CAMERA_SIZE),
             )
         # The thesis discards an item once it passes the robot's working space; parking it there
         # (rather than at the belt's end) also spares the physics the items nobody can reach.

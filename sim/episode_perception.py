@@ -129,7 +129,8 @@ class CameraPerception:
         self.data, self.speed, self.period = data, float(belt_speed), float(period_s)
         grid = BeltGrid(x_line=X_CAMERA, period_s=period_s)
         self.pipeline = camera_pipeline(model, data, CAMERA_SIZE, grid)
-        self.camera = camera if camera is not None else BeltCamera(model, *CAMERA_SIZE)
+        self._own_camera = camera is None
+        self.camera = BeltCamera(model, *CAMERA_SIZE) if camera is None else camera
         models, self.cells_per_item = stripe_models(catalogue)
         self.hmm = OnlineStripeHmms(models)
         self.geometry = GridGeometry(row_pitch_m=belt_speed * period_s)
@@ -188,5 +189,6 @@ class CameraPerception:
         return out
 
     def close(self) -> None:
-        """Free the camera's renderer."""
-        self.camera.close()
+        """Free the camera's renderer (unless it was lent by the caller)."""
+        if self._own_camera:
+            self.camera.close()
