@@ -17,7 +17,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from perception.errors import PerceptionError
+from perception.errors import PerceptionError, PerceptionInputError
 from perception.observe import BELT, ColourRules
 from perception.rectify import BeltView, TopDownRaster
 
@@ -54,6 +54,12 @@ class FootprintMapper:
         min_height_m: float = 0.0008,
         rim_fraction: float = 0.35,
     ):
+        if not 0.0 <= rim_fraction < 1.0:
+            raise PerceptionInputError("rim_fraction", "[0, 1)", rim_fraction)
+        if not 0.0 < min_height_m < max_height_m <= 1.0:
+            raise PerceptionInputError(
+                "min_height_m, max_height_m", "0 < min < max <= 1 m", (min_height_m, max_height_m)
+            )
         self.min_height_m = float(min_height_m)
         self.rim_fraction = float(rim_fraction)
         self.raster = raster

@@ -9,6 +9,7 @@ import pytest
 from perception.calibration import CameraCalibration
 from perception.codes import COLOURS, EMPTY_CODE, code_of_cell, observation_code
 from perception.errors import PerceptionError, PerceptionInputError
+from perception.footprint import FootprintMapper
 from perception.grid import BeltGrid
 from perception.observe import BELT, ColourRules, code_cells
 from perception.pipeline import CameraPipeline
@@ -163,3 +164,13 @@ def test_camera_codes_agree_with_the_truth_over_a_90s_episode(factor):
     print(score.report())
     assert score.unobserved == 0
     assert score.agreement >= 0.95, score.report()
+
+
+def test_footprint_mapper_refuses_bad_settings(fixture_frame):
+    model, data, frame, _ = fixture_frame
+    pipeline = _pipeline(model, data)
+    view = pipeline.locate(frame)
+    with pytest.raises(PerceptionInputError, match="rim_fraction"):
+        FootprintMapper(view, pipeline.raster, rim_fraction=1.5)
+    with pytest.raises(PerceptionInputError, match="min_height_m"):
+        FootprintMapper(view, pipeline.raster, min_height_m=0.5, max_height_m=0.2)
