@@ -38,6 +38,8 @@ MAX_LEAD_S = 1.0
 upstream is waited for and decided on again (its position is fresher by then) [s]."""
 WAIT_STEP_S = 0.25
 """Longest wait before deciding again on an item still upstream [s]."""
+MAX_FAILURES = 2
+"""Attempts after which truth mode gives an item up (it is re-detected every period)."""
 CHECK_PERIOD_S = 0.02
 """How often items leaving the belt, landing in bins or falling are looked for [s]."""
 BELOW_BELT_Z = -0.1
@@ -121,6 +123,7 @@ class Episode:
         self.next_check = 0.0
         self.next_decision = 0.0
         self.current_pick = None  # the track being picked (shown in the video)
+        self.failures: dict[int, int] = {}  # failed attempts per true item id (truth mode)
         self.timings = dict.fromkeys(
             ("physics", "perception", "decision", "planning", "video"), 0.0
         )
@@ -132,9 +135,8 @@ class Episode:
     def tick(self) -> None:
         """Everything due at the current sim time except decisions."""
         t = self.data.time
-        while self.next_spawn < len(self.flow) and self.flow.t_spawn[self.next_spawn] <= t + 1e-9:
-            self._spawn(self.next_spawn)
-            self.next_spawn += 1
+        if self.next_spawn < len(self.flow) and self.flow.t_spawn[self.next_spawn] <= t:
+            self._spawn()
         if t + 1e-9 >= self.next_obs:
             self._observe(t)
             self.next_obs += self.config.observation_period_s
@@ -146,12 +148,13 @@ class Episode:
             self.video.capture(self.data, overlay_of(self, t))
             self.timings["video"] += time.perf_counter() - t0
 
-    def _spawn(self, i: int) -> None:
-        f, cat = self.flow, self.cell.catalogue
-        rgba = cat.colour_rgba(int(f.colour[i]))
-        self.cell.pool.spawn(self.data, i, int(f.type_index[i]), X_INFEED, f.y[i], f.yaw[i], rgba)
-        mujoco.mj_kinematics(self.model, self.data)  # poses of the new item for the checks
-        self.metrics.on_entered(i, int(f.class_id[i]))
+    def _spawn(self) -> None:
+        """Hand the due items over to the belt (at its speed, as from an infeed conveyor)."""
+        first = self.next_spawn
+        self.next_spawn = self.cell.pool.feed(self.data, self.flow, first)
+        mujoco.mj_kinematics(self.model, self.data)  # poses of the new items for the checks
+        for i in range(first, self.next_spawn):
+            self.metrics.on_entered(i, int(self.flow.class_id[i]))
 
     def _observe(self, t: float) -> None:
         t0 = time.perf_counter()
@@ -189,6 +192,8 @@ class Episode:
     def _tracked_items(self, t: float) -> list[TrackedItem]:
         items = []
         for tr in self.tracker.tracks():
+            if self.failures.get(tr.true_id, 0) >= MAX_FAILURES:
+                continue  # truth mode: an item the cup failed on twice is given up
             items.append(TrackedItem(tr.track_id, tr.x_at(t, self.speed), tr.y, tuple(tr.probs)))
         return items
 
@@ -225,6 +230,8 @@ class Episode:
         self.tracker.remove(track.track_id)
         outcome = self.robot.execute(intercept, self.tick)
         self.current_pick = None
+        if not outcome.held_to_bin and track.true_id is not None:
+            self.failures[track.true_id] = self.failures.get(track.true_id, 0) + 1
         if outcome.item_id >= 0:  # the cup may have sealed on a neighbour: forget its track too
             self.tracker.remove_true(outcome.item_id)
         true_class = int(self.flow.class_id[outcome.item_id]) if outcome.item_id >= 0 else None

@@ -30,6 +30,9 @@ NEAR_M = 0.08
 """Radius within which the item under a detection is looked for [m]."""
 RAIL_TOP_Z = 0.03
 """Top of the belt's side rails, the highest obstacle between the belt and the bins [m]."""
+RELEASE_CLEAR_S = 0.06
+"""The cup stays still this long after the release so that the falling item clears its lip
+(about 2 cm of fall) before the next move starts sideways [s]."""
 CLEARANCE_M = 0.025
 """Gap kept between a held item's bottom and the rails or a bin's rim [m]."""
 
@@ -87,8 +90,23 @@ class PickController:
             if d < best_d and pz > -0.05:
                 xmat = data.xmat[body]
                 yaw = float(np.arctan2(xmat[3], xmat[0]))  # heading of the body's x axis
-                best, best_d = (float(pz + pool.item_type(int(slot)).rest_height), yaw), d
+                best, best_d = (self.top_of(int(slot)), yaw), d
         return best
+
+    def top_of(self, slot: int) -> float:
+        """Highest point [m] of the item in `slot` as it lies now (a can may have toppled)."""
+        model, data, pool = self.cell.model, self.cell.data, self.cell.pool
+        geom = pool.geom_id(slot)
+        z = float(data.geom_xpos[geom][2])
+        up = data.geom_xmat[geom].reshape(3, 3)[2]  # world z in the geom's axes
+        size = model.geom_size[geom]
+        kind = model.geom_type[geom]
+        if kind == mujoco.mjtGeom.mjGEOM_BOX:
+            return z + float(np.abs(up) @ size)
+        across = float(np.sqrt(max(0.0, 1.0 - up[2] ** 2)))  # cylinder, capsule: axis = geom z
+        if kind == mujoco.mjtGeom.mjGEOM_CAPSULE:
+            return z + float(size[1] * abs(up[2]) + size[0])
+        return z + float(size[1] * abs(up[2]) + size[0] * across)
 
     def plan(self, x: float, y: float, bin_class: int) -> Intercept:
         """Intercept of an item now at (x, y) [m], carried to the bin of `bin_class`.
@@ -146,7 +164,7 @@ class PickController:
             events.extend(cup.update(data))
             on_step()
 
-        self.cell.executor.execute(plan.chain, on_step=step)
+        self.cell.executor.execute(plan.chain, hold=RELEASE_CLEAR_S, on_step=step)
         if not state["off"]:
             cup.vacuum_off(float(data.time))
         while cup.held_slot is not None:  # finish the release (normally already done)
