@@ -22,6 +22,7 @@ from perception.observe import BELT, ColourRules
 from perception.rectify import BeltView, TopDownRaster
 
 _BELT_MARGIN_M = 0.005
+_ITEM_EDGE_STEP_M = 0.02
 _UNDISTORT_CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 30, 1e-9)
 
 
@@ -111,7 +112,10 @@ class FootprintMapper:
         raster = self.raster
         y_lo = raster.y_min - _BELT_MARGIN_M
         y_hi = raster.y_min + raster.shape[1] * raster.resolution_m + _BELT_MARGIN_M
-        labels = rules.classify(crop, valid & (y >= y_lo) & (y <= y_hi))
+        # Two items that touch in the image are told apart by the jump in height between them.
+        kernel = np.ones((3, 3), np.uint8)
+        step = cv2.dilate(height, kernel) - cv2.erode(height, kernel)
+        labels = rules.classify(crop, valid & (y >= y_lo) & (y <= y_hi), step < _ITEM_EDGE_STEP_M)
         labels[~_solid(crop, labels != BELT, self.rim_fraction)] = BELT
         labels = labels.ravel()
         valid = valid.ravel()
@@ -126,7 +130,7 @@ class FootprintMapper:
         # carry the belt's depth: it is placed at the highest surface seen around it, on its
         # own ray, which puts it on the item's top edge. Pixels with a depth on the item keep
         # their own height.
-        around = cv2.dilate(np.where(valid.reshape(shape), height, -1.0), np.ones((3, 3), np.uint8))
+        around = cv2.dilate(np.where(valid.reshape(shape), height, -1.0), kernel)
         top_z = np.where(own_z > floor, own_z, around.ravel())
         item = np.flatnonzero(valid & (labels != BELT) & (top_z > floor))
         reach = (top_z[item] - self._origin[2]) / direction[item, 2]
@@ -139,7 +143,6 @@ class FootprintMapper:
         top[i[inside], j[inside]] = labels[item[inside]]
         # Close the pinholes between splatted pixels; they take a neighbour's colour.
         covered = (top != BELT).astype(np.uint8)
-        kernel = np.ones((3, 3), np.uint8)
         holes = (cv2.morphologyEx(covered, cv2.MORPH_CLOSE, kernel) > 0) & (covered == 0)
         if np.any(holes):
             spread = cv2.dilate((top + 1).astype(np.uint8), kernel).astype(np.int8) - 1

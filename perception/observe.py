@@ -77,13 +77,18 @@ class ColourRules:
                 "colour_rules hue bounds", "red < brown < green < blue [deg]", self.blue_max_hue
             )
 
-    def classify(self, image: np.ndarray, where: np.ndarray | None = None) -> np.ndarray:
+    def classify(
+        self, image: np.ndarray, where: np.ndarray | None = None, joins: np.ndarray | None = None
+    ) -> np.ndarray:
         """Colour index into COLOURS of each pixel (rows, cols) int8; BELT (-1) for the belt.
 
         Args:
             image: RGB image (rows, cols, 3) uint8.
             where: Optional (rows, cols) bool mask of the pixels that may be items (e.g. those
                 that see the belt, not its rails); the others are BELT.
+            joins: Optional (rows, cols) bool mask of the pixels that may join greyish pixels
+                into one item (e.g. not on a depth edge, where two items touch in the image);
+                greyish pixels outside it are white or transparent by their own brightness.
         """
         hsv = cv2.cvtColor(image, cv2.COLOR_RGB2HSV_FULL)
         hue = hsv[..., 0].astype(np.float32) * (360.0 / 256.0)
@@ -105,12 +110,16 @@ class ColourRules:
         if np.any(grey):
             core = grey & (val >= self.white_min_value)
             lit = grey & (val >= self.transparent_min_value)
-            count, blobs = cv2.connectedComponents(grey.astype(np.uint8), connectivity=8)
-            n_core = np.bincount(blobs[core], minlength=count)
-            n_lit = np.bincount(blobs[lit], minlength=count)
+            labels[grey] = np.where(
+                core[grey], COLOURS.index("white"), COLOURS.index("transparent")
+            )
+            linked = grey if joins is None else grey & joins
+            count, blobs = cv2.connectedComponents(linked.astype(np.uint8), connectivity=8)
+            n_core = np.bincount(blobs[core & linked], minlength=count)
+            n_lit = np.bincount(blobs[lit & linked], minlength=count)
             white = n_core >= self.white_min_share * np.maximum(n_lit, 1)
             names = np.where(white, COLOURS.index("white"), COLOURS.index("transparent"))
-            labels[grey] = names[blobs[grey]]
+            labels[linked] = names[blobs[linked]]
         return labels
 
 
