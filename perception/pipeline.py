@@ -123,6 +123,14 @@ class CameraPipeline:
             if patch.size == 0 or colour_mask(patch, self.marker_colours[index]).mean() < 0.5:
                 raise PerceptionError(f"marker {index} not seen where it was (pixel {u}, {v})")
 
+    def cell_corners_image(self, belt_speed: float, t: float | None = None) -> np.ndarray:
+        """(n_stripes, 4, 2) raw-frame pixels of the current row's cell corners (see
+        `BeltGrid.cell_corners`), e.g. to draw the grid on a frame; needs a located belt."""
+        if self.view is None:
+            raise PerceptionError("the belt is not located yet (no frame seen)")
+        corners = self.grid.cell_corners(belt_speed, t)
+        return self.view.project(corners.reshape(-1, 3)).reshape(*corners.shape[:2], 2)
+
     def rectify(self, frame: np.ndarray) -> np.ndarray:
         """The top-down image of the belt plane (`plane_z`) of a raw frame."""
         self.check(frame)

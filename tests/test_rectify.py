@@ -106,7 +106,12 @@ def test_unusable_frames_raise_perception_errors():
     covered[:, 420:] = 30  # a board over one side of the belt hides markers 0 and 1
     with pytest.raises(PerceptionError, match="marker 0"):
         pipeline.observe(covered, 0.185, 0.0)
+    with pytest.raises(PerceptionError, match="not located"):
+        pipeline.cell_corners_image(0.185)
     row = pipeline.observe(frame, 0.185, 0.0)  # the empty belt: five empty cells
+    corners = pipeline.cell_corners_image(0.185)
+    assert corners.shape == (5, 4, 2)
+    assert np.all((corners > 0) & (corners < [640, 360]))
     assert row.codes.tolist() == [19] * 5
     with pytest.raises(PerceptionError, match="marker 0 not seen"):
         pipeline.observe(covered, 0.185, 0.5)
