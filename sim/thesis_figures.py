@@ -118,3 +118,24 @@ def figures_for(table_id: str | None, rows: list[dict], out_dir: Path, tables: d
     if table_id == "4.2":
         return _accuracy_curves(rows, out_dir, tables["4.2"])
     return []
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Figures 4.4-4.6 with both speeds: `python -m sim.thesis_figures DIR... --out DIR`."""
+    import argparse
+
+    from sim import outputs
+    from sim.thesis_report import thesis_tables
+
+    parser = argparse.ArgumentParser(prog="python -m sim.thesis_figures", description=main.__doc__)
+    parser.add_argument("dirs", nargs="+", type=Path, help="sweep folders with episodes.csv")
+    parser.add_argument("--out", type=Path, required=True, help="where to write the PNGs")
+    args = parser.parse_args(argv)
+    rows = [r for d in args.dirs for r in outputs.read_rows(d / "episodes.csv")]
+    for path in figures_for("4.5", rows, args.out, thesis_tables()):
+        print(f"figure: {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
