@@ -64,9 +64,40 @@ def edge_residual(grey: np.ndarray, rows: list[int], lo: int, hi: int) -> float:
     return float(np.max(np.abs(np.polyval(fit, rows_f) - cols)))
 
 
+def grid_overlay(
+    image: np.ndarray,
+    matrix: np.ndarray,
+    view: BeltView,
+    speed: float,
+    rows: int = 7,
+    grid: BeltGrid | None = None,
+) -> np.ndarray:
+    """The undistorted image with the belt grid drawn on it (thesis figure 2.13 c): stripe
+    boundaries and the row boundaries of `rows` rows centred on the camera line."""
+    grid = grid or BeltGrid()
+    out = image.copy()
+    pitch = grid.row_pitch(speed)
+    x_lo = grid.x_line - pitch * (rows / 2)
+    xs = x_lo + pitch * np.arange(rows + 1)
+    ys = grid.stripe_edges()
+    lines = [[(x, y) for y in np.linspace(ys[0], ys[-1], 40)] for x in xs]
+    lines += [[(x, y) for x in np.linspace(xs[0], xs[-1], 40)] for y in ys]
+    for line in lines:
+        world = np.c_[np.asarray(line), np.zeros(len(line))]
+        px, _ = cv2.projectPoints(world, view.rvec, view.tvec, matrix, None)
+        cv2.polylines(out, [np.round(px).astype(np.int32)], False, (255, 220, 0), 1, cv2.LINE_AA)
+    return out
+
+
 def main() -> int:
     """Prints the camera geometry figures: calibration against the renderer, straightness of
-    the belt's edges before and after undistortion, grid corner errors on the belt."""
+    the belt's edges before and after undistortion, grid corner errors on the belt; with
+    `--figure PATH` also writes the thesis's figure 2.13 for the cell (raw, undistorted, grid)."""
+    import argparse
+
+    parser = argparse.ArgumentParser(prog="python -m sim.camera_checks", description=main.__doc__)
+    parser.add_argument("--figure", default=None, help="PNG of raw / undistorted / grid frames")
+    args = parser.parse_args()
     from perception.calibration import CameraCalibration
     from perception.lens import ZED_HD_LEFT
     from perception.rectify import locate_belt, undistort
@@ -102,6 +133,13 @@ def main() -> int:
         frame = camera.render(data)
     view = locate_belt(frame, calibration, *marker_points(scene, data))
     print(f"camera pose from the markers: reprojection RMS {view.marker_rms_px:.3f} px")
+    if args.figure:
+        import imageio.v3 as iio
+
+        straight = undistort(frame, calibration)
+        overlay = grid_overlay(straight, calibration.camera_matrix, view, 0.185)
+        iio.imwrite(args.figure, np.vstack([frame, straight, overlay]))
+        print(f"figure written: {args.figure} (raw, undistorted, grid at x1)")
     for factor in (1.0, 1.2, 1.5):
         errors = grid_corner_errors(scene, data, truth, ZED_HD_LEFT, view, 0.185 * factor)
         print(
