@@ -22,6 +22,9 @@ TOML layout (every key optional; defaults are DESIGN.md's headline episode)::
     iterations = 50
     batch_rows = 20
     objective = "value_over_distance"   # | value_only (d = 1) | distance_only (v = 1)
+    [robot]                     # extra dwell after each pick / place (thesis: ~0.5 s each)
+    pick_pause_s = 0.0
+    place_pause_s = 0.0
     [video]
     fps = 10.0                  # frames per simulated second
     width = 640
@@ -106,6 +109,24 @@ class QLearning:
 
 
 @dataclass(frozen=True)
+class Robot:
+    """Extra robot dwell at the pick (after the seal) and at the place (after the release) [s].
+
+    0 is the physical robot (ABB's 35 ms of vacuum at each end only). The thesis's simulator
+    paused about half a second after each pick and each place (4.2); set both to 0.5 to
+    reproduce that regime.
+    """
+
+    pick_pause_s: float = 0.0
+    place_pause_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("pick_pause_s", "place_pause_s"):
+            v = getattr(self, name)
+            _check(_number(v) and 0.0 <= v <= 2.0, f"robot.{name}", "0..2 s", v, None)
+
+
+@dataclass(frozen=True)
 class Video:
     """Settings of the episode's MP4 (frames per simulated second, frame size [px])."""
 
@@ -136,6 +157,7 @@ class EpisodeConfig:
     values: Values = field(default_factory=Values)
     qlearning: QLearning = field(default_factory=QLearning)
     video: Video = field(default_factory=Video)
+    robot: Robot = field(default_factory=Robot)
     where: str | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -156,7 +178,7 @@ class EpisodeConfig:
         t = self.observation_period_s
         ok = _number(t) and 0.05 <= t <= 5.0
         _check(ok, "observation_period_s", "0.05..5 s", t, w)
-        for name, cls in (("values", Values), ("qlearning", QLearning), ("video", Video)):
+        for name, cls in _SECTIONS.items():
             _check(isinstance(getattr(self, name), cls), name, f"a [{name}] table", None, w)
 
     @property
@@ -175,7 +197,7 @@ class EpisodeConfig:
         return out
 
 
-_SECTIONS = {"values": Values, "qlearning": QLearning, "video": Video}
+_SECTIONS = {"values": Values, "qlearning": QLearning, "video": Video, "robot": Robot}
 _SCALARS = {f.name for f in dataclasses.fields(EpisodeConfig)} - set(_SECTIONS) - {"where"}
 
 

@@ -92,13 +92,18 @@ class Episode:
         self.tracker = Tracker(self.speed)
         self.planner = make_decision_manager(config)
         self.planner.reset()
-        self.robot = PickController(cell, self.speed)
+        pauses = config.robot
+        self.robot = PickController(cell, self.speed, pauses.pick_pause_s, pauses.place_pause_s)
         self.bins = Bins(self.model, self.data, cell.pool)
         limits = cell.limits
         self.context = DecisionContext(
             belt_speed=self.speed,
             cycle_model=CycleTimeModel(
-                limits=limits, pick_z=PICK_Z_NOMINAL, lift_height=TYPICAL_LIFT_M
+                limits=limits,
+                pick_z=PICK_Z_NOMINAL,
+                lift_height=TYPICAL_LIFT_M,
+                seal_time=self.robot.config.seal_time,
+                release_time=self.robot.config.release_time,
             ),
             window=cell.window,
             bins=cell.bins_tuple(),

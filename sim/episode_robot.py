@@ -62,12 +62,23 @@ class PickController:
     Args:
         cell: The compiled cell (robot, pool, executor).
         belt_speed: Belt speed [m/s].
+        pick_pause: Extra dwell after the seal, riding with the item [s].
+        place_pause: Extra dwell over the bin after the release [s].
     """
 
-    def __init__(self, cell: Cell, belt_speed: float):
+    def __init__(
+        self, cell: Cell, belt_speed: float, pick_pause: float = 0.0, place_pause: float = 0.0
+    ):
         self.cell = cell
         self.belt_speed = float(belt_speed)
-        self.config = PickPlaceConfig()
+        base = PickPlaceConfig()
+        # Extra dwell (the thesis's pauses): the cup rides with the item after the seal, and
+        # stays over the bin after the release.
+        self.config = replace(
+            base,
+            seal_time=base.seal_time + pick_pause,
+            release_time=base.release_time + place_pause,
+        )
         self.suction = SuctionCup(cell.model, cell.pool)
         mujoco.mj_forward(cell.model, cell.data)
         self.rest = cell.tcp()
