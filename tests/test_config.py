@@ -70,6 +70,9 @@ def test_every_experiment_config_loads_and_has_its_grid():
         "table_4_5": 5 * 2 * 10,
         "table_4_6": 5 * 2 * 10,
         "smoke": 4,
+        "table_4_5_paused": 5 * 2 * 10,
+        "table_4_6_paused": 5 * 2 * 10,
+        "planners": 5 * 3,
     }
     for name, size in sizes.items():
         sweep = sweep_config.load(EXPERIMENTS_DIR / f"{name}.toml")
@@ -78,6 +81,8 @@ def test_every_experiment_config_loads_and_has_its_grid():
     t43 = sweep_config.load(EXPERIMENTS_DIR / "table_4_3.toml")
     weighted = [e for e in t43.episodes if e.variant == "weight_class_3"]
     assert all(e.config.values.plastic == pytest.approx(150.25) for e in weighted)
+    paused = sweep_config.load(EXPERIMENTS_DIR / "table_4_6_paused.toml")
+    assert {e.config.robot.pick_pause_s for e in paused.episodes} == {0.5}
     t45 = sweep_config.load(EXPERIMENTS_DIR / "table_4_5.toml")
     assert {e.config.duration_s for e in t45.episodes if e.config.items == 400} == {191.0}
 
