@@ -11,12 +11,13 @@ Two sources with one interface, `observe(t) -> list[Detection]`:
   the online stripe HMMs (`perception.hmm_online`), and items are extracted from the decoded
   class grid (`perception.items_from_grid`). The thesis runs k-means on batches of 20 rows;
   online that would report an item 10 s after it passed the camera, 1.85 m downstream at x1
-  and so already past the robot 1.48 m away, so here items are the connected regions of a
-  sliding window of rows, reported the period after their last row (the components
-  alternative of `items_from_grid`); class probabilities are the mean filtered posterior over
-  the item's cells, and its position the centroid of the item pixels the camera saw in those
-  cells (the 5-stripe grid alone would place it up to 8 cm off, more than the cup's lip
-  tolerates). A frame the pipeline cannot use is counted and its row read as empty.
+  and so already past the robot 1.48 m away. Here items are the blobs of item pixels of a
+  sliding window of rows (`perception.item_blobs`), reported the period after their last row,
+  at the centroid of their pixels (the 5-stripe grid alone would place an item up to 8 cm off,
+  more than the cup's lip tolerates), with the filtered HMM posteriors of the cells they cover
+  as class probabilities. (Connected regions of one decoded class, the components alternative
+  of `items_from_grid`, split an item whose cells decode to two materials into two phantom
+  items.) A frame the pipeline cannot use is counted and its row read as empty.
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ import numpy as np
 from perception.codes import EMPTY_CODE, N_STATES, VOID
 from perception.errors import PerceptionError
 from perception.hmm_online import OnlineStripeHmms
-from perception.items_from_grid import GridGeometry, items_components
+from perception.item_blobs import item_blobs
 from sim.flow import Flow
 from sim.flow_config import BELT_HALF_WIDTH, X_CAMERA
 from sim.item_pool import ItemPool
@@ -133,7 +134,6 @@ class CameraPerception:
         self.camera = BeltCamera(model, *CAMERA_SIZE) if camera is None else camera
         models, self.cells_per_item = stripe_models(catalogue)
         self.hmm = OnlineStripeHmms(models)
-        self.geometry = GridGeometry(row_pitch_m=belt_speed * period_s)
         stripes = models.pi.shape[0]
         self.classes = np.full((WINDOW_ROWS, stripes), VOID, dtype=np.int64)
         self.posteriors = np.zeros((WINDOW_ROWS, stripes, N_STATES))
@@ -172,20 +172,17 @@ class CameraPerception:
         return out
 
     def _completed_items(self, t: float) -> list[Detection]:
-        first_row = self.rows - WINDOW_ROWS
-        found = items_components(self.classes, self.geometry, self.posteriors, first_row)
         out = []
-        for b, y, cells in zip(found.b, found.y, found.cells, strict=True):
-            if int(cells[:, 0].max()) != WINDOW_ROWS - 2:
+        # Fixed-lag smoothing: an item is reported once all its rows are in, so the rows after
+        # it inform its class as well as those before (forward-backward over the HMM window).
+        smoothed = self.hmm.smoothed_window()[-WINDOW_ROWS:]
+        posteriors = self.posteriors.copy()
+        posteriors[WINDOW_ROWS - len(smoothed) :] = smoothed
+        for blob in item_blobs(self.pixels, self.pixel_y, posteriors):
+            if blob.last_row != WINDOW_ROWS - 2:
                 continue  # still growing (touches the newest row) or reported already
-            probs = self.posteriors[cells[:, 0], cells[:, 1]].mean(axis=0)
-            probs = probs / probs.sum()
-            bs = [self.pixels[r][j] for r, j in cells]
-            if sum(len(v) for v in bs):  # centroid of the item's pixels, finer than the grid
-                b = float(np.mean(np.concatenate(bs)))
-                y = float(np.mean(np.concatenate([self.pixel_y[r][j] for r, j in cells])))
-            x = X_CAMERA + self.speed * t - float(b)
-            out.append(Detection(t, x, float(y), tuple(float(p) for p in probs)))
+            x = X_CAMERA + self.speed * t - blob.b
+            out.append(Detection(t, x, blob.y, tuple(float(p) for p in blob.probs)))
         return out
 
     def close(self) -> None:
