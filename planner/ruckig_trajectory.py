@@ -11,7 +11,7 @@ limits of a uniformly slowed motion (`MotionLimits.slowed`) until both hold.
 from __future__ import annotations
 
 import numpy as np
-from ruckig import InputParameter, Result, Ruckig
+from ruckig import InputParameter, Result, Ruckig, RuckigError
 from ruckig import Trajectory as _RuckigTrajectory
 
 from planner.dynamics import LumpedDynamics
@@ -23,6 +23,11 @@ from planner.trajectory import DOF, Segment, State, TrajectoryGenerator
 
 CHECK_DT = 0.002
 """Time step at which motor speeds, torques and reachability are checked along a segment [s]."""
+
+JERK_NUDGE = 1.0 - 1e-6
+"""Ruckig 0.19 throws on inputs that sit exactly on a profile boundary (a rest-to-rest move of
+exactly 2 a^3 / j^2, e.g. 45 mm at 100 m/s^2 and a 15 ms jerk ramp); such a segment is planned
+again with the jerk limits lowered by one part in a million, which stays inside the limits."""
 
 TORQUE_MARGIN = 0.90
 """Share of the motors' torque limit a plan may use: the lumped model reads about 5 % under the
@@ -121,12 +126,20 @@ class RuckigTrajectoryGenerator(TrajectoryGenerator):
         inp.max_acceleration = limits.max_acceleration.tolist()
         inp.max_jerk = limits.max_jerk.tolist()
         traj = _RuckigTrajectory(DOF)
-        result = self._otg.calculate(inp, traj)
+        result = self._robust_calculate(inp, traj)
         if result not in (Result.Working, Result.Finished):
             raise PlannerInputError(
                 "start/goal", "states whose velocity and acceleration lie inside the limits", result
             )
         return traj
+
+    def _robust_calculate(self, inp: InputParameter, traj: _RuckigTrajectory) -> Result:
+        """`Ruckig.calculate`, once more with nudged jerk limits if ruckig throws (JERK_NUDGE)."""
+        try:
+            return self._otg.calculate(inp, traj)
+        except RuckigError:
+            inp.max_jerk = (np.asarray(inp.max_jerk) * JERK_NUDGE).tolist()
+            return self._otg.calculate(inp, traj)
 
     def duration_and_lowest(
         self,
@@ -157,7 +170,7 @@ class RuckigTrajectoryGenerator(TrajectoryGenerator):
         inp.max_acceleration = lim.max_acceleration.tolist()
         inp.max_jerk = lim.max_jerk.tolist()
         traj = _RuckigTrajectory(DOF)
-        if self._otg.calculate(inp, traj) not in (Result.Working, Result.Finished):
+        if self._robust_calculate(inp, traj) not in (Result.Working, Result.Finished):
             return np.inf, -np.inf
         return traj.duration, traj.position_extrema[dof].min
 

@@ -161,3 +161,16 @@ def test_motor_rates_match_kinematics_and_finite_differences(robot):
 
     assert np.allclose(rates.qdot, (q_at(h) - q_at(-h)) / (2 * h), atol=1e-7)
     assert np.allclose(rates.qddot, (q_at(h) - 2 * q_at(0.0) + q_at(-h)) / h**2, atol=1e-3)
+
+
+def test_a_move_on_a_ruckig_profile_boundary_is_still_planned():
+    """45 mm rest to rest at 100 m/s^2 and a 15 ms jerk ramp is exactly 2 a^3 / j^2, where
+    ruckig 0.19 throws; the generator plans it with the jerk nudged down instead."""
+    limits = MotionLimits()
+    generator = RuckigTrajectoryGenerator(limits)
+    start = State.at_rest(np.array([0.05478467492858174, -0.2302132862361297, 0.1]))
+    goal = State.at_rest(np.array([-0.5017158856382833, -0.3384306551300296, 0.055]))
+    segment = generator.plan(start, goal)
+    p, v, _ = segment.at_time(segment.duration)
+    np.testing.assert_allclose(p, goal.position, atol=1e-8)
+    np.testing.assert_allclose(v, 0.0, atol=1e-8)
