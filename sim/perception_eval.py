@@ -13,7 +13,6 @@ import argparse
 import time
 from dataclasses import dataclass
 
-import mujoco
 import numpy as np
 
 from perception.calibration import CameraCalibration
@@ -22,15 +21,12 @@ from perception.errors import PerceptionError
 from perception.grid import BeltGrid
 from perception.observe import ColourRules
 from perception.pipeline import CameraPipeline
-from sim.belt import Belt
 from sim.camera import BeltCamera, marker_points
 from sim.catalogue import load_catalogue
 from sim.cmd_calibrate import DEFAULT_CALIBRATION
-from sim.flow import generate_flow
-from sim.flow_config import X_CAMERA, X_INFEED, FlowConfig
-from sim.item_pool import ItemPool
-from sim.model import load_scene
-from sim.truth import cell_truth_from_poses, flow_rows, yaw_from_xmat
+from sim.flow_config import X_CAMERA, FlowConfig
+from sim.flow_replay import FlowReplay
+from sim.truth import flow_rows
 
 SIZE_LABELS = ("none", "small", "medium", "large")
 COLOUR_LABELS = ("none", *COLOURS)
@@ -133,36 +129,17 @@ def evaluate_camera(
     config = FlowConfig(
         n_items=n_items, duration_s=duration_s, speed_factor=speed_factor, seed=seed
     )
-    model = load_scene()
-    data = mujoco.MjData(model)
-    mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
-    belt = Belt(model)
-    speed = config.belt_speed_mps
-    belt.set_speed(speed)
-    pool = ItemPool(model, catalogue, belt)
-    flow = generate_flow(config, catalogue, pool.size)
-    mujoco.mj_forward(model, data)
+    replay = FlowReplay.start(config, catalogue)
+    data, speed = replay.data, replay.speed
     calibration = CameraCalibration.load(DEFAULT_CALIBRATION).scaled(size)
-    period = config.observation_period_s
-    grid = BeltGrid(x_line=X_CAMERA, period_s=period)
+    grid = BeltGrid(x_line=X_CAMERA, period_s=config.observation_period_s)
     pipeline = CameraPipeline(
-        calibration, grid, *marker_points(model, data), plane_z=plane_z, rules=rules
+        calibration, grid, *marker_points(replay.model, data), plane_z=plane_z, rules=rules
     )
     confusion = np.zeros((N_CODES, N_CODES), dtype=np.int64)
-    unobserved, next_item = 0, 0
-    with BeltCamera(model, *size) as camera:
-        for k in range(flow_rows(flow, catalogue)):
-            while data.time < k * period - 1e-9:
-                while next_item < len(flow) and flow.t_spawn[next_item] <= data.time:
-                    i = next_item
-                    rgba = catalogue.colour_rgba(int(flow.colour[i]))
-                    pool.spawn(
-                        data, i, int(flow.type_index[i]), X_INFEED, flow.y[i], flow.yaw[i], rgba
-                    )
-                    next_item += 1
-                mujoco.mj_step(model, data)
-            mujoco.mj_kinematics(model, data)
-            pool.park_missed(data)
+    unobserved = 0
+    with BeltCamera(replay.model, *size) as camera:
+        for k in replay.rows(flow_rows(replay.flow, catalogue)):
             try:
                 if depth:
                     frame, z = camera.render_rgbd(data)
@@ -172,22 +149,8 @@ def evaluate_camera(
             except PerceptionError:
                 unobserved += 1
                 continue
-            slots = pool.active_slots()
-            if len(slots) == 0:
-                np.add.at(confusion, (EMPTY_CODE - 1, row.codes - 1), 1)
-                continue
-            ids = pool.item_ids[slots]
-            bodies = pool.body_ids[slots]
-            _, codes = cell_truth_from_poses(
-                data.xpos[bodies],
-                yaw_from_xmat(data.xmat[bodies]),
-                pool.type_index[slots],
-                flow.class_id[ids],
-                flow.colour[ids],
-                catalogue,
-                config.row_pitch_m,
-                x_centre=X_CAMERA + speed * (data.time - k * period),
-            )
+            truth = replay.truth_now(k)
+            codes = np.full(len(row.codes), EMPTY_CODE) if truth is None else truth[1]
             np.add.at(confusion, (codes - 1, row.codes - 1), 1)
     return CameraScore(speed_factor, n_items, confusion, unobserved, time.perf_counter() - start)
 
