@@ -10,8 +10,6 @@ import pytest
 from perception.hmm_io import load_models
 from sim.cli import main
 
-pytest.importorskip("sim.truth")
-
 ARGS = ["hmm-eval", "--train-seeds", "0-3", "--extra-seeds", "200", "--test-seeds", "100-101"]
 
 

@@ -7,6 +7,7 @@ import warnings
 
 import numpy as np
 import pytest
+from hmmlearn import hmm
 
 from perception.errors import PerceptionInputError
 from perception.hmm import (
@@ -19,8 +20,6 @@ from perception.hmm import (
     viterbi,
 )
 from perception.hmm_em import baum_welch
-
-hmm = pytest.importorskip("hmmlearn.hmm")
 
 TOL = 1e-8
 

@@ -85,7 +85,6 @@ def test_cells_per_item_are_stored_and_checked(tmp_path, models):
 
 
 def test_trained_models_are_cached(tmp_path):
-    pytest.importorskip("sim.truth")
     from sim.catalogue import load_catalogue
     from sim.hmm_models import trained_models
 

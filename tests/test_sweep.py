@@ -108,7 +108,6 @@ def test_ray_is_refused_without_the_extra(swept, monkeypatch, capsys):
 
 @pytest.mark.slow
 def test_sweep_on_local_ray(swept, tmp_path):
-    pytest.importorskip("ray")
     path, _, _ = swept
     rows = sweep.run_sweep(sweep_config.load(path), tmp_path, workers=2, ray_address="local")
     assert len(rows) == 2
