@@ -10,40 +10,14 @@ import argparse
 import os
 import time
 
-import mujoco
 import numpy as np
 
-from planner.cycle_model import CycleTimeModel
-from planner.decision import DecisionContext, RobotState, TrackedItem
+from planner.decision import RobotState, TrackedItem
 from planner.evaluation import extreme_value_picks, objective_variants, oracle_fractions
-from planner.kinematics import reachable_mask
-from planner.limits import limits_for_payload
-from planner.reach_window import ReachWindow
 from planner.registry import PLANNERS, make_planner
-from sim.model import load_scene
-from sim.robot import geometry_from_model
+from sim.decision_cell import cell_context
 
 CMD = ".venv/bin/python benchmarks/bench_decision.py"
-PICK_Z, LIFT, PAYLOAD_KG = 0.02, 0.05, 1.0  # as the episode runner times picks
-
-
-def cell_context_factory():
-    """`context_for(speed, values)` with the scene's geometry, bins and the fitted cycle model."""
-    model = load_scene()
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
-    geometry = geometry_from_model(model)
-    window = ReachWindow.from_reachable(lambda p: reachable_mask(geometry, p), PICK_Z)
-    bins = tuple(
-        tuple(float(c) for c in data.site(f"bin_{n}_drop").xpos)
-        for n in ("paper", "plastic", "aluminium")
-    )
-    cycle = CycleTimeModel(limits=limits_for_payload(PAYLOAD_KG), pick_z=PICK_Z, lift_height=LIFT)
-
-    def context_for(speed, values=(0.22, 0.25, 0.27)):
-        return DecisionContext(speed, cycle, window, bins, tuple(values))
-
-    return context_for
 
 
 def random_view(rng, n_items, t):
@@ -89,7 +63,7 @@ def main() -> int:
     args = parser.parse_args()
     if hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})  # one core
-    context_for = cell_context_factory()
+    context_for = cell_context
     n_dec = 200 if args.quick else 2000
     print(f"decision latency, 30 items in view, one core ({CMD}{' --quick' if args.quick else ''})")
     for name, (med, p99, cmed, cp99, n) in latency(context_for, 30, n_dec).items():

@@ -8,7 +8,7 @@ import pytest
 from planner.belt_sim import oracle_bound, simulate
 from planner.evaluation import extreme_value_picks, oracle_fractions, short_belt
 from planner.registry import make_planner
-from tests.decision_cell import cell_context
+from sim.decision_cell import cell_context
 
 PLANNERS = ("qlearning", "proximity", "fifo", "greedy")
 

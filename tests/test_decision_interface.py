@@ -11,7 +11,7 @@ from planner.qlearning import QLearningConfig
 from planner.reach_window import ReachWindow
 from planner.registry import PLANNERS, make_planner
 from planner.straight_line_timing import StraightLineCycleModel
-from tests.decision_cell import cell_context
+from sim.decision_cell import cell_context
 
 
 def _context(**kw):

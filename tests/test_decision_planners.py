@@ -8,7 +8,7 @@ from planner.belt_sim import Belt, BeltItem, one_hot, oracle_bound, simulate
 from planner.candidates import candidates, intercept
 from planner.decision import RobotState, TrackedItem
 from planner.registry import PLANNERS, make_planner
-from tests.decision_cell import cell_context
+from sim.decision_cell import cell_context
 
 V = 0.185
 PAPER_BIN = (0.0, -0.51, 0.06)

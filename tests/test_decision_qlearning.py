@@ -18,7 +18,7 @@ from planner.qlearning import (
     reward_path,
     weights,
 )
-from tests.decision_cell import cell_context
+from sim.decision_cell import cell_context
 
 # Rows: robot, paper bin, plastic bin, aluminium bin; items go to paper, plastic, aluminium.
 REWARDS = np.array(

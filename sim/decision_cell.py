@@ -1,4 +1,5 @@
-"""The cell as the decision managers see it, read once from the compiled scene.
+"""The cell as the decision managers see it, read once from the compiled scene (for the decision
+tests and benchmark).
 
 Geometry, bins and limits come from the MJCF through `sim` (as the episode runner reads them);
 the planners themselves never touch MuJoCo.
