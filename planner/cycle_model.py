@@ -40,8 +40,8 @@ def jerk_limited_time(d: float, v: float, a: float, j: float) -> float:
 # Fitted by `planner.cycle_calibration.fitted_model` to 250 ruckig picks and places (seed 1,
 # payload 0.1 kg, the cell's bins, items across the belt at x1/x1.2/x1.5, default pick config);
 # reproduce with `python benchmarks/bench_motion.py --fit`.
-PICK_COEF = (0.0291, 1.0387)
-PLACE_COEF = (0.0354, 1.0070)
+PICK_COEF = (0.0350, 1.0157)
+PLACE_COEF = (0.0353, 1.0008)
 
 
 @dataclass(frozen=True)

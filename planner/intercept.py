@@ -3,9 +3,12 @@
 An item now at (x0, y) rides the belt at `belt_speed` along +x, so at time T it is at
 x0 + belt_speed T. The cup must touch it at T with the belt's velocity (ruckig's target
 velocity), so T solves T = D(T), D being the duration of the approach-and-descend chain to where
-the item will be at T. We scan T on a grid with the cheap rest-corner duration, bracket the
-first T with D(T) <= T, and bisect it with the blended duration. The pick is then planned to
-arrive exactly at T (ruckig's minimum duration stretches the descent). An item that leaves the
+the item will be at T, planned within every limit (the motors' speed and torque checks slow the
+long approaches; an estimate without them is optimistic and its plans fail). The item moves
+far slower than the cup, so D changes little with T and the iteration T <- D(T), started where
+the item enters the reachable window, settles in two or three plans. The descent of the last
+plan is then stretched to touch down exactly at T (ruckig's minimum duration), and the place
+half (lift, transfer, release) is planned from the seal's end. An item that leaves the
 reachable window (contact, approach, seal and lift points all reachable) before it can be met
 is refused with the reason.
 """
@@ -17,19 +20,29 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from planner.blending import search_corners
 from planner.errors import PlannerInputError
 from planner.kinematics import DeltaGeometry, reachable_mask
-from planner.pick_cycle import PickPlaceConfig, PickPlan, pick_place_waypoints, plan_pick_place
+from planner.pick_cycle import (
+    PickPlaceConfig,
+    PickPlan,
+    delay_contact,
+    join_pick_place,
+    pick_place_waypoints,
+    plan_pick,
+    plan_place,
+)
 from planner.ruckig_trajectory import RuckigTrajectoryGenerator
 from planner.trajectory import State
 
 SCAN_DT = 0.02
-"""Grid step of the meeting-time scan [s]."""
+"""Grid step of the reachable-window scan [s]."""
 
-TIME_TOL = 2e-3
-"""Bisection tolerance on the meeting time [s]: the pick is then planned to arrive exactly at the
-bracket's upper end, so this only trades a few ms of waiting for planning time."""
+TIME_TOL = 1e-3
+"""Slack added to each fixed-point iterate of the meeting time [s]: the cup waits at most this
+long above the item, and the iteration ends in two or three plans."""
+
+MAX_PLANS = 8
+"""Most pick-half plans the fixed-point iteration makes."""
 
 HORIZON = 10.0
 """Longest wait considered for an item upstream of the window [s]."""
@@ -120,48 +133,43 @@ def intercept_item(
     gone = np.flatnonzero(~inside[first_in:])
     last_in = first_in + int(gone[0]) - 1 if gone.size else len(times) - 1
 
-    def arrival(t: float, blend: bool) -> float:
-        pick = (x0 + belt_speed * t, y, pick_z)
-        wps = pick_place_waypoints(pick, belt_speed, drop_xyz, config, axis4)[:2]
-        _, total = search_corners(start, wps, generator, blend)
-        return total - config.seal_time
+    wps_at = lambda t: pick_place_waypoints(  # noqa: E731
+        (x0 + belt_speed * t, y, pick_z), belt_speed, drop_xyz, config, axis4
+    )
 
-    def meets(t: float, blend: bool) -> bool:
-        ok = window_mask(geom, [x0 + belt_speed * t], y, pick_z, belt_speed, config)[0]
-        return bool(ok) and arrival(t, blend) <= t
+    def earliest_contact(t: float):
+        """The time-optimal pick half for meeting the item where it is at `t`, and its contact
+        time; (None, inf) when it cannot be planned."""
+        try:
+            pick = plan_pick(start, wps_at(t), generator, config)
+        except PlannerInputError:
+            return None, np.inf
+        return pick, pick.phase_start("seal")
 
-    hit = next((k for k in range(first_in, last_in + 1) if meets(times[k], False)), None)
-    if hit is None:
-        t_exit = times[last_in]
+    # Fixed point T = contact(T): the item moves far slower than the cup, so a few plans do.
+    t = float(times[first_in])
+    t_exit = float(times[last_in])
+    pick, contact = earliest_contact(t)
+    for _ in range(MAX_PLANS):
+        if contact <= t + 1e-9 or not np.isfinite(contact):
+            break
+        t = contact + TIME_TOL
+        if t > t_exit:
+            break
+        pick, contact = earliest_contact(t)
+    if pick is None or contact > t + 1e-9 or t > t_exit:
+        needs = "" if not np.isfinite(contact) else f" (it needs {contact:.2f} s)"
         return _refuse(
             f"the item leaves the reachable window {t_exit:.2f} s from now, before the cup can "
-            f"reach it (it needs {arrival(t_exit, False):.2f} s)"
+            f"reach it{needs}"
         )
-    # Blended corners may meet earlier than the rest-corner scan found: step back, then bisect.
-    while hit > first_in and meets(times[hit - 1], True):
-        hit -= 1
-    lo, hi = times[max(hit - 1, 0)], times[hit]
-    if hit == 0:
-        lo = hi
-    else:  # lo fails (outside the window or too early), hi meets: bisect the boundary
-        while hi - lo > TIME_TOL:
-            mid = 0.5 * (lo + hi)
-            lo, hi = (lo, mid) if meets(mid, True) else (mid, hi)
-    pick = np.array([x0 + belt_speed * hi, y, pick_z])
-    plan = None
-    if with_plan:
-        for _ in range(5):
-            try:
-                plan = plan_pick_place(
-                    start, pick, belt_speed, drop_xyz, generator, config, axis4, contact_time=hi
-                )
-                break
-            except PlannerInputError:  # the motor limits slowed it: meet a little later
-                hi += SCAN_DT
-                pick = np.array([x0 + belt_speed * hi, y, pick_z])
-        in_window = window_mask(geom, [pick[0]], y, pick_z, belt_speed, config)[0]
-        if plan is None or not in_window:
-            return _refuse(
-                "no pick within the motor limits and the workspace meets the item inside the window"
-            )
-    return Intercept(True, "", float(hi), pick, plan)
+    point = np.array([x0 + belt_speed * t, y, pick_z])
+    if not with_plan:
+        return Intercept(True, "", t, point)
+    wps = wps_at(t)
+    try:
+        pick = delay_contact(pick, wps[1], generator, t)
+        plan = join_pick_place(pick, plan_place(wps, generator, config), point, belt_speed)
+    except PlannerInputError as exc:
+        return _refuse(f"no pick within the motor limits meets the item inside the window ({exc})")
+    return Intercept(True, "", t, point, plan)

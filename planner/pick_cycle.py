@@ -9,7 +9,7 @@ the item, after the lift) are blended by `planner.blending.plan_chain`.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -124,6 +124,93 @@ def pick_place_waypoints(
     ]
 
 
+def _seal_end(descend: Waypoint) -> State:
+    """State at the end of the seal: the contact point carried on at the belt's velocity."""
+    return State(descend.position + descend.velocity * descend.dwell, descend.velocity)
+
+
+def plan_pick(
+    start: State,
+    waypoints: Sequence[Waypoint],
+    generator: RuckigTrajectoryGenerator,
+    config: PickPlaceConfig,
+) -> Chain:
+    """The pick half (approach, descend, seal) of `pick_place_waypoints`, time-optimal within
+    every limit: its "seal" phase starts at the earliest possible contact (the waypoints'
+    `contact_time` is ignored here; `delay_contact` moves the contact later).
+
+    Raises:
+        PlannerInputError: no such chain within the limits.
+    """
+    approach, descend = waypoints[0], replace(waypoints[1], arrival_time=None)
+    return plan_chain(start, [approach, descend], generator, blend=config.blend)
+
+
+def delay_contact(
+    pick: Chain, descend: Waypoint, generator: RuckigTrajectoryGenerator, contact_time: float
+) -> Chain:
+    """`pick` (from `plan_pick`) touching down at `contact_time` [s] instead of its earliest.
+
+    The approach is stretched (ruckig's minimum duration) to reach the point above the item
+    later, in the same state, so the descent and the touch-down stay as planned: the cup waits
+    above the item, not on the way down. When the stretched approach breaks a limit, the
+    descent is stretched instead.
+
+    Raises:
+        PlannerInputError: `contact_time` is earlier than `pick`'s contact, or neither stretch
+            stays within the limits.
+    """
+    earliest = pick.phase_start("seal")
+    if contact_time < earliest - 1e-9:
+        raise PlannerInputError("contact_time", f">= {earliest:.4f} s (the earliest)", contact_time)
+    if contact_time <= earliest + 1e-12:
+        return pick
+    labels = [s.label for s in pick.segments]
+    k = labels.index("descend")
+    if k == 0:
+        raise PlannerInputError("pick", "a chain with an approach before its descent", labels)
+    delay = contact_time - earliest
+    approach = pick.segments[k - 1]
+    corner = approach.at_time(approach.duration)
+    start = State(*approach.at_time(0.0))
+    t_corner = pick.phase_start(approach.label) + approach.duration
+    later = approach.duration + delay
+    above = Waypoint(corner[0], corner[1], label=approach.label, arrival_time=later)
+    try:
+        longer = plan_chain(start, [above], generator, blend=False)
+        return Chain(pick.segments[: k - 1] + longer.segments + pick.segments[k:])
+    except PlannerInputError:
+        pass
+    down = State(corner[0], corner[1])
+    wait = replace(descend, arrival_time=contact_time - t_corner)
+    tail = plan_chain(down, [wait], generator, blend=False)
+    return Chain(pick.segments[:k] + tail.segments)
+
+
+def plan_place(
+    waypoints: Sequence[Waypoint], generator: RuckigTrajectoryGenerator, config: PickPlaceConfig
+) -> Chain:
+    """The place half (lift, transfer, release) of `pick_place_waypoints`, from the seal's end.
+
+    The seal's end state is fixed (contact point and belt velocity), so the two halves are
+    planned apart: their corners do not interact.
+    """
+    return plan_chain(_seal_end(waypoints[1]), waypoints[2:], generator, blend=config.blend)
+
+
+def join_pick_place(pick: Chain, place: Chain, pick_xyz, belt_velocity: float) -> PickPlan:
+    """The pick and place halves as one plan."""
+    chain = Chain(pick.segments + place.segments)
+    return PickPlan(
+        chain=chain,
+        contact_time=chain.phase_start("seal"),
+        lift_time=chain.phase_start("lift"),
+        release_time=chain.phase_start("release"),
+        pick_xyz=np.asarray(pick_xyz, dtype=float),
+        belt_velocity=float(belt_velocity),
+    )
+
+
 def plan_pick_place(
     start: State,
     pick_xyz: Sequence[float],
@@ -140,16 +227,11 @@ def plan_pick_place(
         PlannerInputError: a point is out of reach or the contact time cannot be met.
     """
     config = config or PickPlaceConfig()
-    wps = pick_place_waypoints(pick_xyz, belt_velocity, drop_xyz, config, axis4, contact_time)
-    chain = plan_chain(start, wps, generator, blend=config.blend)
-    return PickPlan(
-        chain=chain,
-        contact_time=chain.phase_start("seal"),
-        lift_time=chain.phase_start("lift"),
-        release_time=chain.phase_start("release"),
-        pick_xyz=np.asarray(pick_xyz, dtype=float),
-        belt_velocity=float(belt_velocity),
-    )
+    wps = pick_place_waypoints(pick_xyz, belt_velocity, drop_xyz, config, axis4)
+    pick = plan_pick(start, wps, generator, config)
+    if contact_time is not None:
+        pick = delay_contact(pick, wps[1], generator, contact_time)
+    return join_pick_place(pick, plan_place(wps, generator, config), pick_xyz, belt_velocity)
 
 
 def cycle1_waypoints(

@@ -18,6 +18,7 @@ from planner.limits import limits_for_payload
 from planner.reach_window import ReachWindow
 from planner.ruckig_trajectory import RuckigTrajectoryGenerator
 from sim.belt import Belt
+from sim.belt_riding import wake_line
 from sim.catalogue import load_catalogue
 from sim.executor import TrajectoryExecutor, lumped_dynamics
 from sim.item_pool import ItemPool
@@ -57,6 +58,9 @@ class Cell:
             c: self.data.site(f"bin_{name}_drop").xpos.copy() for c, name in BIN_NAMES.items()
         }
         self._home_key = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_KEY, "home")
+        item_radius = float(np.max(self.model.geom_rbound[self.pool.geom_ids[0]]))
+        self.wake_x = wake_line(lambda p: reachable_mask(self.geometry, p), item_radius)
+        """Settled items riding the belt wake before this x (`sim.belt_riding`) [m]."""
 
     def bins_tuple(self) -> tuple[tuple[float, float, float], ...]:
         """Release points of the paper, plastic and aluminium bins, for the planners [m]."""

@@ -13,6 +13,7 @@ TOML layout (every key optional; defaults are DESIGN.md's headline episode)::
     perception = "camera"       # camera | truth
     duration_s = 90.0           # items arrive over this time [s]
     observation_period_s = 0.5  # one grid row per period [s]
+    item_riding = "settled"     # settled | contact (see sim/belt_riding.py)
     [values]                    # EUR per item (thesis table 3.3)
     paper = 0.22
     plastic = 0.25
@@ -47,6 +48,7 @@ BELT_SPEED_RANGE_MPS = (0.135, 0.277)
 _SPEED_TOLERANCE_MPS = 6e-4
 PLANNERS = ("qlearning", "proximity", "fifo", "greedy", "oracle")
 PERCEPTIONS = ("camera", "truth")
+ITEM_RIDINGS = ("settled", "contact")
 OBJECTIVES = ("value_over_distance", "value_only", "distance_only")
 MAX_ITEMS = 20000
 
@@ -154,6 +156,7 @@ class EpisodeConfig:
     perception: str = "camera"
     duration_s: float = 90.0
     observation_period_s: float = 0.5
+    item_riding: str = "settled"
     values: Values = field(default_factory=Values)
     qlearning: QLearning = field(default_factory=QLearning)
     video: Video = field(default_factory=Video)
@@ -178,6 +181,8 @@ class EpisodeConfig:
         t = self.observation_period_s
         ok = _number(t) and 0.05 <= t <= 5.0
         _check(ok, "observation_period_s", "0.05..5 s", t, w)
+        r = self.item_riding
+        _check(r in ITEM_RIDINGS, "item_riding", " | ".join(ITEM_RIDINGS), r, w)
         for name, cls in _SECTIONS.items():
             _check(isinstance(getattr(self, name), cls), name, f"a [{name}] table", None, w)
 

@@ -18,6 +18,7 @@ import numpy as np
 from planner.cycle_model import CycleTimeModel
 from planner.decision import DecisionContext, RobotState, TrackedItem
 from planner.registry import make_planner
+from sim.belt_riding import ItemRiding
 from sim.bins import BIN_CLASSES, Bins
 from sim.cell import PICK_Z_NOMINAL, Cell
 from sim.config import EpisodeConfig
@@ -95,6 +96,9 @@ class Episode:
         pauses = config.robot
         self.robot = PickController(cell, self.speed, pauses.pick_pause_s, pauses.place_pause_s)
         self.bins = Bins(self.model, self.data, cell.pool)
+        self.riding = ItemRiding(
+            self.model, cell.pool, cell.wake_x, enabled=config.item_riding == "settled"
+        )
         limits = cell.limits
         self.context = DecisionContext(
             belt_speed=self.speed,
@@ -191,6 +195,7 @@ class Episode:
                 self.metrics.on_binned(landing.item_id, landing.true_class, bin_class)
             self.tracker.remove_true(landing.item_id)
         self.tracker.prune(t, self.x_discard)
+        self.riding.update(data, held)
 
     # ----- decisions and picks ----------------------------------------------------------------
 

@@ -233,11 +233,16 @@ class SuctionCup:
         body = self.pool.body_ids[slot]
         dof = self.pool.dof_adr[slot]
         force = m.body_mass[body] * (data.qacc[dof : dof + 3] - m.opt.gravity)
+        n = data.ncon
+        if not n:  # in the air: nothing but the cup acts on the item (the usual case)
+            return force
         geom = self.pool.geom_id(slot)
-        pairs = data.contact.geom[: data.ncon]  # runs every step while holding: filter at once
-        mine = (pairs == geom).any(axis=1) & ~(pairs == self.geom_id).any(axis=1)
-        for i in np.flatnonzero(mine):
+        pairs = data.contact.geom[:n]  # runs every step while holding: filter at once
+        touching = np.flatnonzero(pairs.ravel() == geom)  # (contact, side) of the item's contacts
+        for i in touching // 2:
             pair = pairs[i]
+            if pair[0] == self.geom_id or pair[1] == self.geom_id:
+                continue  # the lip: the force sought
             mujoco.mj_contactForce(m, data, i, self._force)
             frame = data.contact.frame[i].reshape(3, 3)
             world = frame.T @ self._force[:3]  # force on geom[1] from geom[0], world frame
@@ -246,11 +251,12 @@ class SuctionCup:
 
     def load(self, data: mujoco.MjData, slot: int) -> float:
         """Equivalent pull-off load on the seal, F_n + F_t / mu_lip [N] (against the budget)."""
-        force = self.cup_force(data, slot)
-        axis = data.site_xmat[self.site_id].reshape(3, 3)[:, 2]
-        toward_item = data.xpos[self.pool.body_ids[slot]] - data.site_xpos[self.site_id]
-        if axis @ toward_item < 0:
-            axis = -axis  # unit vector from the lip into the item
-        pull = max(0.0, -(force @ axis))  # the cup pulling the item towards itself
-        shear = np.linalg.norm(force - (force @ axis) * axis)
+        fx, fy, fz = self.cup_force(data, slot)
+        ax, ay, az = data.site_xmat[self.site_id, 2::3]  # the lip's axis (site z) in the world
+        lip, centre = data.site_xpos[self.site_id], data.xpos[self.pool.body_ids[slot]]
+        if ax * (centre[0] - lip[0]) + ay * (centre[1] - lip[1]) + az * (centre[2] - lip[2]) < 0:
+            ax, ay, az = -ax, -ay, -az  # unit vector from the lip into the item
+        along = fx * ax + fy * ay + fz * az
+        pull = max(0.0, -along)  # the cup pulling the item towards itself
+        shear = math.sqrt(max(fx * fx + fy * fy + fz * fz - along * along, 0.0))
         return float(pull + shear / self.config.lip_friction)

@@ -1,0 +1,138 @@
+"""Settled items riding the belt without contact dynamics (`sim.belt_riding`).
+
+The same items are dropped on the cell's belt twice, once riding when settled and once in
+contact dynamics all the way; where they cross the wake line and after it, both runs must agree
+to a millimetre and 10 milliradians, the riders must have ridden (collisions off) and be back
+in contact dynamics downstream of the wake line, and a loose item coming near a rider wakes it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+
+from planner.kinematics import reachable_mask
+from sim import config as episode_config
+from sim.belt_riding import ItemRiding
+from sim.cell import Cell
+from sim.errors import InvalidInput
+
+CHECK_S = 0.02
+ROWS = 4
+STRIPES_Y = (-0.26, 0.0, 0.26)
+
+
+def _drop_rows(cell: Cell, rows: int, first_type: int = 0) -> None:
+    """`rows` rows of 3 items (catalogue types in turn), 0.4 m apart, handed over at belt
+    speed, headings within 0.3 rad of the belt's direction (neighbours never touch)."""
+    rng = np.random.default_rng(3)
+    n_types, n = len(cell.catalogue.types), len(STRIPES_Y)
+    for r in range(rows):
+        for s, y in enumerate(STRIPES_Y):
+            k = (first_type + n * r + s) % n_types
+            yaw = float(rng.uniform(-0.3, 0.3)) + (math.pi if s % 2 else 0.0)
+            x = -2.75 + 0.4 * r
+            cell.pool.spawn(cell.data, n * r + s, k, x, y, yaw, (0.8, 0.2, 0.2, 1), cell.belt.speed)
+
+
+def _run(enabled: bool, seconds: float, speed: float = 0.185):
+    cell = Cell()
+    cell.reset(speed)
+    _drop_rows(cell, ROWS)
+    riding = ItemRiding(cell.model, cell.pool, cell.wake_x, enabled=enabled)
+    m, d = cell.model, cell.data
+    most = 0
+    steps = int(round(CHECK_S / m.opt.timestep))
+    while d.time < seconds:
+        mujoco.mj_step(m, d, nstep=steps)
+        riding.update(d)
+        most = max(most, len(riding.riding()))
+    slots = cell.pool.active_slots()
+    ids = cell.pool.item_ids[slots]
+    pose = np.array(
+        [np.r_[d.xpos[cell.pool.body_ids[s]], d.xquat[cell.pool.body_ids[s]]] for s in slots]
+    )
+    return cell, riding, ids, pose, most
+
+
+@pytest.fixture(scope="module")
+def runs():
+    # Rows from x = -2.75 on: 9.5 s takes them all past the wake line (x ~ -1.03).
+    return _run(True, 9.5), _run(False, 9.5)
+
+
+def test_riders_end_where_contact_dynamics_puts_them(runs):
+    (cell, riding, ids_r, pose_r, most), (_, _, ids_c, pose_c, _) = runs
+    n = 3 * ROWS
+    assert list(ids_r) == list(ids_c) and len(ids_r) == n
+    assert most == n  # every item rode part of the way
+    assert riding.wakes >= n and len(riding.riding()) == 0
+    assert np.all(pose_r[:, 0] > cell.wake_x)
+    gap = np.linalg.norm(pose_r[:, :3] - pose_c[:, :3], axis=1)
+    turn = 2 * np.arccos(np.clip(np.abs(np.sum(pose_r[:, 3:] * pose_c[:, 3:], axis=1)), 0, 1))
+    print(f"\nriding vs contact after 9.5 s: max {gap.max() * 1e3:.2f} mm, {turn.max():.4f} rad")
+    assert gap.max() < 1e-3
+    assert turn.max() < 0.01  # a lying can keeps turning slowly in contact: ~5 mrad
+    # Awake again: colliding, with gravity.
+    for slot in cell.pool.active_slots():
+        geom = cell.pool.geom_id(int(slot))
+        assert cell.model.geom_contype[geom] == 1
+        assert cell.model.body_gravcomp[cell.pool.body_ids[slot]] == 0.0
+
+
+def test_riders_move_at_the_belt_velocity_without_contacts():
+    cell = Cell()
+    cell.reset(0.2775)
+    _drop_rows(cell, 2, first_type=6)
+    riding = ItemRiding(cell.model, cell.pool, cell.wake_x)
+    m, d = cell.model, cell.data
+    while len(riding.riding()) < 6 and d.time < 2.0:
+        mujoco.mj_step(m, d, nstep=20)
+        riding.update(d)
+    riders = riding.riding()
+    assert len(riders) == 6
+    adr = cell.pool.qpos_adr[riders]
+    start = d.qpos[adr[:, None] + np.arange(7)].copy()
+    mujoco.mj_step(m, d, nstep=1000)
+    moved = d.qpos[adr[:, None] + np.arange(7)] - start
+    np.testing.assert_allclose(moved[:, 0], cell.belt.speed * 1.0, atol=1e-9)
+    np.testing.assert_allclose(moved[:, 1:], 0.0, atol=1e-12)  # no sinking, drifting, turning
+    geoms = {cell.pool.geom_id(int(s)) for s in riders}
+    assert not any(g in geoms for g in d.contact.geom[: d.ncon].ravel())
+
+
+def test_a_loose_item_wakes_the_rider_it_comes_near():
+    cell = Cell()
+    cell.reset(0.185)
+    m, d, pool = cell.model, cell.data, cell.pool
+    pool.spawn(d, 0, 0, -2.5, 0.0, 0.0, (1, 1, 1, 1), cell.belt.speed)
+    riding = ItemRiding(m, pool, cell.wake_x)
+    while not len(riding.riding()) and d.time < 1.0:
+        mujoco.mj_step(m, d, nstep=20)
+        riding.update(d)
+    assert list(riding.riding()) == [0]
+    # A can dropped at rest just upstream: it slips on the belt, not yet moving with it.
+    x = d.xpos[pool.body_ids[0], 0] - 0.25
+    pool.spawn(d, 1, 9, x, 0.0, 0.0, (1, 1, 1, 1), vx=0.0)
+    mujoco.mj_step(m, d, nstep=5)
+    riding.update(d)
+    assert len(riding.riding()) == 0 and riding.wakes == 1
+
+
+def test_the_wake_line_is_upstream_of_everything_the_robot_reaches():
+    cell = Cell()
+    xs = np.linspace(-1.5, 0.0, 301)
+    for z in (-0.01, 0.05, 0.15, 0.25):
+        pts = np.stack([xs, np.zeros_like(xs), np.full_like(xs, z)], axis=1)
+        ok = reachable_mask(cell.geometry, pts)
+        assert xs[ok].min() > cell.wake_x + 0.15  # the largest item still clears it
+    assert -1.48 < cell.wake_x < -0.7  # downstream of the camera, upstream of the window
+
+
+def test_item_riding_is_a_validated_setting():
+    assert episode_config.load(None).item_riding == "settled"
+    with pytest.raises(InvalidInput, match="item_riding"):
+        episode_config.load(None, item_riding="kinematic")
