@@ -41,8 +41,8 @@ TIME_TOL = 1e-3
 """Slack added to each fixed-point iterate of the meeting time [s]: the cup waits at most this
 long above the item, and the iteration ends in two or three plans."""
 
-MAX_PLANS = 8
-"""Most pick-half plans the fixed-point iteration makes."""
+MAX_PLANS = 20
+"""Most pick-half plans the fixed-point iteration makes (with the steps past unplannable edges)."""
 
 HORIZON = 10.0
 """Longest wait considered for an item upstream of the window [s]."""
@@ -147,13 +147,14 @@ def intercept_item(
         return pick, pick.phase_start("seal")
 
     # Fixed point T = contact(T): the item moves far slower than the cup, so a few plans do.
+    # At the window's edge a plan may fail (a path leaving the workspace): try a little later.
     t = float(times[first_in])
     t_exit = float(times[last_in])
     pick, contact = earliest_contact(t)
     for _ in range(MAX_PLANS):
-        if contact <= t + 1e-9 or not np.isfinite(contact):
+        if contact <= t + 1e-9:
             break
-        t = contact + TIME_TOL
+        t = contact + TIME_TOL if np.isfinite(contact) else t + SCAN_DT
         if t > t_exit:
             break
         pick, contact = earliest_contact(t)

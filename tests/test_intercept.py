@@ -106,3 +106,14 @@ def test_upstream_item_is_met_inside_the_window(robot):
     assert hit.feasible
     assert is_reachable(geom, hit.pick_xyz)
     assert hit.meet_time > (-0.6 + 1.2) / 0.185  # it had to ride into the window first
+
+
+def test_items_upstream_anywhere_across_the_belt_are_met(robot):
+    # Where an item enters the window a plan may leave the workspace (e.g. from the far bin):
+    # the meeting is then sought a little later, not refused.
+    _, geom, gen = robot
+    for start in BINS:
+        for y in (-0.35, -0.2, 0.0, 0.2, 0.35):
+            hit = intercept_item(State.at_rest(start), (-1.0, y), 0.185, BINS[0], gen, PICK_Z)
+            assert hit.feasible, (start, y, hit.reason)
+            assert is_reachable(geom, hit.pick_xyz)
