@@ -18,13 +18,14 @@ from planner.limits import limits_for_payload
 from planner.reach_window import ReachWindow
 
 PICK_Z = 0.02  # TCP height at contact, as the episode runner uses [m]
-LIFT = 0.05  # lift height the episode runner times picks with [m]
 PAYLOAD_KG = 1.0  # the payload the runner plans trajectories for
 
 
 @functools.lru_cache(maxsize=1)
 def cell_parts():
     """(window, bins, cycle model) of the scene in models/cell."""
+    from sim.catalogue import load_catalogue
+    from sim.episode_robot import PRESS_DEPTH_M, clear_height
     from sim.model import load_scene
     from sim.robot import geometry_from_model
 
@@ -37,7 +38,9 @@ def cell_parts():
         tuple(float(c) for c in data.site(f"bin_{name}_drop").xpos)
         for name in ("paper", "plastic", "aluminium")
     )
-    model_t = CycleTimeModel(limits=limits_for_payload(PAYLOAD_KG), pick_z=PICK_Z, lift_height=LIFT)
+    # The lift the episode runner makes: a held item's bottom up to the clear height.
+    lift = clear_height(load_catalogue()) + PRESS_DEPTH_M
+    model_t = CycleTimeModel(limits=limits_for_payload(PAYLOAD_KG), pick_z=PICK_Z, lift_height=lift)
     return window, bins, model_t
 
 

@@ -23,7 +23,7 @@ from sim.bins import BIN_CLASSES, Bins
 from sim.cell import PICK_Z_NOMINAL, Cell
 from sim.config import EpisodeConfig
 from sim.episode_perception import CAMERA_SIZE, CameraPerception, TruthPerception
-from sim.episode_robot import PickController
+from sim.episode_robot import PRESS_DEPTH_M, PickController
 from sim.flow import generate_flow
 from sim.flow_config import X_INFEED, FlowConfig
 from sim.metrics import EpisodeMetrics, PickRecord
@@ -32,8 +32,6 @@ from sim.video import overlay_of
 
 DECIDE_PERIOD_S = 0.02
 """How often an idle robot asks the decision manager again [s]."""
-TYPICAL_LIFT_M = 0.05
-"""Lift the cycle-time model assumes: an item's bottom clears the rails (see episode_robot)."""
 MAX_LEAD_S = 1.0
 """A pick is started only if the cup meets the item within this time; an item further
 upstream is waited for and decided on again (its position is fresher by then) [s]."""
@@ -105,7 +103,8 @@ class Episode:
             cycle_model=CycleTimeModel(
                 limits=limits,
                 pick_z=PICK_Z_NOMINAL,
-                lift_height=TYPICAL_LIFT_M,
+                # The lift the robot makes: the held item's bottom to the clear height.
+                lift_height=self.robot.clear_z + PRESS_DEPTH_M,
                 seal_time=self.robot.config.seal_time,
                 release_time=self.robot.config.release_time,
             ),

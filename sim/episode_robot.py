@@ -19,6 +19,7 @@ from planner.errors import PlannerInputError
 from planner.intercept import Intercept, intercept_item
 from planner.pick_cycle import PickPlaceConfig
 from planner.trajectory import State
+from sim.catalogue import Catalogue
 from sim.cell import Cell
 from sim.suction import SuctionCup
 
@@ -34,7 +35,16 @@ RELEASE_CLEAR_S = 0.06
 """The cup stays still this long after the release so that the falling item clears its lip
 (about 2 cm of fall) before the next move starts sideways [s]."""
 CLEARANCE_M = 0.025
-"""Gap kept between a held item's bottom and the rails or a bin's rim [m]."""
+"""Gap kept between a held item's bottom and the rails, the tallest item on the belt or a
+bin's rim [m]."""
+
+
+def clear_height(catalogue: Catalogue) -> float:
+    """Height [m] a held item's bottom keeps above the belt once lifted: over the rails and
+    over the tallest catalogue item standing on the belt (a held item swept lower knocks
+    standing cans off the belt), plus `CLEARANCE_M`."""
+    tallest = max(2.0 * t.rest_height for t in catalogue.types)
+    return max(RAIL_TOP_Z, tallest) + CLEARANCE_M
 
 
 @dataclass(frozen=True)
@@ -84,6 +94,7 @@ class PickController:
         self.rest = cell.tcp()
         self.axis4 = float(cell.data.joint("axis4_joint").qpos[0])
         self.plan_failures = 0
+        self.clear_z = clear_height(cell.catalogue)
 
     def item_near(self, x: float, y: float) -> tuple[float, float]:
         """(top height [m], heading [rad]) of the item nearest (x, y) now.
@@ -123,19 +134,23 @@ class PickController:
         """Intercept of an item now at (x, y) [m], carried to the bin of `bin_class`.
 
         The item hangs under the cup by its height (its top is where the cup seals), so the
-        lift and the release point keep its bottom `CLEARANCE_M` above the rails (the bins'
-        rims are lower); axis 4 turns the item's long axis along the bin's long side.
+        lift and the release point keep its bottom at `clear_height` (over the rails and the
+        tallest item on the belt; the bins' rims are lower); axis 4 turns the item's long axis
+        along the bin's long side.
         """
         top, yaw = self.item_near(x, y)
         # Turn axis 4 on the way so the item's long axis ends along the bins' long side (x).
+        # An item looks the same turned by pi: of the turns that align it, take the one that
+        # ends axis 4 nearest zero, so its angle never drifts into the joint's +-pi limit.
         turn = -float(np.arctan2(np.sin(yaw), np.cos(yaw)))
         turn = (turn + np.pi / 2) % np.pi - np.pi / 2
+        turn = min((turn + k * np.pi for k in (-1, 0, 1)), key=lambda a: abs(self.axis4 + a))
         pick_z = max(top - PRESS_DEPTH_M, 0.0)
         height = max(top, 0.0)
-        lift = max(self.config.lift_height, RAIL_TOP_Z + CLEARANCE_M + height - pick_z)
+        lift = max(self.config.lift_height, self.clear_z + height - pick_z)
         drop = np.array(self.cell.drop_xyz[bin_class], dtype=float)
         # Long items overhang the bin towards the belt: keep them above the rails too.
-        drop[2] = max(drop[2], RAIL_TOP_Z + CLEARANCE_M + height)
+        drop[2] = max(drop[2], self.clear_z + height)
         config = replace(self.config, lift_height=lift)
         try:
             return intercept_item(

@@ -35,7 +35,7 @@ def run(model, data, bins, seconds, held_slot=None):
 def test_interiors_are_read_from_the_bin_geoms():
     _, _, _, bins = cell()
     low, high = bins.interiors["paper"]
-    np.testing.assert_allclose(low, [-0.2, -0.63, -0.34], atol=1e-9)
+    np.testing.assert_allclose(low, [-0.2, -0.73, -0.34], atol=1e-9)
     np.testing.assert_allclose(high, [0.2, -0.45, -0.05], atol=1e-9)
     assert bins.bin_at([0.21, 0.54, -0.3]) == "aluminium"
     assert bins.bin_at([0.0, 0.0, 0.0]) is None
