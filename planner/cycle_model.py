@@ -41,7 +41,7 @@ def jerk_limited_time(d: float, v: float, a: float, j: float) -> float:
 # payload 0.1 kg, the cell's bins, items across the belt at x1/x1.2/x1.5, default pick config);
 # reproduce with `python benchmarks/bench_motion.py --fit`.
 PICK_COEF = (0.0350, 1.0157)
-PLACE_COEF = (0.0353, 1.0008)
+PLACE_COEF = (0.0490, 1.0023)
 
 
 @dataclass(frozen=True)
