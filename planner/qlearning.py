@@ -26,9 +26,18 @@ Reading of the thesis, where it leaves room (each choice marked so it can be rev
   the same path; it is computed once and the updates are repeated along it, which gives the
   same q as replaying the episodes.
 - Choice (3.4.2): the item of maximum q in the batch; ties go to the item leaving first.
-- Time (3.4.2, "how much time the robot would have in the real world"): only items the cup can
+- Time (3.4.2, "how much time the robot would have in the real world ... the robot will
+  eventually lose items due to the movement of the conveyor belt"): only items the cup can
   meet now, inside the reachable window, by the cycle-time model, are candidates; an item still
-  upstream of the window waits for a later decision (the reward has no notion of waiting).
+  upstream of the window waits for a later decision (the reward has no notion of waiting). By
+  default (`episode_starts` > 0) the episodes run in time as well (`planner.qlearning_episodes`):
+  one episode per candidate first pick (the `episode_starts` of highest reward), the robot
+  released over that item's bin on the cycle-time model's clock, then taking the item of
+  highest reward it can still meet, for up to `episode_steps` moves; q of the first pick is
+  eq. 3.5 along its episode. Items the belt carries away during an episode are lost to it, so a
+  first pick is worth what it leaves the robot time for. On seeded dense belts (the cycle-time
+  model's simulator, `tests/test_decision_qlearning.py`) this earns more than the proximity
+  picker and than the reward path's q alone (`episode_starts = 0`, the first reading).
 - q is one value per item (the thesis's q matrix has the reward matrix's 20 x 27 shape), not per
   (robot position, item): the continuation term of an item is the best q among the items left,
   whatever bin the robot would then be at. Objective O_total (eq. 3.4) is the thesis's score
@@ -45,6 +54,7 @@ import numpy as np
 from planner.candidates import Candidate, candidates, choice_of
 from planner.decision import MATERIALS, Choice, DecisionContext, RobotState, TrackedItem
 from planner.errors import PlannerInputError
+from planner.qlearning_episodes import episode_q
 
 OBJECTIVES = ("v/d", "d=1", "v=1")
 BELT_COLUMNS = 25
@@ -63,6 +73,9 @@ class QLearningConfig:
         row_period_s: Belt travel time of one grid row [s] (the observation period).
         objective: 'v/d' (eq. 3.3), 'd=1' (value only) or 'v=1' (distance only), section 4.1.3.
         tolerance: Largest q change that counts as converged.
+        episode_starts: First picks (those of highest reward) whose episodes in time are run
+            (`planner.qlearning_episodes`); 0 chooses by the q of the reward path alone.
+        episode_steps: Most moves of each such episode after its first pick.
     """
 
     gamma: float = 0.9
@@ -71,10 +84,16 @@ class QLearningConfig:
     row_period_s: float = 0.5
     objective: str = "v/d"
     tolerance: float = 1e-12
+    episode_starts: int = 8
+    episode_steps: int = 16
 
     def __post_init__(self):
         if not (isinstance(self.gamma, int | float) and 0.0 <= self.gamma < 1.0):
             raise PlannerInputError("gamma", "a number in [0, 1)", self.gamma)
+        for name in ("episode_starts", "episode_steps"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+                raise PlannerInputError(name, "an integer >= 0", value)
         for name in ("iterations", "batch_rows"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
@@ -199,7 +218,8 @@ class QLearningPlanner:
     ) -> Choice | None:
         """The item of maximum q in the most downstream batch with a feasible pick."""
         cfg = self.config
-        cands = candidates(items, robot, context, immediate_only=True, with_place=False)
+        timed = cfg.episode_starts > 0  # the episodes go on from the release over the bin
+        cands = candidates(items, robot, context, immediate_only=True, with_place=timed)
         if not cands:
             return None
         v = context.belt_speed
@@ -209,11 +229,48 @@ class QLearningPlanner:
         current = min(batches)
         cands = [c for c, b in zip(cands, batches, strict=True) if b == current]
         w, next_state = weights(cands, robot, context, cfg.objective)
-        q, episodes = q_values(w, next_state, cfg.gamma, cfg.iterations, cfg.tolerance)
-        k = int(np.argmax(q))
+        if cfg.episode_starts:
+            batch = [
+                it
+                for it in items
+                if context.expected_value(it) > 0.0
+                and batch_index(it, robot.time, v, cfg, self._origin) == current
+            ]
+            q, moves = self._episodes_in_time(cands, w[0], batch, robot, context)
+            k = int(np.argmax(q))
+            detail = f"episode of {moves[k]} moves"
+        else:
+            q, episodes = q_values(w, next_state, cfg.gamma, cfg.iterations, cfg.tolerance)
+            k = int(np.argmax(q))
+            detail = f"{episodes} episodes"
         col = grid_column(cands[k].item.y)
         return choice_of(
             cands[k],
             f"max q {q[k]:.4f} (w {w[0, k]:.4f}), batch {current}, column {col}, "
-            f"{len(cands)} items, {episodes} episodes",
+            f"{len(cands)} items, {detail}",
         )
+
+    def _episodes_in_time(self, cands, w0, batch, robot, context):
+        """q [reward units] and episode length of each candidate first pick; -inf for the
+        candidates outside the `episode_starts` of highest reward."""
+        cfg = self.config
+        q = np.full(len(cands), -np.inf)
+        moves = [0] * len(cands)
+        for k in np.argsort(-w0, kind="stable")[: cfg.episode_starts]:
+            first = cands[k]
+            others = [
+                (it.item_id, it.x, it.y, context.expected_value(it), it.bin_class)
+                for it in batch
+                if it.item_id != first.item.item_id
+            ]
+            q[k], moves[k] = episode_q(
+                first,
+                float(w0[k]),
+                others,
+                robot.time,
+                context,
+                cfg.gamma,
+                cfg.objective,
+                cfg.episode_steps,
+            )
+        return q, moves
