@@ -6,11 +6,11 @@ velocity), so T solves T = D(T), D being the duration of the approach-and-descen
 the item will be at T, planned within every limit (the motors' speed and torque checks slow the
 long approaches; an estimate without them is optimistic and its plans fail). The item moves
 far slower than the cup, so D changes little with T and the iteration T <- D(T), started where
-the item enters the reachable window, settles in two or three plans. The descent of the last
-plan is then stretched to touch down exactly at T (ruckig's minimum duration), and the place
-half (lift, transfer, release) is planned from the seal's end. An item that leaves the
-reachable window (contact, approach, seal and lift points all reachable) before it can be met
-is refused with the reason.
+the item enters the reachable window, settles in two or three plans. The approach of the last
+plan is then stretched to touch down exactly at T (ruckig's minimum duration; the cup waits
+above the item), and the place half (lift, transfer, release) is planned from the seal's end.
+An item that leaves the reachable window (contact, approach, seal and lift points all
+reachable) before it can be met is refused with the reason.
 """
 
 from __future__ import annotations

@@ -9,10 +9,11 @@ integrated by MuJoCo like any other body (the camera renders it, the truth perce
 It wakes, with its contacts and gravity back, before it reaches `wake_x`, upstream of anything the
 robot or a held item can touch, and from then on it is simulated in full: the pick is physics.
 
-An item is also woken whenever a colliding item comes within `PROXIMITY_M` of it (an item that
-has not settled, e.g. one still rolling after its drop), so riding never lets two items pass
-through each other. `ItemRiding(enabled=False)` keeps every item in contact dynamics (the
-reference the tests compare against).
+A rider is also woken whenever an item that is not moving with the belt (one still rolling
+after its drop, one knocked about) comes within `PROXIMITY_M` of it, so riding never lets two
+items pass through each other; items that move with the belt keep their distances.
+`ItemRiding(enabled=False)` keeps every item in contact dynamics (the reference the tests
+compare against).
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ so their contacts have settled again long before the cup arrives [m]."""
 RIDE_MARGIN_M = 0.05
 """An item starts riding only this far upstream of `wake_x` (no ride-wake flicker) [m]."""
 PROXIMITY_M = 0.02
-"""A rider wakes when a colliding item's bounding sphere comes this close to its own [m]."""
+"""A rider wakes when a loose item's bounding sphere comes this close to its own [m]."""
 
 
 def wake_line(reachable, item_radius: float, z_range=(-0.02, 0.3)) -> float:
