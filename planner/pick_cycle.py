@@ -85,7 +85,6 @@ def pick_place_waypoints(
     drop_xyz: Sequence[float],
     config: PickPlaceConfig,
     axis4: tuple[float, float] = (0.0, 0.0),
-    contact_time: float | None = None,
 ) -> list[Waypoint]:
     """Waypoints of one pick and place (the chain's start is the robot's current state).
 
@@ -95,7 +94,8 @@ def pick_place_waypoints(
         drop_xyz: Release point above the bin [m].
         config: Heights and times.
         axis4: Axis-4 angle at the pick and at the drop [rad].
-        contact_time: If set, touch the item exactly at this time [s from start].
+
+    The descent arrives time-optimally; `delay_contact` touches down later.
     """
     p = np.asarray(pick_xyz, dtype=float)
     b = np.asarray(drop_xyz, dtype=float)
@@ -111,7 +111,6 @@ def pick_place_waypoints(
             dwell=config.seal_time,
             label="descend",
             dwell_label="seal",
-            arrival_time=contact_time,
             slow=config.touchdown_slow,
         ),
         # Straight up to the lift height, then the transfer: a held item swept sideways while
@@ -139,14 +138,13 @@ def plan_pick(
     config: PickPlaceConfig,
 ) -> Chain:
     """The pick half (approach, descend, seal) of `pick_place_waypoints`, time-optimal within
-    every limit: its "seal" phase starts at the earliest possible contact (the waypoints'
-    `contact_time` is ignored here; `delay_contact` moves the contact later).
+    every limit: its "seal" phase starts at the earliest possible contact (`delay_contact`
+    moves the contact later).
 
     Raises:
         PlannerInputError: no such chain within the limits.
     """
-    approach, descend = waypoints[0], replace(waypoints[1], arrival_time=None)
-    return plan_chain(start, [approach, descend], generator, blend=config.blend)
+    return plan_chain(start, list(waypoints[:2]), generator, blend=config.blend)
 
 
 def delay_contact(

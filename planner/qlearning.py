@@ -54,12 +54,11 @@ import numpy as np
 from planner.candidates import Candidate, candidates, choice_of
 from planner.decision import MATERIALS, Choice, DecisionContext, RobotState, TrackedItem
 from planner.errors import PlannerInputError
-from planner.qlearning_episodes import episode_q
+from planner.qlearning_episodes import MIN_DISTANCE, episode_q
 
 OBJECTIVES = ("v/d", "d=1", "v=1")
 BELT_COLUMNS = 25
 GRID_COLUMNS = BELT_COLUMNS + 2
-MIN_DISTANCE = 1e-3  # [m] keeps w finite for an item under the cup
 
 
 @dataclass(frozen=True)
