@@ -18,9 +18,9 @@ import time
 import mujoco
 import numpy as np
 
-from sim.belt import Belt
-from sim.catalogue import load_catalogue
-from sim.item_pool import ItemPool
+from sim.cell.conveyor import Belt
+from sim.cell.item_pool import ItemPool
+from sim.flow.catalogue import load_catalogue
 from sim.paths import REPO_ROOT
 
 SCENE = REPO_ROOT / "tests" / "models" / "belt_items.xml"

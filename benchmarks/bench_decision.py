@@ -12,10 +12,10 @@ import time
 
 import numpy as np
 
-from planner.decision import RobotState, TrackedItem
-from planner.evaluation import extreme_value_picks, objective_variants, oracle_fractions
-from planner.registry import PLANNERS, make_planner
-from sim.decision_cell import cell_context
+from planner.decision.evaluation import extreme_value_picks, objective_variants, oracle_fractions
+from planner.decision.interface import RobotState, TrackedItem
+from planner.decision.registry import PLANNERS, make_planner
+from sim.episode.decision_view import cell_context
 
 CMD = ".venv/bin/python benchmarks/bench_decision.py"
 
@@ -76,7 +76,8 @@ def main() -> int:
     tic = time.perf_counter()
     result = oracle_fractions(context_for, range(n_belts))
     print(
-        f"profit / oracle bound on {n_belts} seeded busy belts (planner.evaluation.short_belt), "
+        f"profit / oracle bound on {n_belts} seeded busy belts "
+        "(planner.decision.evaluation.short_belt), "
         f"{time.perf_counter() - tic:.0f} s"
     )
     for name, (mean, low, total) in result.summary().items():

@@ -23,8 +23,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np  # noqa: E402
 
-from sim import config as episode_config  # noqa: E402
-from sim.episode import Cell, run_episode  # noqa: E402
+from sim.episode import config as episode_config  # noqa: E402
+from sim.episode.runner import Cell, run_episode  # noqa: E402
 
 
 def _pct(values: list[float], q: float) -> float:
@@ -112,7 +112,7 @@ def main() -> int:
             )
         )
         print(f"  ({time.perf_counter() - t0:.0f} s)")
-    from sim.cycle1 import run_cycle1
+    from sim.experiments.cycle1 import run_cycle1
 
     report = run_cycle1(1.0)
     print(

@@ -15,10 +15,10 @@ import time
 import numpy as np
 from scipy import stats
 
-from sim.catalogue import load_catalogue
-from sim.flow import generate_flow
-from sim.flow_config import FlowConfig
-from sim.truth import flow_truth
+from sim.flow.catalogue import load_catalogue
+from sim.flow.config import FlowConfig
+from sim.flow.generator import generate_flow
+from sim.flow.ground_truth import flow_truth
 
 
 def main() -> None:

@@ -11,8 +11,8 @@ import time
 
 import numpy as np
 
-from perception.hmm_online import OnlineConfig, OnlineStripeHmms
-from perception.hmm_train import count_models
+from perception.hmm.online import OnlineConfig, OnlineStripeHmms
+from perception.hmm.training import count_models
 
 
 def _models(coupled: bool, rng):

@@ -14,18 +14,18 @@ import time
 import mujoco
 import numpy as np
 
-from planner.cycle_calibration import draw_samples, fitted_model
-from planner.cycle_model import CycleTimeModel
-from planner.intercept import intercept_item
-from planner.kinematics import inverse_kinematics
-from planner.limits import limits_for_payload
-from planner.pick_cycle import plan_cycle1, plan_pick_place
-from planner.ruckig_trajectory import RuckigTrajectoryGenerator
-from planner.trajectory import State
-from sim.cycle1 import CYCLE1_START, run_cycle1
-from sim.executor import TrajectoryExecutor, lumped_dynamics
-from sim.model import load_robot
-from sim.robot import geometry_from_model, set_configuration
+from planner.motion.cycle_calibration import draw_samples, fitted_model
+from planner.motion.cycle_model import CycleTimeModel
+from planner.motion.intercept import intercept_item
+from planner.motion.kinematics import inverse_kinematics
+from planner.motion.limits import limits_for_payload
+from planner.motion.pick_cycle import plan_cycle1, plan_pick_place
+from planner.motion.ruckig_trajectory import RuckigTrajectoryGenerator
+from planner.motion.trajectory import State
+from sim.cell.executor import TrajectoryExecutor, lumped_dynamics
+from sim.cell.mjcf import load_robot
+from sim.cell.robot import geometry_from_model, set_configuration
+from sim.experiments.cycle1 import CYCLE1_START, run_cycle1
 
 BINS = ((0.0, -0.51, 0.06), (-0.21, 0.51, 0.06), (0.21, 0.51, 0.06))
 SPEEDS = (0.185, 0.222, 0.2775)

@@ -2,7 +2,7 @@
 
 Scene: the cell (`models/cell/scene.xml`) with 15 catalogue items placed at random (seeded) in
 and around the camera band, robot at home. Each repetition renders the belt camera's frame
-through the lens model (`sim.camera.BeltCamera`, with the registered depth map a stereo camera
+through the lens model (`sim.cell.camera.BeltCamera`, with the registered depth map a stereo camera
 gives), undistorts and rectifies it onto the belt plane (`CameraPipeline.rectify`: one remap
 plus the marker check), codes the band's five cells from that image (`CameraPipeline.code_row`)
 and, the pipeline's default when depth is given, maps the items' footprints from frame + depth
@@ -21,17 +21,17 @@ import time
 import mujoco
 import numpy as np
 
-from perception.calibration import CameraCalibration
-from perception.grid import BeltGrid
-from perception.lens import ZED_HD_LEFT
-from perception.pipeline import CameraPipeline
-from sim.belt import Belt
-from sim.camera import BeltCamera, marker_points
-from sim.camera_checks import grid_corner_errors
-from sim.catalogue import load_catalogue
-from sim.cmd_calibrate import DEFAULT_CALIBRATION
-from sim.item_pool import ItemPool
-from sim.model import load_scene
+from perception.camera.calibration import CameraCalibration
+from perception.camera.grid import BeltGrid
+from perception.camera.lens import ZED_HD_LEFT
+from perception.camera.pipeline import CameraPipeline
+from sim.cell.camera import BeltCamera, marker_points
+from sim.cell.conveyor import Belt
+from sim.cell.item_pool import ItemPool
+from sim.cell.mjcf import load_scene
+from sim.cli.calibrate import DEFAULT_CALIBRATION
+from sim.experiments.camera_checks import grid_corner_errors
+from sim.flow.catalogue import load_catalogue
 
 N_ITEMS = 15
 SPEED = 0.185

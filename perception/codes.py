@@ -1,4 +1,5 @@
-"""The thesis's classes (table 3.1) and observation codes (table 3.2), shared by truth and camera.
+"""The class vocabulary: the thesis's classes (table 3.1), their values (table 3.3) and
+observation codes (table 3.2), the one home that perception, the planner and the cell all read.
 
 Codes 1..18 are size x colour, size-major: small 1-6, medium 7-12, large 13-18, colours in the
 order transparent, brown, white, blue, red, green; code 19 is an empty cell (black belt).
@@ -13,6 +14,10 @@ import numpy as np
 CLASS_NAMES = ("void", "paper", "plastic", "aluminium")
 VOID, PAPER, PLASTIC, ALUMINIUM = 1, 2, 3, 4
 N_STATES = 4
+MATERIALS = (PAPER, PLASTIC, ALUMINIUM)
+"""The material classes, one bin each, in the order every value tuple uses."""
+THESIS_VALUES_EUR = (0.22, 0.25, 0.27)
+"""Value of an item of each material [EUR] (thesis table 3.3), in the order of MATERIALS."""
 
 COLOURS = ("transparent", "brown", "white", "blue", "red", "green")
 SIZES = ("small", "medium", "large")

@@ -1,28 +1,19 @@
 """Errors the command line turns into exit codes.
 
-`InvalidInput` (and the matching classes of `planner` and `perception`, which cannot import
-`sim`) means the user asked for something we refuse: the CLI prints its one-line message and
-exits with code 2. Anything else is a bug or an environment failure: exit code 1.
+Every refusal derives from `perception.errors.RefusedInput` (the project's one root, importable
+by the pure packages too): the CLI prints its one-line message and exits with code 2. Anything
+else is a bug or an environment failure: exit code 1.
 """
 
 from __future__ import annotations
 
+from perception.errors import RefusedInput, SortsimError
 
-class SortsimError(Exception):
-    """Base of every error this package raises on purpose."""
+__all__ = ["InvalidInput", "ModelFileError", "NotAvailable", "RefusedInput", "SortsimError"]
 
 
-class InvalidInput(SortsimError, ValueError):
-    """A refused input: names the field, what was given and what is allowed."""
-
-    def __init__(self, field: str, allowed: str, got: object = None, where: str | None = None):
-        self.field = field
-        self.allowed = allowed
-        self.got = got
-        self.where = where
-        got_text = "" if got is None else f" (got {got!r})"
-        where_text = f" in {where}" if where else ""
-        super().__init__(f"{field}{where_text}: allowed {allowed}{got_text}")
+class InvalidInput(RefusedInput):
+    """A refused input of the simulation side (config, files, options)."""
 
 
 class ModelFileError(InvalidInput):
@@ -36,6 +27,9 @@ class ModelFileError(InvalidInput):
         self.allowed = "an existing, compilable MJCF file"
         self.got = path
         self.where = None
+
+    def __reduce__(self):
+        return (type(self), (self.path, self.reason))
 
 
 class NotAvailable(SortsimError):

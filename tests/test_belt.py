@@ -8,11 +8,18 @@ import mujoco
 import numpy as np
 import pytest
 
-from sim.belt import SPEED_FACTORS, SPEED_MAX, SPEED_MIN, Belt, check_speed, speed_for_factor
-from sim.catalogue import load_catalogue
+from sim.cell.conveyor import (
+    SPEED_FACTORS,
+    SPEED_MAX,
+    SPEED_MIN,
+    Belt,
+    check_speed,
+    speed_for_factor,
+)
+from sim.cell.item_pool import ItemPool
 from sim.errors import InvalidInput
-from sim.item_pool import ItemPool
-from sim.paths import SCENE_XML
+from sim.flow.catalogue import load_catalogue
+from tests.utils import scene_at_home
 
 CATALOGUE = load_catalogue()
 SPEED_TOLERANCE = 0.02  # relative, after 1 s on the belt
@@ -22,11 +29,7 @@ HEIGHT_TOLERANCE = 0.001  # [m] around the resting height: not tipped, not rolle
 
 
 def cell():
-    model = mujoco.MjModel.from_xml_path(str(SCENE_XML))
-    data = mujoco.MjData(model)
-    mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
-    mujoco.mj_forward(model, data)
-    return model, data
+    return scene_at_home()
 
 
 def test_speed_factors_and_range():

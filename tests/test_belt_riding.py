@@ -1,4 +1,4 @@
-"""Settled items riding the belt without contact dynamics (`sim.belt_riding`).
+"""Settled items riding the belt without contact dynamics (`sim.cell.riding`).
 
 The same items are dropped on the cell's belt twice, once riding when settled and once in
 contact dynamics all the way; where they cross the wake line and after it, both runs must agree
@@ -14,10 +14,10 @@ import mujoco
 import numpy as np
 import pytest
 
-from planner.kinematics import reachable_mask
-from sim import config as episode_config
-from sim.belt_riding import ItemRiding
-from sim.cell import Cell
+from planner.motion.kinematics import reachable_mask
+from sim.cell.cell import Cell
+from sim.cell.riding import ItemRiding
+from sim.episode import config as episode_config
 from sim.errors import InvalidInput
 
 CHECK_S = 0.02

@@ -6,20 +6,17 @@ import mujoco
 import numpy as np
 import pytest
 
-from sim.belt import Belt
-from sim.bins import Bins
-from sim.catalogue import load_catalogue
-from sim.item_pool import ItemPool
-from sim.paths import SCENE_XML
+from sim.cell.bins import Bins
+from sim.cell.conveyor import Belt
+from sim.cell.item_pool import ItemPool
+from sim.flow.catalogue import load_catalogue
+from tests.utils import scene_at_home
 
 CATALOGUE = load_catalogue()
 
 
 def cell():
-    model = mujoco.MjModel.from_xml_path(str(SCENE_XML))
-    data = mujoco.MjData(model)
-    mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
-    mujoco.mj_forward(model, data)
+    model, data = scene_at_home()
     pool = ItemPool(model, CATALOGUE, Belt(model))
     return model, data, pool, Bins(model, data, pool)
 

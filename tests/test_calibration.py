@@ -9,12 +9,12 @@ import mujoco
 import numpy as np
 import pytest
 
-from perception.calibration import CameraCalibration, calibrate
+from perception.camera.calibration import CameraCalibration, calibrate
+from perception.camera.lens import ZED_HD_LEFT
 from perception.errors import PerceptionError, PerceptionInputError
-from perception.lens import ZED_HD_LEFT
-from sim.camera import true_camera_matrix
-from sim.cli import main as cli_main
-from sim.cmd_calibrate import DEFAULT_CALIBRATION
+from sim.cell.camera import true_camera_matrix
+from sim.cli.calibrate import DEFAULT_CALIBRATION
+from sim.cli.main import main as cli_main
 from sim.paths import REPO_ROOT, SCENE_XML
 
 FIXTURE = REPO_ROOT / "tests" / "models" / "belt_camera.xml"

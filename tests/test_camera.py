@@ -9,8 +9,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from perception.rectify import colour_mask
-from sim.camera import BeltCamera, camera_pose, marker_points, true_camera_matrix
+from perception.camera.rectify import colour_mask
+from sim.cell.camera import BeltCamera, camera_pose, marker_points, true_camera_matrix
 from sim.errors import InvalidInput, ModelFileError
 from sim.paths import REPO_ROOT, SCENE_XML
 

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from perception.codes import COLOURS
-from sim.catalogue import MATERIALS, load_catalogue
 from sim.errors import InvalidInput
+from sim.flow.catalogue import MATERIALS, load_catalogue
 
 STRIPE_WIDTH = 0.16
 ROW_PITCHES = {1.0: 0.0925, 1.2: 0.111, 1.5: 0.13875}

@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from sim.cli import COMMANDS, build_parser, main
+from sim.cli.main import COMMANDS, build_parser, main
 
 
 def test_top_level_help_lists_every_command(capsys):
@@ -29,7 +29,7 @@ def test_each_subcommand_has_help(name, capsys):
 
 def test_unknown_planner_is_refused_with_exit_2():
     proc = subprocess.run(
-        [sys.executable, "-m", "sim.cli", "run", "--planner", "random"],
+        [sys.executable, "-m", "sim.cli.main", "run", "--planner", "random"],
         capture_output=True,
         text=True,
     )

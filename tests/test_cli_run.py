@@ -9,13 +9,13 @@ import imageio.v2 as imageio
 import numpy as np
 import pytest
 
-from sim import outputs
+from sim.episode import outputs
 from tests.test_outputs import DESIGN_EPISODE_COLUMNS, DESIGN_PICK_COLUMNS
 
 
 def _run(*args, timeout=300):
     return subprocess.run(
-        [sys.executable, "-m", "sim.cli", "run", *map(str, args)],
+        [sys.executable, "-m", "sim.cli.main", "run", *map(str, args)],
         capture_output=True,
         text=True,
         timeout=timeout,

@@ -7,8 +7,8 @@ import re
 import numpy as np
 import pytest
 
-from perception.hmm_io import load_models
-from sim.cli import main
+from perception.hmm.storage import load_models
+from sim.cli.main import main
 
 ARGS = ["hmm-eval", "--train-seeds", "0-3", "--extra-seeds", "200", "--test-seeds", "100-101"]
 

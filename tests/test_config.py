@@ -7,8 +7,9 @@ import sys
 
 import pytest
 
-from sim import config, sweep_config
+from sim.episode import config
 from sim.errors import InvalidInput
+from sim.experiments import sweep_config
 from sim.paths import EXPERIMENTS_DIR
 
 
@@ -110,7 +111,7 @@ def test_bad_sweep_refused_before_any_episode(tmp_path, text, key):
 def test_cli_refuses_bad_config_with_exit_2_in_one_line(tmp_path, command):
     path = tmp_path / "bad.toml"
     path.write_text("[values]\naluminium = -3\n" if command == "run" else "[sweep]\nitems = [-1]\n")
-    args = [sys.executable, "-m", "sim.cli", command, "--config", str(path)]
+    args = [sys.executable, "-m", "sim.cli.main", command, "--config", str(path)]
     if command == "sweep":
         args += ["--out", str(tmp_path / "out")]
     proc = subprocess.run(args, capture_output=True, text=True, timeout=60)

@@ -9,14 +9,14 @@ import numpy as np
 import pytest
 from ruckig import InputParameter, Ruckig, Trajectory
 
-from planner.cycle_calibration import draw_samples, fitted_model
-from planner.cycle_model import CycleTimeModel, jerk_limited_time
 from planner.errors import PlannerInputError
-from planner.limits import limits_for_payload
-from planner.ruckig_trajectory import RuckigTrajectoryGenerator
-from sim.executor import lumped_dynamics
-from sim.model import load_robot
-from sim.robot import geometry_from_model
+from planner.motion.cycle_calibration import draw_samples, fitted_model
+from planner.motion.cycle_model import CycleTimeModel, jerk_limited_time
+from planner.motion.limits import limits_for_payload
+from planner.motion.ruckig_trajectory import RuckigTrajectoryGenerator
+from sim.cell.executor import lumped_dynamics
+from sim.cell.mjcf import load_robot
+from sim.cell.robot import geometry_from_model
 
 BINS = ((0.0, -0.51, 0.06), (-0.21, 0.51, 0.06), (0.21, 0.51, 0.06))
 N_FRESH = 60

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from planner.belt_sim import oracle_bound, simulate
-from planner.evaluation import extreme_value_picks, oracle_fractions, short_belt
-from planner.registry import make_planner
-from sim.decision_cell import cell_context
+from planner.decision.evaluation import extreme_value_picks, oracle_fractions, short_belt
+from planner.decision.kinematic_belt import oracle_bound, simulate
+from planner.decision.registry import make_planner
+from sim.episode.decision_view import cell_context
 
 PLANNERS = ("qlearning", "proximity", "fifo", "greedy")
 
@@ -62,7 +62,7 @@ def test_extreme_values_raise_the_boosted_class_share(planner):
 
 def test_a_wrong_bin_earns_nothing():
     """Class probabilities that favour the wrong class send the item to the wrong bin."""
-    from planner.belt_sim import Belt, BeltItem
+    from planner.decision.kinematic_belt import Belt, BeltItem
 
     ctx = cell_context(0.185)
     fooled = BeltItem(0, -0.1, 0.2, 4, (0.0, 0.1, 0.6, 0.3))  # aluminium taken for plastic
@@ -77,8 +77,8 @@ def test_a_wrong_bin_earns_nothing():
 def test_any_cycle_time_estimator_plugs_in():
     """The planners only use the CycleTimeEstimator protocol: a straight-line model works too,
     and a slower robot earns less on the same belt."""
-    from planner.decision import DecisionContext
-    from planner.straight_line_timing import StraightLineCycleModel
+    from planner.decision.interface import DecisionContext
+    from planner.motion.straight_line_timing import StraightLineCycleModel
 
     fitted = cell_context(0.185)
     belt = short_belt(5)
@@ -96,7 +96,7 @@ def test_any_cycle_time_estimator_plugs_in():
 def test_objective_variants_order_accuracy_as_the_thesis():
     """Section 4.1.3: ignoring value (v = 1) picks more items than ignoring distance (d = 1);
     v/d lies above d = 1 too."""
-    from planner.evaluation import objective_variants
+    from planner.decision.evaluation import objective_variants
 
     out = objective_variants(cell_context, seeds=range(3))
     assert out["v=1"][0] > out["d=1"][0]

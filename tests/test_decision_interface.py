@@ -4,14 +4,14 @@ from __future__ import annotations
 
 import pytest
 
-from planner.cycle_model import CycleTimeModel
-from planner.decision import CycleTimeEstimator, DecisionContext, RobotState, TrackedItem
+from planner.decision.interface import CycleTimeEstimator, DecisionContext, RobotState, TrackedItem
+from planner.decision.qlearning import QLearningConfig
+from planner.decision.registry import PLANNERS, make_planner
 from planner.errors import PlannerInputError
-from planner.qlearning import QLearningConfig
-from planner.reach_window import ReachWindow
-from planner.registry import PLANNERS, make_planner
-from planner.straight_line_timing import StraightLineCycleModel
-from sim.decision_cell import cell_context
+from planner.motion.cycle_model import CycleTimeModel
+from planner.motion.reach_window import ReachWindow
+from planner.motion.straight_line_timing import StraightLineCycleModel
+from sim.episode.decision_view import cell_context
 
 
 def _context(**kw):
@@ -65,7 +65,10 @@ def test_registry_builds_every_planner_and_refuses_unknown_names_and_options():
         assert make_planner(name).name == name
     with pytest.raises(PlannerInputError) as err:
         make_planner("random")
-    assert err.value.allowed == "qlearning | proximity | fifo | greedy | oracle"
+    assert err.value.allowed == (
+        "qlearning | proximity | fifo | greedy | oracle | module:Class "
+        "(a class with choose() and reset())"
+    )
     with pytest.raises(PlannerInputError) as err:
         make_planner("qlearning", alpha=0.5)
     assert "gamma" in err.value.allowed and "alpha" in err.value.field

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import pytest
 
-from planner.belt_sim import Belt, BeltItem, one_hot, oracle_bound, simulate
-from planner.candidates import candidates, intercept
-from planner.decision import RobotState, TrackedItem
-from planner.registry import PLANNERS, make_planner
-from sim.decision_cell import cell_context
+from planner.decision.candidates import candidates, intercept
+from planner.decision.interface import RobotState, TrackedItem
+from planner.decision.kinematic_belt import Belt, BeltItem, one_hot, oracle_bound, simulate
+from planner.decision.registry import PLANNERS, make_planner
+from sim.episode.decision_view import cell_context
 
 V = 0.185
 PAPER_BIN = (0.0, -0.56, 0.06)
@@ -108,7 +108,7 @@ def test_every_choice_is_feasible_and_on_time():
     """On a busy belt every planner's choices are met inside the window, as predicted."""
     import numpy as np
 
-    from planner.belt_sim import random_belt
+    from planner.decision.kinematic_belt import random_belt
 
     ctx = cell_context(V)
     belt = random_belt(np.random.default_rng(3), 20, 1.0, V)

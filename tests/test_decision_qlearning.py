@@ -7,10 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from planner.candidates import candidates
-from planner.decision import RobotState, TrackedItem
-from planner.errors import PlannerInputError
-from planner.qlearning import (
+from planner.decision.candidates import candidates
+from planner.decision.interface import RobotState, TrackedItem
+from planner.decision.qlearning import (
     QLearningConfig,
     QLearningPlanner,
     batch_index,
@@ -19,7 +18,8 @@ from planner.qlearning import (
     reward_path,
     weights,
 )
-from sim.decision_cell import cell_context
+from planner.errors import PlannerInputError
+from sim.episode.decision_view import cell_context
 
 # Rows: robot, paper bin, plastic bin, aluminium bin; items go to paper, plastic, aluminium.
 REWARDS = np.array(
@@ -148,8 +148,8 @@ def test_episodes_in_time_beat_proximity_and_the_reward_path_on_dense_belts():
     """Seeded belts at table 4.6's densest regime (x1.2, 300 items over 135 s): the episodes in
     time earn more than the proximity picker and than q from the reward path alone, belt by
     belt, on the cycle-time model's simulator."""
-    from planner.belt_sim import random_belt, simulate
-    from planner.registry import make_planner
+    from planner.decision.kinematic_belt import random_belt, simulate
+    from planner.decision.registry import make_planner
 
     speed = 0.185 * 1.2
     ctx = cell_context(speed)

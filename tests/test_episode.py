@@ -7,15 +7,10 @@ import sys
 
 import pytest
 
-from sim import config, outputs
-from sim.episode import Cell, run_episode
+from sim.episode import config, outputs
+from sim.episode.runner import run_episode
 
 SHORT = dict(items=8, duration_s=6.0, perception="truth", planner="proximity", seed=3)
-
-
-@pytest.fixture(scope="module")
-def cell():
-    return Cell()
 
 
 @pytest.fixture(scope="module")
@@ -73,8 +68,9 @@ def test_another_seed_gives_another_flow(cell, short_run):
 
 _CHILD = """
 import sys
-from sim import config, outputs
-from sim.episode import run_episode
+from sim.episode import config
+from sim.episode import outputs
+from sim.episode.runner import run_episode
 c = config.load(None, items=5, duration_s=4.0, perception="truth", planner="qlearning", seed=11)
 r = run_episode(c)
 text = outputs.to_csv_text(outputs.EPISODE_COLUMNS, [r.episode_row])

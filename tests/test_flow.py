@@ -4,10 +4,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from sim.catalogue import load_catalogue
 from sim.errors import InvalidInput
-from sim.flow import POOL_CAPACITY_REQUIRED, generate_flow, max_items_on_belt
-from sim.flow_config import (
+from sim.flow.config import (
     BELT_HALF_WIDTH,
     MAX_ITEMS_PER_METRE,
     X_CAMERA,
@@ -15,18 +13,14 @@ from sim.flow_config import (
     FlowConfig,
     stripe_of,
 )
-from sim.footprint import polygon, shift_intervals
+from sim.flow.footprint_polygons import polygon, shift_intervals
+from sim.flow.generator import POOL_CAPACITY_REQUIRED, generate_flow, max_items_on_belt
 
 N_LARGE = 20_000
 STRIPES = (0.10, 0.25, 0.30, 0.20, 0.15)
 TRANSITIONS = ((0.6, 0.3, 0.1), (0.2, 0.5, 0.3), (0.25, 0.25, 0.5))
 TOLERANCE = 0.02
 P_MIN = 1e-3
-
-
-@pytest.fixture(scope="module")
-def catalogue():
-    return load_catalogue()
 
 
 @pytest.fixture(scope="module")

@@ -10,7 +10,8 @@ import pytest
 from hmmlearn import hmm
 
 from perception.errors import PerceptionInputError
-from perception.hmm import (
+from perception.hmm.baum_welch import baum_welch
+from perception.hmm.model import (
     HmmParams,
     filtered,
     log_likelihood,
@@ -19,7 +20,6 @@ from perception.hmm import (
     predict_next,
     viterbi,
 )
-from perception.hmm_em import baum_welch
 
 TOL = 1e-8
 
@@ -158,7 +158,7 @@ def test_codes_out_of_range_are_refused():
 
 
 def test_prior_pseudo_counts_keep_unseen_codes_possible():
-    from perception.hmm_em import Prior
+    from perception.hmm.baum_welch import Prior
 
     rng = np.random.default_rng(5)
     model = random_model(rng)

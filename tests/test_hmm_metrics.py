@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from perception.errors import PerceptionInputError
-from perception.hmm_metrics import THESIS_TABLE_4_1, format_table, stripe_stats, table_4_1
+from perception.hmm.metrics import THESIS_TABLE_4_1, format_table, stripe_stats, table_4_1
 
 
 def test_one_vs_rest_counts_by_hand():

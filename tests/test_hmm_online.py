@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from perception.errors import PerceptionInputError
-from perception.hmm_online import OnlineConfig, OnlineStripeHmms
-from perception.hmm_stripes import infer
-from perception.hmm_train import count_models
+from perception.hmm.online import OnlineConfig, OnlineStripeHmms
+from perception.hmm.stripes import infer
+from perception.hmm.training import count_models
 
 
 def model_and_grid(coupled: bool, rows: int = 120, seed: int = 0):
@@ -82,7 +82,7 @@ def test_refuses_bad_rows_and_config():
 
 
 def test_online_evaluation_equals_batch_filtered_evaluation():
-    from perception.hmm_eval import evaluate, evaluate_online
+    from perception.hmm.evaluation import evaluate, evaluate_online
 
     models, cls, codes = model_and_grid(True, seed=3)
     batch = evaluate(models, [cls], [codes], decode="filtered")

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from perception.errors import PerceptionInputError
-from perception.hmm_io import FORMAT, VERSION, load_models, save_models
-from perception.hmm_train import count_models
+from perception.hmm.storage import FORMAT, VERSION, load_models, save_models
+from perception.hmm.training import count_models
 
 
 @pytest.fixture
@@ -75,7 +75,7 @@ def test_refuses_corrupt_and_missing_files(tmp_path, models):
 
 
 def test_cells_per_item_are_stored_and_checked(tmp_path, models):
-    from perception.hmm_io import load_cells_per_item
+    from perception.hmm.storage import load_cells_per_item
 
     path = save_models(tmp_path / "with_sizes.npz", models, cells_per_item=[np.inf, 20, 16, 13])
     assert np.array_equal(load_cells_per_item(path), [np.inf, 20, 16, 13])
@@ -85,8 +85,8 @@ def test_cells_per_item_are_stored_and_checked(tmp_path, models):
 
 
 def test_trained_models_are_cached(tmp_path):
-    from sim.catalogue import load_catalogue
-    from sim.hmm_models import trained_models
+    from sim.episode.stripe_hmms import trained_models
+    from sim.flow.catalogue import load_catalogue
 
     catalogue = load_catalogue()
     cache = tmp_path / "cache.npz"

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from perception.errors import PerceptionInputError
-from perception.hmm import HmmParams
-from perception.hmm_em import baum_welch
-from perception.hmm_stripes import StripeHmms, infer, reestimate
-from perception.hmm_train import TrainConfig, count_models, neighbour_classes, train
+from perception.hmm.baum_welch import baum_welch
+from perception.hmm.model import HmmParams
+from perception.hmm.stripes import StripeHmms, infer, reestimate
+from perception.hmm.training import TrainConfig, count_models, neighbour_classes, train
 
 
 def coupled_truth(rng, stripes=5):

@@ -17,15 +17,15 @@ import mujoco
 import numpy as np
 import pytest
 
-from planner.intercept import intercept_item
-from planner.kinematics import inverse_kinematics, is_reachable
-from planner.limits import limits_for_payload
-from planner.pick_cycle import PickPlaceConfig
-from planner.ruckig_trajectory import RuckigTrajectoryGenerator
-from planner.trajectory import State
-from sim.executor import TrajectoryExecutor, lumped_dynamics
-from sim.model import load_robot
-from sim.robot import geometry_from_model, set_configuration
+from planner.motion.intercept import intercept_item
+from planner.motion.kinematics import inverse_kinematics, is_reachable
+from planner.motion.limits import limits_for_payload
+from planner.motion.pick_cycle import PickPlaceConfig
+from planner.motion.ruckig_trajectory import RuckigTrajectoryGenerator
+from planner.motion.trajectory import State
+from sim.cell.executor import TrajectoryExecutor, lumped_dynamics
+from sim.cell.mjcf import load_robot
+from sim.cell.robot import geometry_from_model, set_configuration
 
 SPEEDS = (0.185, 0.222, 0.2775)
 PICK_Z = 0.02

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from perception.item_blobs import item_blobs
+from perception.items.blobs import item_blobs
 
 ROWS, STRIPES = 6, 5
 

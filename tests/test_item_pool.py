@@ -6,12 +6,12 @@ import mujoco
 import numpy as np
 import pytest
 
-from sim.belt import Belt
-from sim.catalogue import load_catalogue
+from sim.cell.conveyor import Belt
+from sim.cell.item_pool import ItemPool
+from sim.cell.item_pool_xml import ITEMS_XML, pool_xml
 from sim.errors import InvalidInput
-from sim.flow import POOL_CAPACITY_REQUIRED
-from sim.item_pool import ItemPool
-from sim.item_pool_xml import ITEMS_XML, pool_xml
+from sim.flow.catalogue import load_catalogue
+from sim.flow.generator import POOL_CAPACITY_REQUIRED
 from sim.paths import REPO_ROOT
 
 CATALOGUE = load_catalogue()
@@ -26,7 +26,7 @@ def belt_scene():
 
 
 def test_committed_items_xml_is_up_to_date():
-    assert ITEMS_XML.read_text() == pool_xml(CATALOGUE), "run: python -m sim.item_pool_xml"
+    assert ITEMS_XML.read_text() == pool_xml(CATALOGUE), "run: python -m sim.cell.item_pool_xml"
 
 
 def test_pool_holds_the_flow_capacity_parked_asleep_and_still():
@@ -103,8 +103,8 @@ def test_items_reaching_the_discharge_end_are_parked_as_missed():
 
 
 def test_feed_drops_a_generated_flow_in_order_with_its_types_colours_and_poses():
-    from sim.flow import generate_flow
-    from sim.flow_config import X_INFEED, FlowConfig
+    from sim.flow.config import X_INFEED, FlowConfig
+    from sim.flow.generator import generate_flow
 
     model, data, belt, pool = belt_scene()
     flow = generate_flow(FlowConfig(n_items=20, duration_s=10.0, seed=3), CATALOGUE)
@@ -129,8 +129,8 @@ def test_feed_drops_a_generated_flow_in_order_with_its_types_colours_and_poses()
 
 def test_a_dense_flow_rides_the_whole_belt_and_every_item_is_missed_in_order():
     """At x1.5 every item of a dense flow reaches the discharge end: none falls off the sides."""
-    from sim.flow import generate_flow
-    from sim.flow_config import FlowConfig
+    from sim.flow.config import FlowConfig
+    from sim.flow.generator import generate_flow
 
     model, data, belt, pool = belt_scene()
     flow = generate_flow(

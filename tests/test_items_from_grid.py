@@ -6,14 +6,14 @@ import numpy as np
 import pytest
 
 from perception.errors import PerceptionInputError
-from perception.items_from_grid import (
+from perception.items.from_grid import (
     GridGeometry,
     cells_per_item,
     expand_grid,
     items_components,
     items_kmeans,
 )
-from perception.items_score import pooled, score_items
+from perception.items.scoring import pooled, score_items
 
 GEO = GridGeometry(row_pitch_m=0.0925)
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from planner.errors import PlannerInputError
-from planner.kinematics import (
+from planner.motion.kinematics import (
     DeltaGeometry,
     Unreachable,
     forward_kinematics,
@@ -20,8 +20,8 @@ from planner.kinematics import (
     jacobian,
     reachable_mask,
 )
-from sim.model import load_scene
-from sim.robot import (
+from sim.cell.mjcf import load_scene
+from sim.cell.robot import (
     MOTOR_JOINTS,
     geometry_from_model,
     set_configuration,

@@ -6,8 +6,8 @@ import cv2
 import numpy as np
 import pytest
 
+from perception.camera.lens import ZED_HD_LEFT, LensDistorter, LensModel, source_canvas
 from perception.errors import PerceptionInputError
-from perception.lens import ZED_HD_LEFT, LensDistorter, LensModel, source_canvas
 
 SIZE = (640, 360)
 MATRIX = np.array([[311.77, 0.0, 319.5], [0.0, 311.77, 179.5], [0.0, 0.0, 1.0]])

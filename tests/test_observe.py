@@ -6,18 +6,18 @@ import mujoco
 import numpy as np
 import pytest
 
-from perception.calibration import CameraCalibration
+from perception.camera.calibration import CameraCalibration
+from perception.camera.depth_footprint import FootprintMapper
+from perception.camera.grid import BeltGrid
+from perception.camera.observe import BELT, ColourRules, code_cells
+from perception.camera.pipeline import CameraPipeline
 from perception.codes import COLOURS, EMPTY_CODE, code_of_cell, observation_code
 from perception.errors import PerceptionError, PerceptionInputError
-from perception.footprint import FootprintMapper
-from perception.grid import BeltGrid
-from perception.observe import BELT, ColourRules, code_cells
-from perception.pipeline import CameraPipeline
-from sim.camera import BeltCamera, marker_points
-from sim.catalogue import load_catalogue
-from sim.cmd_calibrate import DEFAULT_CALIBRATION
+from sim.cell.camera import BeltCamera, marker_points
+from sim.cli.calibrate import DEFAULT_CALIBRATION
+from sim.experiments.perception_eval import evaluate_camera
+from sim.flow.catalogue import load_catalogue
 from sim.paths import REPO_ROOT, SCENE_XML
-from sim.perception_eval import evaluate_camera
 
 FIXTURE = REPO_ROOT / "tests" / "models" / "belt_camera.xml"
 SIZE = (640, 360)

@@ -15,8 +15,9 @@ import numpy as np
 import pytest
 
 from perception.codes import PAPER
-from sim.cell import Cell
-from sim.episode_robot import PRESS_DEPTH_M, PickController, clear_height
+from sim.cell.cell import Cell
+from sim.episode.pick_control import PRESS_DEPTH_M, PickController, clear_height
+from tests.utils import play_pick
 
 SPEED = 0.185
 
@@ -43,7 +44,7 @@ def test_a_picked_board_leaves_the_standing_cans_beside_it_and_on_its_way_alone(
     x, y = d.xpos[pool.body_ids[board], :2]
     hit = robot.plan(float(x), float(y), PAPER)
     assert hit.feasible, hit.reason
-    outcome = robot.execute(hit, lambda: None)
+    outcome = play_pick(robot, hit)
     assert outcome.sealed and outcome.held_to_bin and outcome.item_id == 0
     # Lifted and released with the held board's bottom over the tallest item (the cup presses
     # PRESS_DEPTH_M into the item's top).

@@ -5,21 +5,21 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from planner.blending import Waypoint, plan_chain
 from planner.errors import PlannerInputError
-from planner.limits import limits_for_payload
-from planner.motor_rates import motor_rates
-from planner.pick_cycle import (
+from planner.motion.blending import Waypoint, plan_chain
+from planner.motion.limits import limits_for_payload
+from planner.motion.motor_rates import motor_rates
+from planner.motion.pick_cycle import (
     PickPlaceConfig,
     cycle1_waypoints,
     plan_cycle1,
     plan_pick_place,
 )
-from planner.ruckig_trajectory import RuckigTrajectoryGenerator
-from planner.trajectory import State
-from sim.executor import lumped_dynamics
-from sim.model import load_robot
-from sim.robot import geometry_from_model
+from planner.motion.ruckig_trajectory import RuckigTrajectoryGenerator
+from planner.motion.trajectory import State
+from sim.cell.executor import lumped_dynamics
+from sim.cell.mjcf import load_robot
+from sim.cell.robot import geometry_from_model
 
 A = np.array([-0.1525, 0.0, 0.05])
 

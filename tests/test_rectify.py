@@ -7,15 +7,15 @@ import mujoco
 import numpy as np
 import pytest
 
-from perception.calibration import CameraCalibration
+from perception.camera.calibration import CameraCalibration
+from perception.camera.grid import BeltGrid
+from perception.camera.lens import ZED_HD_LEFT
+from perception.camera.pipeline import CameraPipeline
+from perception.camera.rectify import BeltRectifier, TopDownRaster, locate_belt, undistort
 from perception.errors import PerceptionError
-from perception.grid import BeltGrid
-from perception.lens import ZED_HD_LEFT
-from perception.pipeline import CameraPipeline
-from perception.rectify import BeltRectifier, TopDownRaster, locate_belt, undistort
-from sim.camera import BeltCamera, camera_pose, marker_points
-from sim.camera_checks import edge_residual, grid_corner_errors
-from sim.cmd_calibrate import DEFAULT_CALIBRATION
+from sim.cell.camera import BeltCamera, camera_pose, marker_points
+from sim.cli.calibrate import DEFAULT_CALIBRATION
+from sim.experiments.camera_checks import edge_residual, grid_corner_errors
 from sim.paths import REPO_ROOT, SCENE_XML
 
 FIXTURE = REPO_ROOT / "tests" / "models" / "belt_camera.xml"

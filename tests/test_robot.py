@@ -12,9 +12,9 @@ import mujoco
 import numpy as np
 import pytest
 
-from planner.kinematics import forward_kinematics, inverse_kinematics, is_reachable, jacobian
-from sim.model import load_robot
-from sim.robot import (
+from planner.motion.kinematics import forward_kinematics, inverse_kinematics, is_reachable, jacobian
+from sim.cell.mjcf import load_robot
+from sim.cell.robot import (
     geometry_from_model,
     loop_closure_error,
     motor_qpos,

@@ -1,6 +1,6 @@
 """The vacuum cup, driven by the robot's own motors, picks from the moving belt (cell scene).
 
-Every run plans a ruckig pick-and-place chain (planner.pick_cycle) that meets the item on the
+Every run plans a ruckig pick-and-place chain (planner.motion.pick_cycle) that meets the item on the
 belt at x1.5, plays it through the trajectory executor (analytic IK -> motor set-points ->
 position servos), switches the vacuum at the plan's contact and release times, and lets physics
 decide whether the cup seals, holds and where the item lands.
@@ -15,19 +15,19 @@ import mujoco
 import numpy as np
 import pytest
 
-from planner.limits import limits_for_payload
-from planner.pick_cycle import PickPlaceConfig, PickPlan, plan_pick_place
-from planner.ruckig_trajectory import RuckigTrajectoryGenerator
-from planner.trajectory import State
-from sim.belt import Belt
-from sim.bins import Bins, Landing
-from sim.catalogue import load_catalogue
+from planner.motion.limits import limits_for_payload
+from planner.motion.pick_cycle import PickPlaceConfig, PickPlan, plan_pick_place
+from planner.motion.ruckig_trajectory import RuckigTrajectoryGenerator
+from planner.motion.trajectory import State
+from sim.cell.bins import Bins, Landing
+from sim.cell.conveyor import Belt
+from sim.cell.executor import TrajectoryExecutor
+from sim.cell.item_pool import ItemPool
+from sim.cell.robot import geometry_from_model, tcp_position
+from sim.cell.suction import SuctionConfig, SuctionCup, SuctionEvent
 from sim.errors import InvalidInput
-from sim.executor import TrajectoryExecutor
-from sim.item_pool import ItemPool
+from sim.flow.catalogue import load_catalogue
 from sim.paths import SCENE_XML
-from sim.robot import geometry_from_model, tcp_position
-from sim.suction import SuctionConfig, SuctionCup, SuctionEvent
 
 CATALOGUE = load_catalogue()
 PRESS = 0.002  # [m] the cup is aimed this far into the item's top (bellows compression)

@@ -7,7 +7,10 @@ import sys
 
 import pytest
 
-from sim import cli, outputs, sweep, sweep_config, thesis_report
+from sim.cli import main as cli
+from sim.episode import outputs
+from sim.experiments import sweep_config, thesis_report
+from sim.experiments import sweep_runner as sweep
 
 GRID = """
 [sweep]
@@ -34,7 +37,7 @@ def swept(tmp_path_factory):
         [
             sys.executable,
             "-m",
-            "sim.cli",
+            "sim.cli.main",
             "sweep",
             "--config",
             path,

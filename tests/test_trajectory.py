@@ -10,22 +10,22 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from planner.blending import plan_chain
 from planner.errors import PlannerInputError
-from planner.kinematics import inverse_kinematics, jacobian, reachable_mask
-from planner.limits import MotionLimits, limits_for_payload
-from planner.motor_rates import motor_rates
-from planner.pick_cycle import PickPlaceConfig, pick_place_waypoints
-from planner.ruckig_trajectory import (
+from planner.motion.blending import plan_chain
+from planner.motion.kinematics import inverse_kinematics, jacobian, reachable_mask
+from planner.motion.limits import MotionLimits, limits_for_payload
+from planner.motion.motor_rates import motor_rates
+from planner.motion.pick_cycle import PickPlaceConfig, pick_place_waypoints
+from planner.motion.ruckig_trajectory import (
     TORQUE_MARGIN,
     RuckigTrajectoryGenerator,
     motor_speeds,
     motor_torques,
 )
-from planner.trajectory import Chain, Dwell, State
-from sim.executor import lumped_dynamics
-from sim.model import load_robot
-from sim.robot import geometry_from_model
+from planner.motion.trajectory import Chain, Dwell, State
+from sim.cell.executor import lumped_dynamics
+from sim.cell.mjcf import load_robot
+from sim.cell.robot import geometry_from_model
 
 N_PAIRS = 1000
 BOUNDARY_TOL = 1e-8

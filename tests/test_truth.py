@@ -13,13 +13,13 @@ from perception.codes import (
     code_of_cell,
     observation_code,
 )
-from sim.catalogue import Catalogue, ItemType, load_catalogue
-from sim.coverage import outline, polygon_rect_areas
-from sim.flow import generate_flow
-from sim.flow_config import X_CAMERA, X_INFEED, FlowConfig
-from sim.footprint import contains, to_body
-from sim.truth import cell_truth_from_poses, flow_truth, grid_truth, yaw_from_xmat
-from sim.truth_io import load_truth, save_flow_truth
+from sim.flow.catalogue import Catalogue, ItemType, load_catalogue
+from sim.flow.config import X_CAMERA, X_INFEED, FlowConfig
+from sim.flow.coverage import outline, polygon_rect_areas
+from sim.flow.footprint_polygons import contains, to_body
+from sim.flow.generator import generate_flow
+from sim.flow.ground_truth import cell_truth_from_poses, flow_truth, grid_truth, yaw_from_xmat
+from sim.flow.ground_truth_io import load_truth, save_flow_truth
 
 PITCH = 0.0925  # x1: 0.185 m/s x 0.5 s
 CELL_AREA = 0.16 * PITCH

@@ -1,0 +1,150 @@
+"""Item footprints on the belt from a frame and its registered depth map.
+
+A camera 0.75 m above the belt sees tall items in perspective: a can standing near the belt's
+edge covers, on the belt-plane image, its footprint plus its side wall and a top shifted
+outwards by centimetres, which inflates the covered fraction of its cells and spills into
+empty neighbours. A stereo camera like the ZED also gives each pixel's depth; with the
+calibrated lens and the marker-solved pose every item pixel becomes a 3-D point, and dropping
+it straight down onto the belt gives the item's true footprint (an orthographic top view).
+
+`FootprintMapper` does that for the pixels that can see the grid's region: colour labels from
+`ColourRules` on the raw frame, 3-D points from depth, splatted onto a metric top-down grid
+whose small holes (grid cells no pixel fell in) are closed morphologically.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from perception.camera.observe import BELT, ColourRules
+from perception.camera.rectify import BeltView, TopDownRaster
+from perception.errors import PerceptionError, PerceptionInputError
+
+_BELT_MARGIN_M = 0.005
+_ITEM_EDGE_STEP_M = 0.02
+_UNDISTORT_CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 30, 1e-9)
+
+
+def _solid(image: np.ndarray, item: np.ndarray, rim_fraction: float) -> np.ndarray:
+    """Item pixels at least `rim_fraction` as bright as their blob's brightest pixel."""
+    value = image.max(axis=2)
+    count, blobs = cv2.connectedComponents(item.astype(np.uint8), connectivity=8)
+    peak = np.zeros(count, dtype=np.uint8)
+    np.maximum.at(peak, blobs[item], value[item])
+    return item & (value >= rim_fraction * peak[blobs])
+
+
+class FootprintMapper:
+    """Raw frame + depth -> top-down colour labels of item footprints.
+
+    Args:
+        view: The located camera.
+        raster: The top-down raster (`TopDownRaster.covering`).
+        max_height_m: Tallest item [m]; bounds the frame region that can see the raster.
+        min_height_m: Item pixels stand at least this high above the belt [m].
+        rim_fraction: Pixels dimmer than this fraction of their item's brightest pixel are its
+            antialiased rim (partly belt) or its shaded side, and left out.
+    """
+
+    def __init__(
+        self,
+        view: BeltView,
+        raster: TopDownRaster,
+        max_height_m: float = 0.15,
+        min_height_m: float = 0.0008,
+        rim_fraction: float = 0.35,
+    ):
+        if not 0.0 <= rim_fraction < 1.0:
+            raise PerceptionInputError("rim_fraction", "[0, 1)", rim_fraction)
+        if not 0.0 < min_height_m < max_height_m <= 1.0:
+            raise PerceptionInputError(
+                "min_height_m, max_height_m", "0 < min < max <= 1 m", (min_height_m, max_height_m)
+            )
+        self.min_height_m = float(min_height_m)
+        self.rim_fraction = float(rim_fraction)
+        self.raster = raster
+        x_range = (raster.x_min, raster.x_min + raster.shape[0] * raster.resolution_m)
+        y_range = (raster.y_min, raster.y_min + raster.shape[1] * raster.resolution_m)
+        width, height = view.calibration.image_size
+        # Frame rows/columns that can see the region, at any height up to the tallest item.
+        xs, ys, zs = np.meshgrid(x_range, y_range, (0.0, max_height_m), indexing="ij")
+        box = view.project(np.stack([xs.ravel(), ys.ravel(), zs.ravel()], 1))
+        u0, v0 = np.floor(box.min(axis=0)).astype(int) - 2
+        u1, v1 = np.ceil(box.max(axis=0)).astype(int) + 3
+        self.roi = (slice(max(v0, 0), min(v1, height)), slice(max(u0, 0), min(u1, width)))
+        rows = np.arange(height)[self.roi[0]]
+        cols = np.arange(width)[self.roi[1]]
+        uu, vv = np.meshgrid(cols.astype(np.float64), rows.astype(np.float64))
+        cal = view.calibration
+        norm = cv2.undistortPoints(
+            np.stack([uu.ravel(), vv.ravel()], 1).reshape(-1, 1, 2),
+            cal.camera_matrix,
+            cal.dist_coeffs,
+            None,
+            None,
+            None,
+            _UNDISTORT_CRITERIA,
+        ).reshape(-1, 2)
+        rot, _ = cv2.Rodrigues(view.rvec)
+        # A pixel at depth d (along the optical axis) sees origin + d * direction.
+        self._origin = view.camera_position()
+        self._direction = (np.c_[norm, np.ones(len(norm))] @ rot).astype(np.float32)
+
+    def footprint(self, frame: np.ndarray, depth: np.ndarray, rules: ColourRules) -> np.ndarray:
+        """Colour labels (rows, cols) int8 of the top-down grid; BELT (-1) where no item lies.
+
+        Raises:
+            PerceptionError: The depth map does not match the frame or holds no valid depth.
+        """
+        if depth is None or depth.shape != frame.shape[:2]:
+            shape = None if depth is None else depth.shape
+            raise PerceptionError(f"depth map shape {shape}, expected {frame.shape[:2]}")
+        crop = frame[self.roi]
+        z = depth[self.roi].astype(np.float32)
+        valid = np.isfinite(z) & (z > 0.0)
+        z[~valid] = 0.0
+        shape = z.shape
+        direction = self._direction
+        height = self._origin[2] + z * direction[:, 2].reshape(shape)
+        y = self._origin[1] + z * direction[:, 1].reshape(shape)
+        # Only pixels that see the belt (or what lies on it) can be items: not its rails.
+        raster = self.raster
+        y_lo = raster.y_min - _BELT_MARGIN_M
+        y_hi = raster.y_min + raster.shape[1] * raster.resolution_m + _BELT_MARGIN_M
+        # Two items that touch in the image are told apart by the jump in height between them.
+        kernel = np.ones((3, 3), np.uint8)
+        step = cv2.dilate(height, kernel) - cv2.erode(height, kernel)
+        labels = rules.classify(crop, valid & (y >= y_lo) & (y <= y_hi), step < _ITEM_EDGE_STEP_M)
+        labels[~_solid(crop, labels != BELT, self.rim_fraction)] = BELT
+        labels = labels.ravel()
+        valid = valid.ravel()
+        belt = np.flatnonzero(valid & (labels == BELT))[::4]
+        if len(belt) < 100:
+            raise PerceptionError("depth map: too few valid belt pixels")
+        # The belt's height as this camera measures it (a pose error shifts it by a millimetre
+        # or so); item pixels stand above it.
+        own_z = height.ravel()
+        floor = float(np.median(own_z[belt])) + self.min_height_m
+        # A pixel on an item's rim blends the item's colour with the belt behind it and may
+        # carry the belt's depth: it is placed at the highest surface seen around it, on its
+        # own ray, which puts it on the item's top edge. Pixels with a depth on the item keep
+        # their own height.
+        around = cv2.dilate(np.where(valid.reshape(shape), height, -1.0), kernel)
+        top_z = np.where(own_z > floor, own_z, around.ravel())
+        item = np.flatnonzero(valid & (labels != BELT) & (top_z > floor))
+        reach = (top_z[item] - self._origin[2]) / direction[item, 2]
+        points = self._origin[None, :2] + reach[:, None] * direction[item, :2]
+        raster = self.raster
+        i = np.floor((points[:, 0] - raster.x_min) / raster.resolution_m).astype(np.int64)
+        j = np.floor((points[:, 1] - raster.y_min) / raster.resolution_m).astype(np.int64)
+        inside = (i >= 0) & (i < raster.shape[0]) & (j >= 0) & (j < raster.shape[1])
+        top = np.full(raster.shape, BELT, dtype=np.int8)
+        top[i[inside], j[inside]] = labels[item[inside]]
+        # Close the pinholes between splatted pixels; they take a neighbour's colour.
+        covered = (top != BELT).astype(np.uint8)
+        holes = (cv2.morphologyEx(covered, cv2.MORPH_CLOSE, kernel) > 0) & (covered == 0)
+        if np.any(holes):
+            spread = cv2.dilate((top + 1).astype(np.uint8), kernel).astype(np.int8) - 1
+            top[holes] = spread[holes]
+        return top

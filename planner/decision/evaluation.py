@@ -1,0 +1,139 @@
+"""Scoring decision managers on seeded random belts against the exact oracle.
+
+Two experiments, both on the kinematic belt of `planner.decision.kinematic_belt`:
+
+- `oracle_fractions`: many short belts (8-12 items, arrival rate 2-8 items/s, speed factors
+  x1, x1.2, x1.5); on each, every planner's profit divided by the oracle's bound (the best profit
+  any pick sequence reaches on the true classes). By default the belt is a snapshot of a busy
+  stream (the first items already in the window, some about to leave); with front_x upstream
+  of the window (e.g. -0.7 m) the robot sees the items arrive and can usually pick them all.
+- `extreme_value_picks`: the thesis's table 4.3 in the planner alone: picks per class with the
+  values of table 3.3 and with one class's value raised by 150.
+- `objective_variants`: section 4.1.3, the three objectives of the Q-learning reward.
+
+The long belts (118 items in 45 s, 2.6 items/s) load our robot about as the thesis's 118 items
+in 90 s loaded its slower one: it picks 80-90 % of them at x1 (thesis table 4.3: 94 of 118).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from planner.decision.interface import MATERIALS, THESIS_VALUES, DecisionContext
+from planner.decision.kinematic_belt import (
+    THESIS_SPEED_X1,
+    Belt,
+    oracle_bound,
+    random_belt,
+    simulate,
+)
+from planner.decision.registry import make_planner
+from planner.motion.belt_speeds import SPEED_FACTORS
+
+ContextFor = Callable[[float, tuple[float, float, float]], DecisionContext]
+
+
+def short_belt(seed: int, items=(8, 12), rate=(2.0, 8.0), front_x: float = 0.4) -> Belt:
+    """A snapshot of a busy belt: item count, arrival rate [items/s] and speed factor drawn per
+    seed; the items lie upstream of `front_x` [m], so the first ones are already in the window
+    when the robot starts and some are about to leave it."""
+    rng = np.random.default_rng(seed)
+    speed = THESIS_SPEED_X1 * float(rng.choice(SPEED_FACTORS))
+    n = int(rng.integers(items[0], items[1] + 1))
+    length = n * speed / rng.uniform(*rate)
+    return random_belt(rng, n, length, speed, start_x=front_x)
+
+
+@dataclass(frozen=True)
+class OracleComparison:
+    """Per-belt profits [EUR] of each planner and of the oracle's bound."""
+
+    planners: tuple[str, ...]
+    profits: np.ndarray  # (n_belts, n_planners)
+    bound: np.ndarray  # (n_belts,)
+
+    def fractions(self) -> np.ndarray:
+        """(n_belts, n_planners) profit / bound."""
+        return self.profits / self.bound[:, None]
+
+    def summary(self) -> dict[str, tuple[float, float, float]]:
+        """name -> (mean fraction, min fraction, total profit [EUR])."""
+        f = self.fractions()
+        return {
+            name: (float(f[:, k].mean()), float(f[:, k].min()), float(self.profits[:, k].sum()))
+            for k, name in enumerate(self.planners)
+        }
+
+
+def oracle_fractions(
+    context_for: ContextFor,
+    seeds,
+    planners=("qlearning", "proximity", "fifo", "greedy"),
+    **belt_kw,
+) -> OracleComparison:
+    """Each planner's profit on `short_belt(seed, **belt_kw)` for every seed, and the oracle's
+    bound."""
+    profits, bound = [], []
+    for seed in seeds:
+        belt = short_belt(seed, **belt_kw)
+        ctx = context_for(belt.speed, THESIS_VALUES)
+        bound.append(oracle_bound(belt, ctx).profit)
+        profits.append([simulate(make_planner(p), belt, ctx).profit for p in planners])
+    return OracleComparison(tuple(planners), np.array(profits), np.array(bound))
+
+
+def extreme_value_picks(
+    context_for: ContextFor,
+    planner: str,
+    seeds,
+    n_items: int = 118,
+    duration_s: float = 45.0,
+    boost: float = 150.0,
+) -> dict[str, np.ndarray]:
+    """Picks per true class (paper, plastic, aluminium), summed over seeds, for the normal
+    values and for each class's value raised by `boost` [EUR] (x1 belt speed)."""
+    variants = {"normal": THESIS_VALUES}
+    for k, code in enumerate(MATERIALS):
+        values = list(THESIS_VALUES)
+        values[k] += boost
+        variants[f"class {code} +{boost:g}"] = tuple(values)
+    out = {name: np.zeros(3, dtype=int) for name in variants}
+    for seed in seeds:
+        belt = random_belt(
+            np.random.default_rng(seed), n_items, duration_s * THESIS_SPEED_X1, THESIS_SPEED_X1
+        )
+        for name, values in variants.items():
+            result = simulate(make_planner(planner), belt, context_for(belt.speed, values))
+            out[name] += [result.picked_of(c) for c in MATERIALS]
+    return out
+
+
+def objective_variants(
+    context_for: ContextFor,
+    seeds,
+    speed_factor: float = 1.0,
+    n_items: int = 118,
+    duration_s: float = 45.0,
+) -> dict[str, tuple[float, float]]:
+    """Section 4.1.3 in the planner alone: Q-learning with d = 1, v = 1 and v/d on the same
+    belts; objective -> (mean share of items picked, mean profit per belt [EUR])."""
+    speed = THESIS_SPEED_X1 * speed_factor
+    out = {}
+    for objective in ("d=1", "v=1", "v/d"):
+        share, profit = [], []
+        for seed in seeds:
+            belt = random_belt(
+                np.random.default_rng(seed), n_items, duration_s * THESIS_SPEED_X1, speed
+            )
+            result = simulate(
+                make_planner("qlearning", objective=objective),
+                belt,
+                context_for(speed, THESIS_VALUES),
+            )
+            share.append(len(result.picks) / n_items)
+            profit.append(result.profit)
+        out[objective] = (float(np.mean(share)), float(np.mean(profit)))
+    return out

@@ -1,0 +1,196 @@
+"""The decision managers' interface: tracked items, robot state, context, choice, protocols.
+
+A decision manager takes the items tracked on the belt (position at the decision time and class
+probabilities over void/paper/plastic/aluminium), the robot's state and a context (belt speed,
+bins, values, cycle-time model, reachable window) and returns the next item to pick, or None.
+
+Expected value: an item goes to the bin of its most probable material class c; it earns the
+value of c only when its true class is c (a wrong bin earns nothing), so its expected value is
+p(c) * value(c). A confident aluminium thus outranks an uncertain one; truth mode passes
+one-hot probabilities and the expected value is the class value.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from perception.codes import (
+    CLASS_NAMES,
+    MATERIALS,
+    N_STATES,
+    THESIS_VALUES_EUR,
+)
+from planner.errors import PlannerInputError
+from planner.motion.reach_window import ReachWindow
+
+THESIS_VALUES = THESIS_VALUES_EUR
+# Release points above the bins [m] (sites bin_<class>_drop of models/cell/scene.xml): paper on
+# -y, plastic and aluminium on +y; the episode runner passes the positions it reads from the model.
+DEFAULT_BINS = ((0.0, -0.51, 0.06), (-0.21, 0.51, 0.06), (0.21, 0.51, 0.06))
+
+
+@runtime_checkable
+class CycleTimeEstimator(Protocol):
+    """Durations of the robot's moves, the physics the planners plan with."""
+
+    def time_to_pick(self, start_xyz, item_xy, belt_speed: float) -> float:
+        """Time from `start_xyz` until the cup meets an item now at `item_xy` moving at +x [s]."""
+
+    def time_to_place(self, pick_xyz, bin_xyz) -> float:
+        """Time from the pick point until the item is released over the bin [s]."""
+
+
+@dataclass(frozen=True)
+class TrackedItem:
+    """An item on the belt as the tracker sees it at the decision time.
+
+    Attributes:
+        item_id: Identifier, unique within an episode.
+        x: Position along the belt at the decision time [m].
+        y: Position across the belt [m].
+        class_probs: (4,) probabilities over void, paper, plastic, aluminium (sum 1).
+    """
+
+    item_id: int
+    x: float
+    y: float
+    class_probs: tuple[float, float, float, float]
+
+    def __post_init__(self):
+        probs = np.asarray(self.class_probs, dtype=float)
+        if probs.shape != (N_STATES,) or not np.all(np.isfinite(probs)) or np.any(probs < 0):
+            raise PlannerInputError("class_probs", "4 finite probabilities >= 0", self.class_probs)
+        if abs(probs.sum() - 1.0) > 1e-6:
+            raise PlannerInputError("class_probs", "probabilities summing to 1", probs.sum())
+        if not (math.isfinite(self.x) and math.isfinite(self.y)):
+            raise PlannerInputError("x, y", "finite positions [m]", (self.x, self.y))
+        probs_t = tuple(float(p) for p in probs)
+        object.__setattr__(self, "class_probs", probs_t)
+        materials = probs_t[1:]
+        object.__setattr__(self, "_bin_class", MATERIALS[materials.index(max(materials))])
+
+    @classmethod
+    def certain(cls, item_id: int, x: float, y: float, class_code: int) -> TrackedItem:
+        """An item of known class (truth mode); `class_code` 1..4 as in perception.codes."""
+        if class_code not in (1, *MATERIALS):
+            raise PlannerInputError(
+                "class_code", "1..4 (void, paper, plastic, aluminium)", class_code
+            )
+        probs = [0.0] * N_STATES
+        probs[class_code - 1] = 1.0
+        return cls(item_id, float(x), float(y), tuple(probs))
+
+    @property
+    def bin_class(self) -> int:
+        """Most probable material class (2..4): the bin the item goes to."""
+        return self._bin_class
+
+
+@dataclass(frozen=True)
+class RobotState:
+    """The robot when a decision is due: TCP position [m] and clock [s]."""
+
+    tcp: tuple[float, float, float]
+    time: float
+
+    def __post_init__(self):
+        tcp = tuple(float(c) for c in self.tcp)
+        if len(tcp) != 3 or not all(math.isfinite(c) for c in tcp):
+            raise PlannerInputError("tcp", "3 finite coordinates [m]", self.tcp)
+        if not math.isfinite(self.time):
+            raise PlannerInputError("time", "a finite clock [s]", self.time)
+        object.__setattr__(self, "tcp", tcp)
+
+
+@dataclass(frozen=True, eq=False)
+class DecisionContext:
+    """What every decision manager needs besides the items and the robot.
+
+    Attributes:
+        belt_speed: Belt speed along +x [m/s].
+        cycle_model: Cycle-time estimator (the ruckig-fitted model in real runs).
+        window: Where the cup can meet an item on the belt.
+        bins: Release points of the paper, plastic and aluminium bins [m], three (x, y, z).
+        values: Value of a paper, plastic and aluminium item [EUR] (thesis table 3.3).
+    """
+
+    belt_speed: float
+    cycle_model: CycleTimeEstimator
+    window: ReachWindow
+    bins: tuple[tuple[float, float, float], ...] = DEFAULT_BINS
+    values: tuple[float, float, float] = THESIS_VALUES
+
+    def __post_init__(self):
+        if not (math.isfinite(self.belt_speed) and self.belt_speed >= 0.0):
+            raise PlannerInputError("belt_speed", "a finite speed >= 0 [m/s]", self.belt_speed)
+        values = tuple(float(v) for v in self.values)
+        if len(values) != 3 or not all(math.isfinite(v) and v >= 0.0 for v in values):
+            raise PlannerInputError(
+                "values", "three finite values >= 0 [EUR] for paper, plastic, aluminium", values
+            )
+        bins = tuple(tuple(float(c) for c in b) for b in self.bins)
+        if len(bins) != 3 or any(len(b) != 3 or not all(map(math.isfinite, b)) for b in bins):
+            raise PlannerInputError("bins", "three (x, y, z) release points [m]", self.bins)
+        if not isinstance(self.cycle_model, CycleTimeEstimator):
+            raise PlannerInputError("cycle_model", "an object with time_to_pick, time_to_place")
+        object.__setattr__(self, "values", values)
+        object.__setattr__(self, "bins", bins)
+
+    def value_of(self, class_code: int) -> float:
+        """Value of one item of material `class_code` (2..4) [EUR]; void is worth 0."""
+        return self.values[MATERIALS.index(class_code)] if class_code in MATERIALS else 0.0
+
+    def bin_of(self, class_code: int) -> tuple[float, float, float]:
+        """Release point of the bin of material `class_code` (2..4) [m]."""
+        return self.bins[MATERIALS.index(class_code)]
+
+    def expected_value(self, item: TrackedItem) -> float:
+        """p(bin class) * value(bin class) [EUR]: what dropping the item in its bin earns."""
+        c = item.bin_class
+        return item.class_probs[c - 1] * self.value_of(c)
+
+    def with_values(self, values: tuple[float, float, float]) -> DecisionContext:
+        """The same context with other class values [EUR]."""
+        return DecisionContext(self.belt_speed, self.cycle_model, self.window, self.bins, values)
+
+
+@dataclass(frozen=True)
+class Choice:
+    """A decision: which item to pick next and why.
+
+    Attributes:
+        item_id: The chosen item.
+        expected_value: Its expected value [EUR].
+        meet_time: Predicted time the cup meets it [s] (clock of RobotState).
+        bin_class: Material class whose bin it goes to (2..4).
+        reason: One line for logs and video overlays.
+    """
+
+    item_id: int
+    expected_value: float
+    meet_time: float
+    bin_class: int
+    reason: str
+
+    @property
+    def bin_name(self) -> str:
+        """Name of the destination class ('paper', 'plastic', 'aluminium')."""
+        return CLASS_NAMES[self.bin_class - 1]
+
+
+class DecisionManager(Protocol):
+    """Chooses the next pick; planners may keep state between calls (reset per episode)."""
+
+    name: str
+
+    def choose(
+        self, items: list[TrackedItem], robot: RobotState, context: DecisionContext
+    ) -> Choice | None:
+        """The next item to pick among `items`, or None when none is worth or can be picked."""
+
+    def reset(self) -> None:
+        """Forget any state kept from earlier calls (start of an episode)."""

@@ -1,0 +1,142 @@
+"""The one registry of decision managers: built-in names, and a user's own class.
+
+`make_planner('qlearning', gamma=0.9)` builds a built-in manager; `make_planner('mymod:MyPlanner')`
+(or `path/to/file.py:MyPlanner`) imports the user's class and builds it with no arguments. A
+user's class implements `planner.decision.interface.DecisionManager`: a `choose(items, robot,
+context)` returning a `Choice` or None, and a `reset()` called at the start of every episode;
+its `name` attribute, if any, is what episodes.csv records (else the spec). Unknown names, specs
+that do not import and options a manager does not take are refused with one line.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib
+import importlib.util
+import os
+import sys
+from pathlib import Path
+
+from planner.errors import PlannerInputError
+
+# Imported only when built, so that the command line's --help stays light.
+_BUILT_IN = {
+    "qlearning": "planner.decision.qlearning:QLearningPlanner",
+    "proximity": "planner.decision.proximity:ProximityPlanner",
+    "fifo": "planner.decision.fifo:FifoPlanner",
+    "greedy": "planner.decision.greedy:GreedyPlanner",
+    "oracle": "planner.decision.oracle:OraclePlanner",
+}
+PLANNERS = tuple(_BUILT_IN)
+"""The built-in decision managers' names."""
+ALLOWED = " | ".join(PLANNERS) + " | module:Class (a class with choose() and reset())"
+"""What a planner spec may be, in words (for refusals and --help)."""
+
+
+def is_user_spec(spec: str) -> bool:
+    """True for `module:Class` / `file.py:Class`, a user's own decision manager."""
+    return isinstance(spec, str) and ":" in spec
+
+
+def user_class(spec: str) -> type:
+    """The class a `module:Class` or `path/file.py:Class` spec names, imported.
+
+    A dotted module is imported as usual, with the working directory searched last; a path
+    ending in `.py` is loaded from that file.
+
+    Raises:
+        PlannerInputError: The module or class cannot be found or imported, or the class has no
+            `choose` and `reset`.
+    """
+    module_name, _, class_name = spec.rpartition(":")
+    if not module_name or not class_name.isidentifier():
+        raise PlannerInputError("planner", ALLOWED, spec)
+    try:
+        if module_name.endswith(".py"):
+            path = Path(module_name)
+            if not path.is_file():
+                raise PlannerInputError("planner", f"{ALLOWED}; no file {path}", spec)
+            unique = f"_sortsim_user_{path.stem}_{abs(hash(str(path.resolve())))}"
+            module = sys.modules.get(unique)
+            if module is None:
+                loader_spec = importlib.util.spec_from_file_location(unique, path)
+                module = importlib.util.module_from_spec(loader_spec)
+                sys.modules[unique] = module
+                loader_spec.loader.exec_module(module)
+        else:
+            if os.getcwd() not in sys.path:
+                sys.path.append(os.getcwd())
+            module = importlib.import_module(module_name)
+    except PlannerInputError:
+        raise
+    except Exception as exc:  # the user's module failed to import: say why in one line
+        reason = f"{type(exc).__name__}: {exc}".splitlines()[0]
+        raise PlannerInputError(
+            "planner", f"{ALLOWED}; importing it failed: {reason}", spec
+        ) from None
+    cls = getattr(module, class_name, None)
+    if not isinstance(cls, type):
+        raise PlannerInputError(
+            "planner", f"{ALLOWED}; {module_name} has no class {class_name}", spec
+        )
+    if not (callable(getattr(cls, "choose", None)) and callable(getattr(cls, "reset", None))):
+        raise PlannerInputError(
+            "planner", f"{ALLOWED}; {class_name} lacks choose() or reset()", spec
+        )
+    return cls
+
+
+def check_planner(spec: str) -> None:
+    """Refuse a spec that names no built-in manager and no importable user class."""
+    if is_user_spec(spec):
+        user_class(spec)
+    elif spec not in _BUILT_IN:
+        raise PlannerInputError("planner", ALLOWED, spec)
+
+
+def _built_in(name: str) -> tuple[type, tuple[str, ...]]:
+    """A built-in manager's class and the options it takes."""
+    module_name, _, class_name = _BUILT_IN[name].partition(":")
+    cls = getattr(importlib.import_module(module_name), class_name)
+    if name == "qlearning":
+        from planner.decision.qlearning import QLearningConfig
+
+        return cls, tuple(f.name for f in dataclasses.fields(QLearningConfig))
+    return cls, ("max_items",) if name == "oracle" else ()
+
+
+def make_planner(spec: str, **params):
+    """A new decision manager.
+
+    Args:
+        spec: One of PLANNERS, or `module:Class` of the user's own class.
+        **params: Options of that planner (qlearning: the fields of QLearningConfig; oracle:
+            max_items; the others, and users' classes, take none).
+
+    Raises:
+        PlannerInputError: Unknown name or option, or an option out of range.
+
+    Returns:
+        A `planner.decision.interface.DecisionManager`.
+    """
+    if is_user_spec(spec):
+        cls, options = user_class(spec), ()
+    elif spec in _BUILT_IN:
+        cls, options = _built_in(spec)
+    else:
+        raise PlannerInputError("planner", ALLOWED, spec)
+    unknown = sorted(set(params) - set(options))
+    if unknown:
+        allowed = ", ".join(options) or "no options"
+        raise PlannerInputError(f"{spec} option {unknown[0]}", allowed, params[unknown[0]])
+    if spec == "qlearning":
+        from planner.decision.qlearning import QLearningConfig
+
+        return cls(QLearningConfig(**params))
+    planner = cls(**params)
+    if is_user_spec(spec) and not getattr(planner, "name", None):
+        try:
+            planner.name = spec
+        except AttributeError:
+            pass  # a read-only name property: the CSV falls back to the class name
+    return planner

@@ -1,0 +1,176 @@
+"""Meeting a moving item: where and when the cup lands on it at the belt's velocity.
+
+An item now at (x0, y) rides the belt at `belt_speed` along +x, so at time T it is at
+x0 + belt_speed T. The cup must touch it at T with the belt's velocity (ruckig's target
+velocity), so T solves T = D(T), D being the duration of the approach-and-descend chain to where
+the item will be at T, planned within every limit (the motors' speed and torque checks slow the
+long approaches; an estimate without them is optimistic and its plans fail). The item moves
+far slower than the cup, so D changes little with T and the iteration T <- D(T), started where
+the item enters the reachable window, settles in two or three plans. The approach of the last
+plan is then stretched to touch down exactly at T (ruckig's minimum duration; the cup waits
+above the item), and the place half (lift, transfer, release) is planned from the seal's end.
+An item that leaves the reachable window (contact, approach, seal and lift points all
+reachable) before it can be met is refused with the reason.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from planner.errors import PlannerInputError
+from planner.motion.kinematics import DeltaGeometry, reachable_mask
+from planner.motion.pick_cycle import (
+    PickPlaceConfig,
+    PickPlan,
+    delay_contact,
+    join_pick_place,
+    pick_place_waypoints,
+    plan_pick,
+    plan_place,
+)
+from planner.motion.ruckig_trajectory import RuckigTrajectoryGenerator
+from planner.motion.trajectory import State
+
+SCAN_DT = 0.02
+"""Grid step of the reachable-window scan [s]."""
+
+TIME_TOL = 1e-3
+"""Slack added to each fixed-point iterate of the meeting time [s]: the cup waits at most this
+long above the item, and the iteration ends in two or three plans."""
+
+MAX_PLANS = 20
+"""Most pick-half plans the fixed-point iteration makes (with the steps past unplannable edges)."""
+
+HORIZON = 10.0
+"""Longest wait considered for an item upstream of the window [s]."""
+
+
+@dataclass(frozen=True, eq=False)
+class Intercept:
+    """The answer for one item.
+
+    Attributes:
+        feasible: Whether the item can be met inside the reachable window.
+        reason: Why not (empty when feasible).
+        meet_time: When the cup touches the item, from now [s] (nan when refused).
+        pick_xyz: Where it touches it [m] (nan when refused).
+        plan: The planned pick and place (None when refused or not requested).
+    """
+
+    feasible: bool
+    reason: str
+    meet_time: float
+    pick_xyz: np.ndarray
+    plan: PickPlan | None = None
+
+
+def _refuse(reason: str) -> Intercept:
+    return Intercept(False, reason, float("nan"), np.full(3, np.nan))
+
+
+def window_mask(geom, xs, y, pick_z, belt_speed, config: PickPlaceConfig) -> np.ndarray:
+    """Whether an item met at each x of `xs` [m] has its contact, approach, seal-end and lift
+    points inside the workspace."""
+    xs = np.asarray(xs, dtype=float)
+    seal = belt_speed * config.seal_time
+    pts = []
+    for dx, dz in (
+        (0.0, 0.0),
+        (0.0, config.approach_height),
+        (seal, 0.0),
+        (seal, config.lift_height),
+    ):
+        pts.append(np.stack([xs + dx, np.full_like(xs, y), np.full_like(xs, pick_z + dz)], axis=1))
+    return np.all([reachable_mask(geom, p) for p in pts], axis=0)
+
+
+def intercept_item(
+    start: State,
+    item_xy: Sequence[float],
+    belt_speed: float,
+    drop_xyz: Sequence[float],
+    generator: RuckigTrajectoryGenerator,
+    pick_z: float,
+    config: PickPlaceConfig | None = None,
+    axis4: tuple[float, float] = (0.0, 0.0),
+    with_plan: bool = True,
+) -> Intercept:
+    """When and where the cup can meet an item riding the belt, and the pick planned to do so.
+
+    Args:
+        start: The robot's state now.
+        item_xy: The item's position now [m].
+        belt_speed: Belt speed along +x [m/s], >= 0.
+        drop_xyz: Release point over the item's bin [m].
+        generator: Segment planner with the robot's geometry.
+        pick_z: TCP height at contact (top of the item) [m].
+        config: Heights and times of the pick.
+        axis4: Axis-4 angle at the pick and at the drop [rad].
+        with_plan: Also plan the whole pick and place (arriving exactly at the meeting time).
+
+    Returns:
+        The meeting (feasible) or the reason it cannot happen.
+    """
+    geom: DeltaGeometry | None = generator.geometry
+    if geom is None:
+        raise PlannerInputError("generator.geometry", "a DeltaGeometry (for the window)", None)
+    if not (np.isfinite(belt_speed) and belt_speed >= 0.0):
+        raise PlannerInputError("belt_speed", "a finite speed >= 0 [m/s]", belt_speed)
+    config = config or PickPlaceConfig()
+    x0, y = float(item_xy[0]), float(item_xy[1])
+    times = np.arange(0.0, HORIZON + SCAN_DT, SCAN_DT)
+    inside = window_mask(geom, x0 + belt_speed * times, y, pick_z, belt_speed, config)
+    if not np.any(inside):
+        line = np.linspace(x0 - 3.0, x0 + 3.0, 601)
+        crossed = window_mask(geom, line, y, pick_z, belt_speed, config)
+        if np.any(crossed) and x0 > line[crossed].max():
+            return _refuse("the item has already left the reachable window")
+        return _refuse("the item's path never enters the reachable window")
+    first_in = int(np.argmax(inside))
+    gone = np.flatnonzero(~inside[first_in:])
+    last_in = first_in + int(gone[0]) - 1 if gone.size else len(times) - 1
+
+    wps_at = lambda t: pick_place_waypoints(  # noqa: E731
+        (x0 + belt_speed * t, y, pick_z), belt_speed, drop_xyz, config, axis4
+    )
+
+    def earliest_contact(t: float):
+        """The time-optimal pick half for meeting the item where it is at `t`, and its contact
+        time; (None, inf) when it cannot be planned."""
+        try:
+            pick = plan_pick(start, wps_at(t), generator, config)
+        except PlannerInputError:
+            return None, np.inf
+        return pick, pick.phase_start("seal")
+
+    # Fixed point T = contact(T): the item moves far slower than the cup, so a few plans do.
+    # At the window's edge a plan may fail (a path leaving the workspace): try a little later.
+    t = float(times[first_in])
+    t_exit = float(times[last_in])
+    pick, contact = earliest_contact(t)
+    for _ in range(MAX_PLANS):
+        if contact <= t + 1e-9:
+            break
+        t = contact + TIME_TOL if np.isfinite(contact) else t + SCAN_DT
+        if t > t_exit:
+            break
+        pick, contact = earliest_contact(t)
+    if pick is None or contact > t + 1e-9 or t > t_exit:
+        needs = "" if not np.isfinite(contact) else f" (it needs {contact:.2f} s)"
+        return _refuse(
+            f"the item leaves the reachable window {t_exit:.2f} s from now, before the cup can "
+            f"reach it{needs}"
+        )
+    point = np.array([x0 + belt_speed * t, y, pick_z])
+    if not with_plan:
+        return Intercept(True, "", t, point)
+    wps = wps_at(t)
+    try:
+        pick = delay_contact(pick, wps[1], generator, t)
+        plan = join_pick_place(pick, plan_place(wps, generator, config), point, belt_speed)
+    except PlannerInputError as exc:
+        return _refuse(f"no pick within the motor limits meets the item inside the window ({exc})")
+    return Intercept(True, "", t, point, plan)

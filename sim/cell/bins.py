@@ -1,0 +1,128 @@
+"""The bins beside the belt: what lands in each, and what falls elsewhere.
+
+Each bin is a body `bin_<class>` with a floor plate `bin_<class>_floor_plate` and walls
+`bin_<class>_wall_*`; its interior is the floor plate's outline from the plate's top up to the
+walls' rim (read from the compiled model, so the MJCF stays the one source). An item that comes
+to rest (speed below `REST_SPEED` for `REST_TIME`) with its centre inside a bin's interior is
+registered there (item id, true class, time) and parked; one that comes to rest anywhere else off
+the belt, or falls below the bins' floors, is counted as dropped and parked. Items held by the cup
+are never judged.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from sim.cell.item_pool import ItemPool
+
+BIN_CLASSES = ("paper", "plastic", "aluminium")
+REST_SPEED = 0.02
+"""Speed under which an item counts as at rest [m/s]."""
+REST_TIME = 0.1
+"""How long an item must stay at rest to be judged [s]."""
+
+
+@dataclass(frozen=True)
+class Landing:
+    """An item that came to rest: in a bin (`bin` is its class name) or dropped (`bin` None).
+
+    Attributes:
+        item_id: Flow id.
+        true_class: Class id of the item (2 paper, 3 plastic, 4 aluminium).
+        bin: Class name of the bin it landed in, or None when dropped outside every bin.
+        time: Simulation time it was judged [s].
+        position: Where its centre was [m].
+    """
+
+    item_id: int
+    true_class: int
+    bin: str | None
+    time: float
+    position: tuple[float, float, float]
+
+    @property
+    def correct(self) -> bool:
+        """Landed in the bin of its own class."""
+        return self.bin is not None and BIN_CLASSES.index(self.bin) + 2 == self.true_class
+
+
+class Bins:
+    """Judges where items come to rest; keeps the records.
+
+    Args:
+        model: The cell (bins `bin_paper`, `bin_plastic`, `bin_aluminium`).
+        data: Its data (the bins are static; their interiors are read once).
+        pool: The item pool whose items are judged and parked.
+    """
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, pool: ItemPool):
+        self.pool = pool
+        mujoco.mj_kinematics(model, data)
+        self.interiors = {c: self._interior(model, data, c) for c in BIN_CLASSES}
+        self.lowest_z = min(lo[2] for lo, _ in self.interiors.values())
+        self.landed: list[Landing] = []
+        self.dropped: list[Landing] = []
+        self._rest_since = np.full(pool.size, np.nan)
+
+    @staticmethod
+    def _interior(model: mujoco.MjModel, data: mujoco.MjData, name: str):
+        """(low corner, high corner) of a bin's inside [m, world]."""
+        plate = model.geom(f"bin_{name}_floor_plate").id
+        centre, half = data.geom_xpos[plate], model.geom_size[plate]
+        rot = data.geom_xmat[plate].reshape(3, 3)
+        extent = np.abs(rot) @ half  # axis-aligned half extents of the plate
+        walls = [
+            g
+            for g in range(model.ngeom)
+            if (model.geom(g).name or "").startswith(f"bin_{name}_wall")
+        ]
+        rim = max(
+            data.geom_xpos[g][2] + (np.abs(data.geom_xmat[g].reshape(3, 3)) @ model.geom_size[g])[2]
+            for g in walls
+        )
+        low = np.array([centre[0] - extent[0], centre[1] - extent[1], centre[2] + extent[2]])
+        high = np.array([centre[0] + extent[0], centre[1] + extent[1], rim])
+        return low, high
+
+    def bin_at(self, position) -> str | None:
+        """Class name of the bin whose interior holds `position` [m], or None."""
+        p = np.asarray(position)
+        for name, (low, high) in self.interiors.items():
+            if np.all(p >= low) and np.all(p <= high):
+                return name
+        return None
+
+    def update(self, data: mujoco.MjData, held_slot: int | None = None) -> list[Landing]:
+        """Judges the items that came to rest off the belt; parks them; returns the new records."""
+        pool, t = self.pool, float(data.time)
+        belt = pool.belt.geometry
+        slots = pool.active_slots()
+        slots = slots[slots != (-1 if held_slot is None else held_slot)]
+        if held_slot is not None:
+            self._rest_since[held_slot] = np.nan
+        pos = data.xpos[pool.body_ids[slots]]
+        vel = data.qvel[pool.dof_adr[slots, None] + np.arange(3)]
+        fell = pos[:, 2] < self.lowest_z - 0.05
+        moving = (np.linalg.norm(vel, axis=1) > REST_SPEED) & ~fell
+        self._rest_since[slots[moving]] = np.nan
+        still = slots[~moving]
+        self._rest_since[still] = np.where(
+            np.isnan(self._rest_since[still]), t, self._rest_since[still]
+        )
+        riding = belt.on_belt(pos[:, :2]) & (pos[:, 2] > belt.top_z - 0.01)
+        settled = (t - self._rest_since[slots] >= REST_TIME - 1e-9) & ~riding
+        judged = ~moving & (settled | fell)
+        new = []
+        for slot, p, fell_through in zip(slots[judged], pos[judged], fell[judged], strict=True):
+            slot = int(slot)
+            where = None if fell_through else self.bin_at(p)
+            true_class = pool.item_type(slot).class_id
+            record = Landing(int(pool.item_ids[slot]), true_class, where, t, tuple(map(float, p)))
+            (self.landed if where else self.dropped).append(record)
+            new.append(record)
+            self._rest_since[slot] = np.nan
+            pool.park(data, slot)
+        return new

@@ -1,0 +1,188 @@
+"""Off-screen frames of the cell's belt camera, seen through a real lens.
+
+`BeltCamera` renders the MJCF camera `belt_camera` with one reused `mujoco.Renderer` (run under
+`MUJOCO_GL=egl`) and passes the pinhole render through `perception.camera.lens.LensDistorter`, so
+the
+frames carry the distortion of a real wide lens. MuJoCo's pinhole has square pixels, the
+principal point at the image centre and the vertical field of view `fovy`; since barrel
+distortion shows rays from outside that field, the pinhole render is made on a larger canvas
+with the same focal length (the camera's fovy is widened for that render only).
+
+`true_camera_matrix` is the renderer's exact intrinsics, for tests: perception never uses it,
+it calibrates the camera from checkerboard images instead (`sortsim calibrate`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import mujoco
+import numpy as np
+
+from perception.camera.calibration import CameraCalibration
+from perception.camera.grid import BeltGrid
+from perception.camera.lens import ZED_HD_LEFT, LensDistorter, LensModel, source_canvas
+from perception.camera.pipeline import CameraPipeline
+from sim.errors import InvalidInput, ModelFileError
+from sim.paths import CAMERA_CALIBRATION_JSON
+
+CAMERA_NAME = "belt_camera"
+MARKER_NAMES = ("marker_0", "marker_1", "marker_2", "marker_3")
+DEFAULT_CALIBRATION = CAMERA_CALIBRATION_JSON
+
+
+def camera_id(model: mujoco.MjModel, name: str = CAMERA_NAME) -> int:
+    """Id of camera `name`; ModelFileError when the model has none of that name."""
+    cam = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, name)
+    if cam < 0:
+        raise ModelFileError("model", f"no camera named {name!r}")
+    if np.any(model.cam_sensorsize[cam] > 0):
+        raise ModelFileError("model", f"camera {name!r}: only fovy cameras are supported")
+    return cam
+
+
+def true_camera_matrix(
+    model: mujoco.MjModel, width: int, height: int, name: str = CAMERA_NAME
+) -> np.ndarray:
+    """The renderer's pinhole intrinsics (3, 3) [px] at `width` x `height` (OpenCV convention:
+    pixel centres at integer coordinates). For tests only."""
+    cam = camera_id(model, name)
+    focal = 0.5 * height / math.tan(0.5 * math.radians(model.cam_fovy[cam]))
+    return np.array(
+        [[focal, 0.0, (width - 1) / 2.0], [0.0, focal, (height - 1) / 2.0], [0.0, 0.0, 1.0]]
+    )
+
+
+def camera_pose(
+    model: mujoco.MjModel, data: mujoco.MjData, name: str = CAMERA_NAME
+) -> tuple[np.ndarray, np.ndarray]:
+    """(R_world_from_opencv (3, 3), position (3,) [m]) of the camera, OpenCV axes (x right,
+    y down, z forward). For tests only."""
+    cam = camera_id(model, name)
+    rot = data.cam_xmat[cam].reshape(3, 3) @ np.diag([1.0, -1.0, -1.0])
+    return rot, data.cam_xpos[cam].copy()
+
+
+def marker_points(
+    model: mujoco.MjModel, data: mujoco.MjData, names: tuple[str, ...] = MARKER_NAMES
+) -> tuple[np.ndarray, np.ndarray]:
+    """World centres (N, 3) [m] of the marker geoms (or sites) and their colours (N, 3) [0..1].
+
+    The centre is the marker's top face centre: the point the camera sees.
+    """
+    positions, colours = [], []
+    for name in names:
+        geom = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, name)
+        if geom >= 0:
+            top = data.geom_xmat[geom].reshape(3, 3)[:, 2] * model.geom_size[geom][2]
+            positions.append(data.geom_xpos[geom] + top)
+            rgba = model.geom_rgba[geom]
+            if model.geom_matid[geom] >= 0:
+                rgba = model.mat_rgba[model.geom_matid[geom]]
+            colours.append(rgba[:3].copy())
+            continue
+        site = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, name)
+        if site < 0:
+            raise ModelFileError("model", f"no marker geom or site named {name!r}")
+        top = data.site_xmat[site].reshape(3, 3)[:, 2] * model.site_size[site][2]
+        positions.append(data.site_xpos[site] + top)
+        colours.append(model.site_rgba[site][:3].copy())
+    return np.array(positions), np.array(colours)
+
+
+class BeltCamera:
+    """Renders distorted frames (height, width, 3) uint8 of the belt camera.
+
+    Args:
+        model: The compiled cell (its camera `name`).
+        width: Frame width [px].
+        height: Frame height [px].
+        lens: The lens that distorts the frames; None for the bare pinhole render.
+        name: The MJCF camera's name.
+    """
+
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        width: int = 1280,
+        height: int = 720,
+        lens: LensModel | None = ZED_HD_LEFT,
+        name: str = CAMERA_NAME,
+    ):
+        if not (16 <= width <= 4096 and 16 <= height <= 4096):
+            raise InvalidInput("camera resolution", "16..4096 px each", (width, height))
+        self.model = model
+        self.size = (int(width), int(height))
+        self._cam = camera_id(model, name)
+        self.camera_matrix = true_camera_matrix(model, width, height, name)
+        if lens is None:
+            self._distorter = None
+            src_size = self.size
+        else:
+            src_matrix, src_size = source_canvas(self.camera_matrix, lens, self.size)
+            self._distorter = LensDistorter(
+                self.camera_matrix, lens, self.size, src_matrix, src_size
+            )
+        focal = self.camera_matrix[1, 1]
+        self._fovy = math.degrees(2.0 * math.atan(0.5 * src_size[1] / focal))
+        vis = model.vis.global_
+        vis.offwidth = max(vis.offwidth, src_size[0])
+        vis.offheight = max(vis.offheight, src_size[1])
+        self._renderer = mujoco.Renderer(model, src_size[1], src_size[0])
+
+    def render(self, data: mujoco.MjData) -> np.ndarray:
+        """The camera's frame of the current state of `data` (height, width, 3) uint8."""
+        return self._render(data, depth=False)[0]
+
+    def render_rgbd(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
+        """The frame and its registered depth map (height, width) float32 [m along the optical
+        axis], as a stereo camera like the ZED delivers them (same lens, same pixels)."""
+        return self._render(data, depth=True)
+
+    def _render(self, data: mujoco.MjData, depth: bool) -> tuple[np.ndarray, np.ndarray | None]:
+        fovy = float(self.model.cam_fovy[self._cam])
+        self.model.cam_fovy[self._cam] = self._fovy
+        renderer = self._renderer
+        try:
+            renderer.update_scene(data, camera=self._cam)
+            rgb = renderer.render()
+            z = None
+            if depth:
+                renderer.enable_depth_rendering()
+                try:
+                    z = renderer.render()
+                finally:
+                    renderer.disable_depth_rendering()
+        finally:
+            self.model.cam_fovy[self._cam] = fovy
+        if self._distorter is None:
+            return rgb, z
+        rgb = self._distorter.apply(rgb)
+        if z is not None:
+            z = self._distorter.apply(z, cv2.INTER_NEAREST)
+        return rgb, z
+
+    def close(self) -> None:
+        """Frees the renderer's GL context."""
+        self._renderer.close()
+
+    def __enter__(self) -> BeltCamera:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def camera_pipeline(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    size: tuple[int, int] = (1280, 720),
+    grid: BeltGrid | None = None,
+    calibration_path=DEFAULT_CALIBRATION,
+) -> CameraPipeline:
+    """The perception pipeline of the cell's camera: the calibration file (scaled to `size`),
+    the belt grid (default: camera line x = -1.48 m, T = 0.5 s) and the markers' MJCF positions
+    and colours, the cell's drawings. The belt is located from the markers on the first frame."""
+    calibration = CameraCalibration.load(calibration_path).scaled(size)
+    return CameraPipeline(calibration, grid or BeltGrid(), *marker_points(model, data))

@@ -1,0 +1,89 @@
+"""The compiled sorting cell and the long-lived objects built on it, reused between episodes.
+
+A `Cell` owns one MjModel/MjData (the item pool switches geom fields of its own model at run
+time, so a cell is never shared between simulations running at once), the belt, the item pool,
+the robot's geometry, trajectory generator and executor, the reachable window and the bins'
+release points. `reset` parks every item and puts the robot back to its `home` keyframe, so a
+sweep worker or a Ray actor runs many episodes on one compiled model.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from perception.codes import ALUMINIUM, PAPER, PLASTIC
+from planner.motion.kinematics import reachable_mask
+from planner.motion.limits import limits_for_payload
+from planner.motion.reach_window import ReachWindow
+from planner.motion.ruckig_trajectory import RuckigTrajectoryGenerator
+from sim.cell.conveyor import Belt
+from sim.cell.executor import TrajectoryExecutor, lumped_dynamics
+from sim.cell.item_pool import ItemPool
+from sim.cell.mjcf import load_scene
+from sim.cell.riding import wake_line
+from sim.cell.robot import geometry_from_model, tcp_position
+from sim.flow.catalogue import load_catalogue
+
+BIN_NAMES = {PAPER: "paper", PLASTIC: "plastic", ALUMINIUM: "aluminium"}
+PICK_Z_NOMINAL = 0.02
+"""TCP height of the reachable window the planners use (a typical item top) [m]."""
+DESIGN_PAYLOAD_KG = 1.0
+"""Payload the pick trajectories are planned for: the heaviest catalogue item is well under it."""
+
+
+class Cell:
+    """The compiled cell (model, data) and its robot, belt, pool and bins.
+
+    Args:
+        model: A compiled cell; `sim.cell.mjcf.load_scene()` when omitted.
+    """
+
+    def __init__(self, model: mujoco.MjModel | None = None):
+        self.model = model if model is not None else load_scene()
+        self.data = mujoco.MjData(self.model)
+        self.catalogue = load_catalogue()
+        self.belt = Belt(self.model)
+        self.pool = ItemPool(self.model, self.catalogue, self.belt)
+        self.geometry = geometry_from_model(self.model)
+        self.limits = limits_for_payload(DESIGN_PAYLOAD_KG)
+        dynamics = lumped_dynamics(self.model, self.geometry, DESIGN_PAYLOAD_KG)
+        self.generator = RuckigTrajectoryGenerator(self.limits, self.geometry, dynamics)
+        self.executor = TrajectoryExecutor(self.model, self.data, geometry=self.geometry)
+        self.window = ReachWindow.from_reachable(
+            lambda p: reachable_mask(self.geometry, p), PICK_Z_NOMINAL
+        )
+        mujoco.mj_forward(self.model, self.data)
+        self.drop_xyz = {
+            c: self.data.site(f"bin_{name}_drop").xpos.copy() for c, name in BIN_NAMES.items()
+        }
+        self._home_key = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_KEY, "home")
+        item_radius = float(np.max(self.model.geom_rbound[self.pool.geom_ids[0]]))
+        self.wake_x = wake_line(lambda p: reachable_mask(self.geometry, p), item_radius)
+        """Settled items riding the belt wake before this x (`sim.cell.riding`) [m]."""
+
+    def bins_tuple(self) -> tuple[tuple[float, float, float], ...]:
+        """Release points of the paper, plastic and aluminium bins, for the planners [m]."""
+        return tuple(tuple(float(v) for v in self.drop_xyz[c]) for c in (PAPER, PLASTIC, ALUMINIUM))
+
+    def reset(self, belt_speed: float) -> None:
+        """Park every item, robot to `home`, belt at `belt_speed` [m/s], clock at 0."""
+        for slot in self.pool.active_slots():
+            self.pool.park(self.data, int(slot))
+        mujoco.mj_resetDataKeyframe(self.model, self.data, self._home_key)
+        self.data.eq_active[:] = self.model.eq_active0
+        self.belt.set_speed(belt_speed)
+        self.executor.set_payload(0.0)
+        mujoco.mj_forward(self.model, self.data)
+
+    def belt_camera(self, size: tuple[int, int]):
+        """The belt camera's renderer at `size`, created once and kept for later episodes."""
+        from sim.cell.camera import BeltCamera
+
+        if getattr(self, "_camera", None) is None or self._camera.size != tuple(size):
+            self._camera = BeltCamera(self.model, *size)
+        return self._camera
+
+    def tcp(self) -> np.ndarray:
+        """Cup lip centre now [m]."""
+        return tcp_position(self.model, self.data)

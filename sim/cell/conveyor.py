@@ -1,0 +1,133 @@
+"""The conveyor belt: a static box whose top surface moves (MuJoCo `geom/surfacevel`).
+
+The belt never moves as a body: MuJoCo gives the contacts of geom `belt` a tangential surface
+velocity, so items resting on it are carried by friction alone (no teleporting, no velocity
+writes). The speed is changed at run time through `model.geom_surfacevel[belt]` (six components
+in MuJoCo 4: linear x, y, z and angular x, y, z; only the linear x is used).
+
+The thesis's conveyor runs at 135-277 mm/s (section 2.1.1). Its experiments use speed factors
+x1, x1.2 and x1.5; we set x1 = 0.185 m/s so that x1.5 = 0.2775 m/s is the conveyor's top
+speed, which is rated to the whole millimetre per second (the range check therefore allows half
+a millimetre per second of rounding on each side).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from planner.motion.belt_speeds import SPEED_FACTORS, SPEED_RANGE_MPS, SPEED_X1_MPS
+from sim.errors import InvalidInput
+
+BELT_GEOM = "belt"
+SPEED_MIN, SPEED_MAX = SPEED_RANGE_MPS
+SPEED_X1 = SPEED_X1_MPS
+_RATING_RESOLUTION = 0.0005  # [m/s], half of the rated range's last digit
+
+
+def speed_for_factor(factor: float) -> float:
+    """Belt speed [m/s] of a thesis speed factor (1, 1.2 or 1.5).
+
+    Raises:
+        InvalidInput: `factor` is not one of `SPEED_FACTORS`.
+    """
+    for allowed in SPEED_FACTORS:
+        if np.isclose(factor, allowed, rtol=0.0, atol=1e-9):
+            return SPEED_X1 * allowed
+    raise InvalidInput("speed_factor", "one of 1, 1.2, 1.5", factor)
+
+
+def check_speed(speed: float) -> float:
+    """Validates a belt speed [m/s] against the conveyor's range and returns it as a float.
+
+    Raises:
+        InvalidInput: `speed` is not a finite number in [0.135, 0.277] m/s.
+    """
+    ok = isinstance(speed, int | float | np.floating) and np.isfinite(speed)
+    if not ok or not (
+        SPEED_MIN - _RATING_RESOLUTION <= speed <= SPEED_MAX + _RATING_RESOLUTION + 1e-12
+    ):
+        raise InvalidInput("belt_speed", f"{SPEED_MIN} to {SPEED_MAX} m/s", speed)
+    return float(speed)
+
+
+@dataclass(frozen=True)
+class BeltGeometry:
+    """Where the belt's top surface is, read from geom `belt` [m].
+
+    Attributes:
+        x_infeed: Upstream end of the top surface.
+        x_discharge: Downstream end.
+        y_half: Half the belt's width (the surface spans -y_half..y_half about `y_centre`).
+        y_centre: Centre line.
+        top_z: Height of the top surface.
+    """
+
+    x_infeed: float
+    x_discharge: float
+    y_half: float
+    y_centre: float
+    top_z: float
+
+    def on_belt(self, xy: np.ndarray) -> np.ndarray:
+        """Whether points (..., 2) [m] lie over the belt's top surface (boolean array)."""
+        xy = np.asarray(xy, dtype=float)
+        return (
+            (xy[..., 0] >= self.x_infeed)
+            & (xy[..., 0] <= self.x_discharge)
+            & (np.abs(xy[..., 1] - self.y_centre) <= self.y_half)
+        )
+
+
+class Belt:
+    """Speed control and geometry of the belt geom of a compiled model.
+
+    Args:
+        model: Model holding an axis-aligned box geom named `belt` on the world body.
+
+    Raises:
+        InvalidInput: no such geom, or it is not an axis-aligned box.
+    """
+
+    def __init__(self, model: mujoco.MjModel, geom_name: str = BELT_GEOM):
+        geom_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, geom_name)
+        if geom_id < 0:
+            raise InvalidInput("belt", f"a box geom named {geom_name!r} in the model", None)
+        if model.geom_type[geom_id] != mujoco.mjtGeom.mjGEOM_BOX or model.geom_bodyid[geom_id]:
+            raise InvalidInput("belt", "a box geom on the world body", geom_name)
+        if not np.allclose(model.geom_quat[geom_id], (1.0, 0.0, 0.0, 0.0)):
+            raise InvalidInput("belt", "an axis-aligned box", model.geom_quat[geom_id].tolist())
+        self._model = model
+        self.geom_id = geom_id
+        pos, size = model.geom_pos[geom_id], model.geom_size[geom_id]
+        self.geometry = BeltGeometry(
+            x_infeed=float(pos[0] - size[0]),
+            x_discharge=float(pos[0] + size[0]),
+            y_half=float(size[1]),
+            y_centre=float(pos[1]),
+            top_z=float(pos[2] + size[2]),
+        )
+
+    @property
+    def speed(self) -> float:
+        """Current belt speed along +x [m/s]."""
+        return float(self._model.geom_surfacevel[self.geom_id, 0])
+
+    def set_speed(self, speed: float) -> None:
+        """Sets the belt speed [m/s]; takes effect at the next step.
+
+        Raises:
+            InvalidInput: outside the conveyor's 0.135-0.277 m/s.
+        """
+        speed = check_speed(speed)
+        surfacevel = self._model.geom_surfacevel[self.geom_id]
+        surfacevel[:] = 0.0
+        surfacevel[0] = speed
+
+    def set_factor(self, factor: float) -> float:
+        """Sets the speed of a thesis speed factor (1, 1.2, 1.5) and returns it [m/s]."""
+        speed = speed_for_factor(factor)
+        self.set_speed(speed)
+        return speed

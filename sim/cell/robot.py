@@ -1,0 +1,249 @@
+"""Named access to the delta robot inside a compiled model (robot alone or the whole cell).
+
+The geometry the planner uses is read here from the compiled MJCF, so the XML is the one source
+of truth. `set_configuration` puts the closed chain (motors, rod hinges, free platform, axis 4)
+into the state the analytic kinematics predicts, so a simulation can start anywhere.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from planner.motion.kinematics import DeltaGeometry, elbows, forward_kinematics
+
+LEGS = (1, 2, 3)
+RODS = ("a", "b")
+MOTOR_JOINTS = tuple(f"motor_{i}_joint" for i in LEGS)
+MOTOR_ACTUATORS = tuple(f"motor_{i}" for i in LEGS)
+
+
+def geometry_from_model(model: mujoco.MjModel) -> DeltaGeometry:
+    """The robot's `DeltaGeometry`, read by element names from the compiled model.
+
+    Args:
+        model: A model containing the IRB 360 (`base_link`, `upper_arm_*_link`, rods, platform).
+
+    Returns:
+        Geometry of the robot as mounted in this model [m, rad].
+    """
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)  # at qpos0: motors at 0, platform at its body pose
+    base = data.body("base_link").xpos.copy()
+    radii, azimuths, lows, highs = [], [], [], []
+    for i in LEGS:
+        offset = data.body(f"upper_arm_{i}_link").xpos - base
+        radii.append(np.hypot(offset[0], offset[1]))
+        azimuths.append(float(np.arctan2(offset[1], offset[0])))
+        lows.append(model.joint(f"motor_{i}_joint").range[0])
+        highs.append(model.joint(f"motor_{i}_joint").range[1])
+    rod_a, rod_b = model.body("rod_1a_link").pos, model.body("rod_1b_link").pos
+    platform_mid = 0.5 * (model.site("platform_1a").pos + model.site("platform_1b").pos)
+    tcp_offset = data.body("platform_link").xpos[2] - data.site("cup_site").xpos[2]
+    return DeltaGeometry(
+        base_radius=float(np.mean(radii)),
+        upper_arm=float(0.5 * (rod_a[0] + rod_b[0])),
+        forearm=float(np.linalg.norm(model.site("rod_1a_tip").pos)),
+        platform_radius=float(np.hypot(platform_mid[0], platform_mid[1])),
+        rod_spacing=float(np.linalg.norm(rod_b - rod_a)),
+        leg_azimuths=tuple(float(a % (2.0 * np.pi)) for a in azimuths),
+        base_height=float(base[2]),
+        tcp_offset=float(tcp_offset),
+        motor_lower=float(max(lows)),
+        motor_upper=float(min(highs)),
+        base_xy=(float(base[0]), float(base[1])),
+    )
+
+
+def tcp_position(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+    """World position of the cup lip centre (`cup_site`) [m]."""
+    return data.site("cup_site").xpos.copy()
+
+
+def motor_qpos(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+    """Motor angles [rad], shape (3,)."""
+    return np.array([data.joint(name).qpos[0] for name in MOTOR_JOINTS])
+
+
+def motor_qvel(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+    """Motor speeds [rad/s], shape (3,)."""
+    return np.array([data.joint(name).qvel[0] for name in MOTOR_JOINTS])
+
+
+def platform_tilt(model: mujoco.MjModel, data: mujoco.MjData) -> float:
+    """Angle between the platform's z axis and world z [rad] (0 = level)."""
+    zz = data.body("platform_link").xmat[8]
+    return float(np.arccos(np.clip(zz, -1.0, 1.0)))
+
+
+def loop_closure_error(model: mujoco.MjModel, data: mujoco.MjData) -> float:
+    """Largest gap between the two sites of the robot's connect constraints [m]."""
+    worst = 0.0
+    for i in LEGS:
+        for r in RODS:
+            gap = data.site(f"rod_{i}{r}_tip").xpos - data.site(f"platform_{i}{r}").xpos
+            worst = max(worst, float(np.linalg.norm(gap)))
+    return worst
+
+
+def settle_loop(
+    model: mujoco.MjModel, data: mujoco.MjData, tol: float = 1e-12, max_iter: int = 30
+) -> float:
+    """Close the six loops by moving only the passive joints (Gauss-Newton on MuJoCo's kinematics).
+
+    Motors and axis 4 keep their angles; rod hinges and the free platform move so that every
+    connect constraint's two sites coincide. Velocities are left untouched.
+
+    Args:
+        model: Compiled model containing the robot.
+        data: Its data; `qpos` is modified in place and `mj_kinematics` has run on return.
+        tol: Stop when the largest site gap is below this [m].
+        max_iter: Iteration limit.
+
+    Returns:
+        The remaining largest site gap [m].
+    """
+    held = [model.joint(n).dofadr[0] for n in (*MOTOR_JOINTS, "axis4_joint")]
+    passive = np.ones(model.nv, dtype=bool)
+    passive[held] = False
+    robot = _robot_dofs(model)
+    cols = np.flatnonzero(passive & robot)
+    pairs = [(f"rod_{i}{r}_tip", f"platform_{i}{r}") for i in LEGS for r in RODS]
+    jac1, jac2 = np.zeros((3, model.nv)), np.zeros((3, model.nv))
+    for _ in range(max_iter):
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_comPos(model, data)
+        res, rows = [], []
+        for s1, s2 in pairs:
+            a, b = data.site(s1), data.site(s2)
+            res.append(a.xpos - b.xpos)
+            mujoco.mj_jacSite(model, data, jac1, None, a.id)
+            mujoco.mj_jacSite(model, data, jac2, None, b.id)
+            rows.append((jac1 - jac2)[:, cols])
+        res = np.concatenate(res)
+        if np.max(np.abs(res)) < tol:
+            break
+        step = np.linalg.lstsq(np.vstack(rows), -res, rcond=None)[0]
+        dq = np.zeros(model.nv)
+        dq[cols] = step
+        mujoco.mj_integratePos(model, data.qpos, dq, 1.0)
+    mujoco.mj_kinematics(model, data)
+    return loop_closure_error(model, data)
+
+
+def _robot_dofs(model: mujoco.MjModel) -> np.ndarray:
+    """Mask of the degrees of freedom that belong to the robot's bodies."""
+    roots = {model.body("base_link").id, model.body("platform_link").id}
+    mask = np.zeros(model.nv, dtype=bool)
+    for dof in range(model.nv):
+        body = model.dof_bodyid[dof]
+        while body != 0 and body not in roots:
+            body = model.body_parentid[body]
+        mask[dof] = body in roots
+    return mask
+
+
+def _rod_angles(geom: DeltaGeometry, q: np.ndarray, leg: int, platform: np.ndarray):
+    """Swing and tilt of leg `leg`'s rods (both equal in a parallelogram) [rad]."""
+    u = geom.radial[leg]
+    rod = (platform + geom.platform_radius * u - elbows(geom, q)[leg]) / geom.forearm
+    phi, theta = geom.leg_azimuths[leg], q[leg]
+    c, s = np.cos(phi), np.sin(phi)
+    ct, st = np.cos(theta), np.sin(theta)
+    frame = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]) @ np.array(
+        [[ct, 0.0, st], [0.0, 1.0, 0.0], [-st, 0.0, ct]]
+    )
+    local = frame.T @ rod  # rod direction in the upper arm's frame
+    # Rod along -z of its body, rotated first about y (swing) then about x (tilt).
+    tilt = np.arcsin(np.clip(local[1], -1.0, 1.0))
+    swing = np.arctan2(-local[0], -local[2])
+    return swing, tilt
+
+
+def set_configuration(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    q_motors,
+    axis4: float = 0.0,
+    geom: DeltaGeometry | None = None,
+) -> None:
+    """Place the whole closed chain in the IK-consistent state of motor angles `q_motors`.
+
+    Sets motors, rod hinges, the free platform (level) and axis 4; zeroes their velocities; sets
+    the servo targets to the same angles; runs `mj_forward`.
+
+    Args:
+        model: Compiled model containing the robot.
+        data: Its data (modified in place).
+        q_motors: Motor angles, shape (3,) [rad].
+        axis4: Axis 4 angle [rad].
+        geom: The model's geometry if already read (saves reading it again).
+    """
+    geom = geometry_from_model(model) if geom is None else geom
+    q = np.asarray(q_motors, dtype=float).reshape(3)
+    platform = forward_kinematics(geom, q) + np.array([0.0, 0.0, geom.tcp_offset])
+    for leg, i in enumerate(LEGS):
+        swing, tilt = _rod_angles(geom, q, leg, platform)
+        _set_hinge(model, data, f"motor_{i}_joint", q[leg])
+        for r in RODS:
+            _set_hinge(model, data, f"rod_{i}{r}_swing_joint", swing)
+            _set_hinge(model, data, f"rod_{i}{r}_tilt_joint", tilt)
+    free = model.joint("platform_joint")
+    data.qpos[free.qposadr[0] : free.qposadr[0] + 7] = np.r_[platform, 1.0, 0.0, 0.0, 0.0]
+    data.qvel[free.dofadr[0] : free.dofadr[0] + 6] = 0.0
+    _set_hinge(model, data, "axis4_joint", axis4)
+    set_motor_targets(model, data, q, axis4)
+    mujoco.mj_forward(model, data)
+
+
+def _set_hinge(model: mujoco.MjModel, data: mujoco.MjData, name: str, value: float) -> None:
+    joint = model.joint(name)
+    data.qpos[joint.qposadr[0]] = value
+    data.qvel[joint.dofadr[0]] = 0.0
+
+
+def set_motor_targets(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    q,
+    axis4: float = 0.0,
+    qdot=None,
+    axis4_dot: float = 0.0,
+) -> None:
+    """Write servo set-points for the three motors and axis 4.
+
+    MuJoCo's position servo pushes with kp (ctrl - q) - kv qdot, i.e. it damps towards zero
+    speed. Given the reference speed, the set-point is led by (kv / kp) qdot_ref so the servo
+    acts as kp (q_ref - q) + kv (qdot_ref - qdot) and does not lag on moving references.
+
+    Args:
+        model: Compiled model containing the robot.
+        data: Its data (`data.ctrl` is written).
+        q: Motor angle set-points, shape (3,) [rad].
+        axis4: Axis 4 set-point [rad].
+        qdot: Reference motor speeds, shape (3,) [rad/s]; None for a fixed set-point.
+        axis4_dot: Reference axis 4 speed [rad/s].
+    """
+    ids = _servo_ids(model)  # called every control period: no name lookups here
+    targets = np.empty(4)
+    targets[:3], targets[3] = np.asarray(q, dtype=float).reshape(3), axis4
+    speeds = np.zeros(4)
+    if qdot is not None:
+        speeds[:3] = np.asarray(qdot, dtype=float).reshape(3)
+    speeds[3] = axis4_dot
+    kp, kv = model.actuator_gainprm[ids, 0], -model.actuator_biasprm[ids, 2]
+    value = targets + (kv / kp) * speeds
+    ctrlrange = model.actuator_ctrlrange[ids]
+    data.ctrl[ids] = np.clip(value, ctrlrange[:, 0], ctrlrange[:, 1])
+
+
+_SERVO_IDS: dict[int, tuple[mujoco.MjModel, np.ndarray]] = {}
+
+
+def _servo_ids(model: mujoco.MjModel) -> np.ndarray:
+    """Actuator ids of the three motors and axis 4 (cached per model)."""
+    hit = _SERVO_IDS.get(id(model))
+    if hit is None or hit[0] is not model:
+        ids = np.array([model.actuator(n).id for n in (*MOTOR_ACTUATORS, "axis4")])
+        hit = _SERVO_IDS[id(model)] = (model, ids)
+    return hit[1]

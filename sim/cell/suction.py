@@ -1,0 +1,263 @@
+"""The vacuum cup on the robot's `cup_link`: seal on contact, hold within a force budget, release.
+
+Model (numbers and reasons in docs/suction.md):
+- Seal. With the vacuum on, the cup seals on an item only while its lip (the cup's collision
+  geom) touches the item and the lip lies on the item: the cup's axis meets the item's footprint
+  at least `edge_margin` x the cup radius inside its outline (a bellows lip may hang over a
+  rounded edge by half its radius, not more). The vacuum then builds up for `seal_time` (35 ms,
+  ABB's Cycle 1 figure) of continuous contact; then the item is held.
+- Hold. A held item is welded to `cup_link` (the pool's `item_<n>_grip` weld, activated with the
+  current relative pose written into `eq_data`, so the seal forms where the cup touched and
+  nothing jumps). A weld carries the loads exactly as a sealed cup does and lets us read the
+  load it carries; MuJoCo's `adhesion` actuator, the alternative, pulls along contact normals
+  through soft contacts, so the cup would sink into the item and its holding force would depend
+  on contact stiffness rather than on cup area x vacuum. Every step the cup's force on the item
+  is obtained from the item's own motion, F = m (a - g) - (forces of its other contacts), and
+  split along the cup axis: the pull-off part F_n (away from the lip) and the shear part F_t.
+  The seal fails, and the item drops, when F_n + F_t / mu_lip > area x vacuum (the vacuum
+  presses the lip on the item with area x vacuum; pull-off uses that up, shear needs friction
+  mu_lip on what is left).
+- Release. Vacuum off: the item stays held for `release_time` (35 ms of air), then drops.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from planner.motion.limits import VACUUM_RELEASE_S, VACUUM_SEAL_S
+from sim.cell.item_pool import ItemPool
+from sim.errors import InvalidInput
+
+CUP_BODY = "cup_link"
+CUP_SITE = "cup_site"
+
+
+@dataclass(frozen=True)
+class SuctionConfig:
+    """Vacuum parameters (the cup's diameter is the model's: the cup's collision geom).
+
+    Attributes:
+        vacuum: Vacuum level below atmosphere at the sealed cup [Pa] (80 kPa: a multi-stage
+            ejector on the thesis's 10 bar supply, non-porous item).
+        lip_friction: Friction coefficient of the rubber lip on the item (shear capacity).
+        seal_time: Vacuum build-up after the lip touches the item [s].
+        release_time: Time from vacuum off until the item drops [s].
+        edge_margin: How far inside the item's outline the cup axis must meet it, as a
+            fraction of the cup radius.
+    """
+
+    vacuum: float = 80e3
+    lip_friction: float = 1.0
+    seal_time: float = VACUUM_SEAL_S
+    release_time: float = VACUUM_RELEASE_S
+    edge_margin: float = 0.5
+
+    def __post_init__(self):
+        checks = {
+            "vacuum": (0.0 < self.vacuum <= 101.325e3, "0 < vacuum <= 101325 Pa"),
+            "lip_friction": (0.0 < self.lip_friction <= 2.0, "0 < lip_friction <= 2"),
+            "seal_time": (0.0 <= self.seal_time <= 1.0, "0 to 1 s"),
+            "release_time": (0.0 <= self.release_time <= 1.0, "0 to 1 s"),
+            "edge_margin": (0.0 <= self.edge_margin <= 1.0, "0 to 1"),
+        }
+        for name, (ok, allowed) in checks.items():
+            if not (math.isfinite(getattr(self, name)) and ok):
+                raise InvalidInput(f"suction.{name}", allowed, getattr(self, name))
+
+
+@dataclass(frozen=True)
+class SuctionEvent:
+    """Something the cup did: "sealed", "lost" (force budget exceeded) or "released"."""
+
+    kind: str
+    time: float
+    item_id: int
+    slot: int
+    load: float = 0.0
+
+
+class SuctionCup:
+    """The vacuum cup of the robot in `model`, acting on the items of `pool`.
+
+    Call `update(data)` after every physics step (or control period) and switch the vacuum
+    with `vacuum_on` / `vacuum_off`.
+    """
+
+    def __init__(self, model: mujoco.MjModel, pool: ItemPool, config: SuctionConfig | None = None):
+        self.model, self.pool = model, pool
+        self.config = config or SuctionConfig()
+        self.body_id = model.body(CUP_BODY).id
+        self.site_id = model.site(CUP_SITE).id
+        first = model.body_geomadr[self.body_id]
+        geoms = np.arange(first, first + model.body_geomnum[self.body_id])
+        geoms = geoms[(model.geom_contype[geoms] | model.geom_conaffinity[geoms]) != 0]
+        if len(geoms) != 1 or model.geom_type[geoms[0]] != mujoco.mjtGeom.mjGEOM_CYLINDER:
+            raise InvalidInput("cup", "one colliding cylinder geom on cup_link (the lip)", geoms)
+        self.geom_id = int(geoms[0])
+        self.radius = float(model.geom_size[self.geom_id, 0])
+        self._vacuum = False
+        self._sealing: tuple[int, float] | None = None  # (slot, time the lip touched)
+        self._held: int | None = None
+        self._release_at: float | None = None
+        self.events: list[SuctionEvent] = []
+        self.last_load = 0.0
+        self.peak_load = 0.0
+        self._force = np.zeros(6)
+
+    @property
+    def area(self) -> float:
+        """Area of the cup's lip opening [m^2]."""
+        return math.pi * self.radius**2
+
+    @property
+    def force_budget(self) -> float:
+        """Holding force of the sealed cup, area x vacuum [N]."""
+        return self.area * self.config.vacuum
+
+    @property
+    def held_slot(self) -> int | None:
+        """Pool slot of the held item, or None."""
+        return self._held
+
+    @property
+    def held_item(self) -> int | None:
+        """Flow id of the held item, or None."""
+        return None if self._held is None else int(self.pool.item_ids[self._held])
+
+    @property
+    def vacuum(self) -> bool:
+        """Whether the vacuum valve is open."""
+        return self._vacuum
+
+    def vacuum_on(self) -> None:
+        """Opens the vacuum valve."""
+        self._vacuum = True
+        self._release_at = None
+
+    def vacuum_off(self, time: float) -> None:
+        """Closes the vacuum (and blows off): a held item drops after `release_time`."""
+        self._vacuum = False
+        self._sealing = None
+        if self._held is not None and self._release_at is None:
+            self._release_at = time + self.config.release_time
+
+    def update(self, data: mujoco.MjData) -> list[SuctionEvent]:
+        """Advances the cup's state to `data.time`; returns the events of this call."""
+        events: list[SuctionEvent] = []
+        t = float(data.time)
+        if self._held is not None:
+            if self._release_at is not None and t >= self._release_at - 1e-9:
+                events.append(self._drop(data, "released", t))
+            else:
+                load = self.load(data, self._held)
+                self.last_load, self.peak_load = load, max(self.peak_load, load)
+                if load > self.force_budget:
+                    events.append(self._drop(data, "lost", t, load))
+        elif self._vacuum:
+            slot = self._touched_slot(data)
+            if slot is None or (self._sealing is not None and self._sealing[0] != slot):
+                self._sealing = None if slot is None else (slot, t)
+            elif self._sealing is None:
+                self._sealing = (slot, t)
+            elif t - self._sealing[1] >= self.config.seal_time - 1e-9:
+                self._seal(data, slot)
+                events.append(SuctionEvent("sealed", t, int(self.pool.item_ids[slot]), slot))
+        self.events += events
+        return events
+
+    def _touched_slot(self, data: mujoco.MjData) -> int | None:
+        """Active slot whose item the lip touches and lies on, or None."""
+        n = data.ncon
+        if n == 0:
+            return None
+        geoms = data.contact.geom[:n]
+        touching = np.concatenate(
+            [geoms[geoms[:, 0] == self.geom_id, 1], geoms[geoms[:, 1] == self.geom_id, 0]]
+        )
+        for geom in touching:
+            slots = np.flatnonzero(self.pool.body_ids == self.model.geom_bodyid[geom])
+            slot = int(slots[0]) if len(slots) else -1
+            if slot >= 0 and self.pool.item_ids[slot] >= 0 and self._lip_on_item(data, slot):
+                return slot
+        return None
+
+    def _lip_on_item(self, data: mujoco.MjData, slot: int) -> bool:
+        """Whether the cup axis meets the item's footprint far enough inside its outline."""
+        body = self.pool.body_ids[slot]
+        local = data.xmat[body].reshape(3, 3).T @ (data.site_xpos[self.site_id] - data.xpos[body])
+        item_type = self.pool.item_type(slot)
+        margin = self.config.edge_margin * self.radius
+        kind, a, b = item_type.footprint
+        lx, ly = abs(local[0]), abs(local[1])
+        if item_type.pose == "lying":  # a can or bottle may roll about its long axis (body x)
+            axis = data.xmat[body].reshape(3, 3)[:, 0]
+            d = data.site_xpos[self.site_id] - data.xpos[body]
+            perp = d - (d @ axis) * axis
+            ly = math.hypot(perp[0], perp[1])
+        if kind == "disc":
+            return bool(math.hypot(lx, ly) <= a - margin)
+        if kind == "rect":
+            return bool(lx <= a - margin and ly <= b - margin)
+        beyond = max(lx - a, 0.0)  # stadium: straight part of half-length a, round ends of radius b
+        return bool(math.hypot(beyond, ly) <= b - margin)
+
+    def _seal(self, data: mujoco.MjData, slot: int) -> None:
+        eq = self.pool.grip_ids[slot]
+        if eq < 0:
+            raise InvalidInput("items.xml", "a grip weld per item slot", slot)
+        b1, b2 = self.body_id, self.pool.body_ids[slot]
+        r1 = data.xmat[b1].reshape(3, 3)
+        relpos = r1.T @ (data.xpos[b2] - data.xpos[b1])
+        q1_inv = np.empty(4)
+        mujoco.mju_negQuat(q1_inv, data.xquat[b1])
+        relquat = np.empty(4)
+        mujoco.mju_mulQuat(relquat, q1_inv, data.xquat[b2])
+        self.model.eq_data[eq, 0:3] = 0.0
+        self.model.eq_data[eq, 3:6] = relpos
+        self.model.eq_data[eq, 6:10] = relquat
+        data.eq_active[eq] = 1
+        self._held, self._sealing, self.last_load = slot, None, 0.0
+
+    def _drop(self, data: mujoco.MjData, kind: str, t: float, load: float = 0.0) -> SuctionEvent:
+        slot = self._held
+        data.eq_active[self.pool.grip_ids[slot]] = 0
+        self._held, self._release_at = None, None
+        return SuctionEvent(kind, t, int(self.pool.item_ids[slot]), slot, load)
+
+    def cup_force(self, data: mujoco.MjData, slot: int) -> np.ndarray:
+        """Force of the cup on the item in `slot` [N, world]: m (a - g) - its other contacts."""
+        m = self.model
+        body = self.pool.body_ids[slot]
+        dof = self.pool.dof_adr[slot]
+        force = m.body_mass[body] * (data.qacc[dof : dof + 3] - m.opt.gravity)
+        n = data.ncon
+        if not n:  # in the air: nothing but the cup acts on the item (the usual case)
+            return force
+        geom = self.pool.geom_id(slot)
+        pairs = data.contact.geom[:n]  # runs every step while holding: filter at once
+        touching = np.flatnonzero(pairs.ravel() == geom)  # (contact, side) of the item's contacts
+        for i in touching // 2:
+            pair = pairs[i]
+            if pair[0] == self.geom_id or pair[1] == self.geom_id:
+                continue  # the lip: the force sought
+            mujoco.mj_contactForce(m, data, i, self._force)
+            frame = data.contact.frame[i].reshape(3, 3)
+            world = frame.T @ self._force[:3]  # force on geom[1] from geom[0], world frame
+            force -= world if pair[1] == geom else -world
+        return force
+
+    def load(self, data: mujoco.MjData, slot: int) -> float:
+        """Equivalent pull-off load on the seal, F_n + F_t / mu_lip [N] (against the budget)."""
+        fx, fy, fz = self.cup_force(data, slot)
+        ax, ay, az = data.site_xmat[self.site_id, 2::3]  # the lip's axis (site z) in the world
+        lip, centre = data.site_xpos[self.site_id], data.xpos[self.pool.body_ids[slot]]
+        if ax * (centre[0] - lip[0]) + ay * (centre[1] - lip[1]) + az * (centre[2] - lip[2]) < 0:
+            ax, ay, az = -ax, -ay, -az  # unit vector from the lip into the item
+        along = fx * ax + fy * ay + fz * az
+        pull = max(0.0, -along)  # the cup pulling the item towards itself
+        shear = math.sqrt(max(fx * fx + fy * fy + fz * fz - along * along, 0.0))
+        return float(pull + shear / self.config.lip_friction)

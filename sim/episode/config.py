@@ -1,0 +1,271 @@
+"""Configuration of one episode: a frozen, eagerly validated dataclass read from TOML.
+
+Every key a TOML file may hold is a field below; unknown keys, wrong types, values out of
+range and malformed TOML are refused with one line naming the key and the file
+(`InvalidInput`, exit code 2) before anything runs. Command-line options override the file.
+
+TOML layout (every key optional; defaults are DESIGN.md's headline episode)::
+
+    seed = 0
+    items = 100
+    speed_factor = 1.0          # belt speed = 0.185 m/s x factor, inside 0.135..0.277 m/s
+    planner = "qlearning"       # qlearning | proximity | fifo | greedy | oracle
+    perception = "camera"       # camera | truth
+    duration_s = 90.0           # items arrive over this time [s]
+    observation_period_s = 0.5  # one grid row per period [s]
+    item_riding = "settled"     # settled | contact (see sim/cell/riding.py)
+    [values]                    # EUR per item (thesis table 3.3)
+    paper = 0.22
+    plastic = 0.25
+    aluminium = 0.27
+    [qlearning]
+    gamma = 0.9
+    iterations = 50
+    batch_rows = 20
+    objective = "value_over_distance"   # | value_only (d = 1) | distance_only (v = 1)
+    [robot]                     # extra dwell after each pick / place (thesis: ~0.5 s each)
+    pick_pause_s = 0.0
+    place_pause_s = 0.0
+    [video]
+    fps = 10.0                  # frames per simulated second
+    width = 640
+    height = 360
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from perception.codes import THESIS_VALUES_EUR
+from planner.decision.registry import ALLOWED as ALLOWED_PLANNERS
+from planner.decision.registry import check_planner
+from planner.motion.belt_speeds import SPEED_RANGE_MPS, SPEED_X1_MPS
+from sim.errors import InvalidInput, RefusedInput
+
+BELT_SPEED_X1_MPS = SPEED_X1_MPS
+BELT_SPEED_RANGE_MPS = SPEED_RANGE_MPS
+# x1.5 is the belt's top speed: 0.2775 m/s rounds to the conveyor's 0.277 m/s.
+_SPEED_TOLERANCE_MPS = 6e-4
+PERCEPTIONS = ("camera", "truth")
+ITEM_RIDINGS = ("settled", "contact")
+OBJECTIVES = ("value_over_distance", "value_only", "distance_only")
+MAX_ITEMS = 20000
+
+
+def _check(ok: bool, key: str, allowed: str, got: object, where: str | None) -> None:
+    if not ok:
+        raise InvalidInput(key, allowed, got, where)
+
+
+def _number(value: object) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)
+
+
+def _integer(value: object) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def belt_speed_mps(speed_factor: float) -> float:
+    """Belt speed [m/s] of a speed factor (x1 = 0.185 m/s)."""
+    return BELT_SPEED_X1_MPS * float(speed_factor)
+
+
+@dataclass(frozen=True)
+class Values:
+    """Value of an item of each class [EUR] (thesis table 3.3)."""
+
+    paper: float = THESIS_VALUES_EUR[0]
+    plastic: float = THESIS_VALUES_EUR[1]
+    aluminium: float = THESIS_VALUES_EUR[2]
+
+    def __post_init__(self) -> None:
+        for name in ("paper", "plastic", "aluminium"):
+            got = getattr(self, name)
+            _check(_number(got) and 0.0 <= got <= 1e6, f"values.{name}", "0..1e6 EUR", got, None)
+
+    def by_class(self) -> dict[int, float]:
+        """Value per class id (2 paper, 3 plastic, 4 aluminium) [EUR]."""
+        return {2: float(self.paper), 3: float(self.plastic), 4: float(self.aluminium)}
+
+    def as_tuple(self) -> tuple[float, float, float]:
+        """(paper, plastic, aluminium) [EUR], the decision managers' order."""
+        return (self.paper, self.plastic, self.aluminium)
+
+
+@dataclass(frozen=True)
+class QLearning:
+    """Parameters of the thesis's Q-learning decision manager (3.4.1, 4.2)."""
+
+    gamma: float = 0.9
+    iterations: int = 50
+    batch_rows: int = 20
+    objective: str = "value_over_distance"
+
+    def __post_init__(self) -> None:
+        where = None
+        g = self.gamma
+        _check(_number(g) and 0.0 <= g < 1.0, "qlearning.gamma", "[0, 1)", g, where)
+        n = self.iterations
+        _check(_integer(n) and 1 <= n <= 10000, "qlearning.iterations", "1..10000", n, where)
+        b = self.batch_rows
+        _check(_integer(b) and 1 <= b <= 1000, "qlearning.batch_rows", "1..1000", b, where)
+        o = self.objective
+        _check(o in OBJECTIVES, "qlearning.objective", " | ".join(OBJECTIVES), o, where)
+
+
+@dataclass(frozen=True)
+class Robot:
+    """Extra robot dwell at the pick (after the seal) and at the place (after the release) [s].
+
+    0 is the physical robot (ABB's 35 ms of vacuum at each end only). The thesis's simulator
+    paused about half a second after each pick and each place (4.2); set both to 0.5 to
+    reproduce that regime.
+    """
+
+    pick_pause_s: float = 0.0
+    place_pause_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("pick_pause_s", "place_pause_s"):
+            v = getattr(self, name)
+            _check(_number(v) and 0.0 <= v <= 2.0, f"robot.{name}", "0..2 s", v, None)
+
+
+@dataclass(frozen=True)
+class Video:
+    """Settings of the episode's MP4 (frames per simulated second, frame size [px])."""
+
+    fps: float = 10.0
+    width: int = 640
+    height: int = 360
+
+    def __post_init__(self) -> None:
+        where = None
+        _check(_number(self.fps) and 1 <= self.fps <= 60, "video.fps", "1..60", self.fps, where)
+        for name in ("width", "height"):
+            v = getattr(self, name)
+            ok = _integer(v) and 64 <= v <= 1920 and v % 8 == 0
+            _check(ok, f"video.{name}", "64..1920, a multiple of 8", v, where)
+
+
+@dataclass(frozen=True)
+class EpisodeConfig:
+    """One episode of the sorting cell; validated on construction."""
+
+    seed: int = 0
+    items: int = 100
+    speed_factor: float = 1.0
+    planner: str = "qlearning"
+    perception: str = "camera"
+    duration_s: float = 90.0
+    observation_period_s: float = 0.5
+    item_riding: str = "settled"
+    values: Values = field(default_factory=Values)
+    qlearning: QLearning = field(default_factory=QLearning)
+    video: Video = field(default_factory=Video)
+    robot: Robot = field(default_factory=Robot)
+    where: str | None = field(default=None, compare=False, repr=False)
+
+    def __post_init__(self) -> None:
+        w = self.where
+        _check(_integer(self.seed) and 0 <= self.seed < 2**63, "seed", "0..2^63-1", self.seed, w)
+        n = self.items
+        _check(_integer(n) and 1 <= n <= MAX_ITEMS, "items", f"1..{MAX_ITEMS}", n, w)
+        f = self.speed_factor
+        lo, hi = BELT_SPEED_RANGE_MPS
+        ok = _number(f) and lo - 1e-9 <= belt_speed_mps(f) <= hi + _SPEED_TOLERANCE_MPS
+        x1 = BELT_SPEED_X1_MPS
+        allowed = f"{lo / x1:.3f}..1.5 (belt {lo}..{hi} m/s at {x1} m/s per x1)"
+        _check(ok, "speed_factor", allowed, f, w)
+        _check(isinstance(self.planner, str), "planner", ALLOWED_PLANNERS, self.planner, w)
+        try:
+            check_planner(self.planner)
+        except RefusedInput as exc:
+            raise InvalidInput("planner", exc.allowed, self.planner, w) from None
+        p = self.perception
+        _check(p in PERCEPTIONS, "perception", " | ".join(PERCEPTIONS), p, w)
+        d = self.duration_s
+        _check(_number(d) and 1.0 <= d <= 36000.0, "duration_s", "1..36000 s", d, w)
+        t = self.observation_period_s
+        ok = _number(t) and 0.05 <= t <= 5.0
+        _check(ok, "observation_period_s", "0.05..5 s", t, w)
+        r = self.item_riding
+        _check(r in ITEM_RIDINGS, "item_riding", " | ".join(ITEM_RIDINGS), r, w)
+        for name, cls in _SECTIONS.items():
+            _check(isinstance(getattr(self, name), cls), name, f"a [{name}] table", None, w)
+
+    @property
+    def belt_speed_mps(self) -> float:
+        """Belt speed of this episode [m/s]."""
+        return belt_speed_mps(self.speed_factor)
+
+    def replace(self, **changes: Any) -> EpisodeConfig:
+        """A copy with `changes` applied (validated again)."""
+        return dataclasses.replace(self, **changes)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain dict of every setting (TOML layout), for reports and sweep keys."""
+        out = dataclasses.asdict(self)
+        out.pop("where")
+        return out
+
+
+_SECTIONS = {"values": Values, "qlearning": QLearning, "video": Video, "robot": Robot}
+_SCALARS = {f.name for f in dataclasses.fields(EpisodeConfig)} - set(_SECTIONS) - {"where"}
+
+
+def from_dict(data: dict[str, Any], where: str | None = None) -> EpisodeConfig:
+    """An `EpisodeConfig` from a TOML-shaped dict; unknown keys refused naming `where`."""
+    try:
+        return _from_dict(data, where)
+    except InvalidInput as exc:
+        if exc.where is None and where is not None:
+            raise InvalidInput(exc.field, exc.allowed, exc.got, where) from None
+        raise
+
+
+def _from_dict(data: dict[str, Any], where: str | None) -> EpisodeConfig:
+    kwargs: dict[str, Any] = {}
+    for key, value in data.items():
+        if key in _SECTIONS:
+            cls = _SECTIONS[key]
+            _check(isinstance(value, dict), key, "a table [" + key + "]", value, where)
+            names = {f.name for f in dataclasses.fields(cls)}
+            for sub in value:
+                _check(
+                    sub in names, f"{key}.{sub}", "one of " + ", ".join(sorted(names)), None, where
+                )
+            kwargs[key] = cls(**value)
+        else:
+            allowed = "one of " + ", ".join(sorted(_SCALARS | set(_SECTIONS)))
+            _check(key in _SCALARS, key, allowed, None, where)
+            kwargs[key] = value
+    return EpisodeConfig(where=where, **kwargs)
+
+
+def read_toml(path: Path) -> dict[str, Any]:
+    """Parsed TOML of `path`; a missing or malformed file is refused in one line."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise InvalidInput("config", "a readable TOML file", str(path)) from exc
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InvalidInput("config", f"valid TOML ({exc})", None, str(path)) from exc
+
+
+def load(path: Path | None = None, **overrides: Any) -> EpisodeConfig:
+    """The episode config of TOML `path` (or defaults) with non-None `overrides` applied."""
+    data = read_toml(path) if path is not None else {}
+    where = str(path) if path is not None else None
+    config = from_dict(data, where)
+    changes = {k: v for k, v in overrides.items() if v is not None}
+    unknown = set(changes) - _SCALARS
+    _check(not unknown, "override", ", ".join(sorted(_SCALARS)), sorted(unknown), None)
+    return dataclasses.replace(config, where=None, **changes) if changes else config

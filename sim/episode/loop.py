@@ -1,0 +1,404 @@
+"""The loop of one episode: the only place that steps the physics while an episode runs.
+
+In the manner of dm_control's `Environment.step` with task hooks. Each physics step is
+`before_step` (the robot's executor writes its set-points) -> `mj_step` -> after-step hooks
+(the cup; then the scheduler: items dropped at the infeed, observations, item checks with the
+bins and riding, video frames) -> the pick's outcome once the robot is free again. While the
+robot idles the physics is stepped in blocks up to the next scheduled event; while it moves,
+one step per control period. Decisions are the episode's public surface: `step_until_decision`
+advances until the robot is free and a choice is needed, `apply` takes the choice (from the
+configured decision manager in `run`, or from outside: a Gymnasium agent, a line coordinator).
+The episode ends when every item has been dropped and left the belt (picked, missed, dropped)
+and the robot is idle.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import replace
+
+import mujoco
+import numpy as np
+
+from planner.decision.interface import Choice, DecisionContext, RobotState, TrackedItem
+from planner.decision.registry import make_planner
+from planner.motion.cycle_model import CycleTimeModel
+from sim.cell.bins import BIN_CLASSES, Bins
+from sim.cell.cell import PICK_Z_NOMINAL, Cell
+from sim.cell.riding import ItemRiding
+from sim.cell.video import overlay_of
+from sim.episode.config import EpisodeConfig
+from sim.episode.metrics import EpisodeMetrics, PickRecord
+from sim.episode.pick_control import PRESS_DEPTH_M, PickController, PickOutcome
+from sim.episode.sensing import CAMERA_SIZE, CameraPerception, TruthPerception
+from sim.episode.tracking import Tracker
+from sim.flow.config import X_INFEED, FlowConfig
+from sim.flow.generator import generate_flow
+
+DECIDE_PERIOD_S = 0.02
+"""How often an idle robot asks the decision manager again [s]."""
+MAX_LEAD_S = 1.0
+"""A pick is started only if the cup meets the item within this time; an item further
+upstream is waited for and decided on again (its position is fresher by then) [s]."""
+WAIT_STEP_S = 0.25
+"""Longest wait before deciding again on an item still upstream [s]."""
+MAX_FAILURES = 2
+"""Attempts after which truth mode gives an item up (it is re-detected every period)."""
+CHECK_PERIOD_S = 0.02
+"""How often items leaving the belt, landing in bins or falling are looked for [s]."""
+BELOW_BELT_Z = -0.1
+"""An item whose centre is this far below the belt surface has left it [m]."""
+DISCARD_MARGIN_M = 0.15
+"""An item this far past the reachable window's downstream edge is out of the robot's reach
+(the cup's radius and the item's half length included) [m]."""
+SETTLE_S = 2.0
+"""Time after the last item left before the episode may end (falls into bins) [s]."""
+_OBJECTIVES = {"value_over_distance": "v/d", "value_only": "d=1", "distance_only": "v=1"}
+
+
+def make_decision_manager(config: EpisodeConfig):
+    """The configured planner (Q-learning parameters from the config)."""
+    if config.planner == "qlearning":
+        q = config.qlearning
+        return make_planner(
+            "qlearning",
+            gamma=q.gamma,
+            iterations=q.iterations,
+            batch_rows=q.batch_rows,
+            row_period_s=config.observation_period_s,
+            objective=_OBJECTIVES[q.objective],
+        )
+    return make_planner(config.planner)
+
+
+class Episode:
+    """One episode on a `Cell`, steppable from outside (see the module docstring).
+
+    Lifecycle as Gymnasium's `Env`: `reset(seed)`, then `step_until_decision()` and
+    `apply(choice)` until the former returns False, then `close()`; usable with `with`.
+    `run()` is that loop with the configured decision manager choosing.
+
+    Args:
+        config: The episode's configuration.
+        cell: The compiled cell it runs on (reset by `reset`).
+        video: A `sim.cell.video.VideoRecorder`, or None.
+        progress: Called with (fraction, status line) about once per simulated second.
+        planner: A decision manager object (`choose`, `reset`); the config's when omitted.
+    """
+
+    def __init__(self, config: EpisodeConfig, cell: Cell, video=None, progress=None, planner=None):
+        self.config, self.cell, self.video, self.progress = config, cell, video, progress
+        self.model, self.data = cell.model, cell.data
+        self.planner = planner if planner is not None else make_decision_manager(config)
+        self._ready = False
+
+    def __enter__(self) -> Episode:
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        self.close(aborted=exc_type is not None)
+
+    def reset(self, seed: int | None = None) -> None:
+        """Start the episode afresh: the cell reset, the flow of `seed` (the config's when
+        None), every counter at zero, the decision manager reset."""
+        config = self.config if seed is None else replace(self.config, seed=int(seed))
+        self.config = config
+        cell = self.cell
+        self.speed = config.belt_speed_mps
+        cell.reset(self.speed)
+        flow_config = FlowConfig(
+            n_items=config.items,
+            duration_s=config.duration_s,
+            speed_factor=config.speed_factor,
+            seed=config.seed,
+            observation_period_s=config.observation_period_s,
+        )
+        self.flow = generate_flow(flow_config, cell.catalogue, cell.pool.size)
+        self.t_last_spawn = float(self.flow.t_spawn[-1]) if len(self.flow) else 0.0
+        self.x_discard = float(np.nanmax(cell.window.x_exit)) + DISCARD_MARGIN_M
+        # When the last item has passed the robot (the end of a normal episode) and a cap.
+        self.t_end = self.t_last_spawn + (self.x_discard - X_INFEED) / self.speed + SETTLE_S
+        self.t_cap = self.t_end + 10.0
+        self.metrics = EpisodeMetrics(config.values.by_class())
+        self.tracker = Tracker(self.speed)
+        self.planner.reset()
+        pauses = config.robot
+        self.robot = PickController(cell, self.speed, pauses.pick_pause_s, pauses.place_pause_s)
+        self.bins = Bins(self.model, self.data, cell.pool)
+        self.riding = ItemRiding(
+            self.model, cell.pool, cell.wake_x, enabled=config.item_riding == "settled"
+        )
+        self.context = DecisionContext(
+            belt_speed=self.speed,
+            cycle_model=CycleTimeModel(
+                limits=cell.limits,
+                pick_z=PICK_Z_NOMINAL,
+                # The lift the robot makes: the held item's bottom to the clear height.
+                lift_height=self.robot.clear_z + PRESS_DEPTH_M,
+                seal_time=self.robot.config.seal_time,
+                release_time=self.robot.config.release_time,
+            ),
+            window=cell.window,
+            bins=cell.bins_tuple(),
+            values=config.values.as_tuple(),
+        )
+        period = config.observation_period_s
+        if config.perception == "truth":
+            self.perception = TruthPerception(self.data, cell.pool, self.flow, self.speed, period)
+        else:
+            self.perception = CameraPerception(
+                self.model,
+                self.data,
+                cell.catalogue,
+                self.speed,
+                period,
+                camera=cell.belt_camera(CAMERA_SIZE),
+            )
+        # Scheduled events: the next drop, observation, item check and decision [s].
+        self.next_spawn = 0
+        self.next_obs = 0.0
+        self.next_check = 0.0
+        self.next_decision = 0.0
+        self.current_pick = None  # the track being picked (shown in the video)
+        self._pick_started: tuple | None = None  # (track, choice) of the pick under way
+        self.failures: dict[int, int] = {}  # failed attempts per true item id (truth mode)
+        self.timings = dict.fromkeys(
+            ("physics", "perception", "decision", "planning", "video"), 0.0
+        )
+        self.decisions = 0
+        self.latencies: dict[str, list[float]] = {"perception": [], "decision": [], "plan": []}
+        self._candidates: list[TrackedItem] = []
+        self._last_report = -1.0
+        self._closed_out = False
+        self._ready = True
+
+    def close(self, aborted: bool = False) -> None:
+        """Release the perception's renderer and finish (or, `aborted`, discard) the video."""
+        perception = getattr(self, "perception", None)
+        if perception is not None:
+            perception.close()
+        if self.video is not None:
+            if aborted:
+                self.video.abort()
+            else:
+                self.video.close()
+            self.video = None
+
+    # ----- the public stepping interface --------------------------------------------------------
+
+    def step_until_decision(self) -> bool:
+        """Advance the physics until the robot is free and a choice is due among the tracked
+        items (`candidates()`, `robot_state()`, `context`); False once the episode has ended."""
+        if not self._ready:
+            self.reset()
+        while not self._finished():
+            if self.robot.busy:
+                self._step_picking()
+                continue
+            t = self.data.time
+            if t + 1e-9 >= self.next_decision:
+                self.next_decision = t + DECIDE_PERIOD_S
+                self._candidates = self._tracked_items(t)
+                if self._candidates:
+                    return True
+            self._step_idle()
+        self._close_out()
+        return False
+
+    def candidates(self) -> list[TrackedItem]:
+        """The tracked items a choice is made among, at the current sim time."""
+        return list(self._candidates)
+
+    def robot_state(self) -> RobotState:
+        """Where the robot rests and the current sim time."""
+        return RobotState(tuple(self.robot.rest), float(self.data.time))
+
+    def choose(self) -> Choice | None:
+        """The configured decision manager's choice now (timed for the benchmarks)."""
+        t0 = time.perf_counter()
+        choice = self.planner.choose(self._candidates, self.robot_state(), self.context)
+        dt = time.perf_counter() - t0
+        self.timings["decision"] += dt
+        self.latencies["decision"].append(dt)
+        self.decisions += 1
+        return choice
+
+    def apply(self, choice: Choice | None) -> bool:
+        """Act on a choice: start the pick when the cup can meet the item soon, else wait and
+        decide again later (None: nothing now). True if a pick started."""
+        t = float(self.data.time)
+        t1 = time.perf_counter()
+        if choice is None:
+            return False
+        if choice.meet_time - t > MAX_LEAD_S:
+            # Far upstream: wait where we are and decide again with fresher positions.
+            self.next_decision = t + min(choice.meet_time - t - MAX_LEAD_S, WAIT_STEP_S)
+            return False
+        track = self.tracker.get(choice.item_id)
+        x = track.x_at(t, self.speed)
+        intercept = self.robot.plan(x, track.y, choice.bin_class)
+        self.timings["planning"] += time.perf_counter() - t1
+        self.latencies["plan"].append(time.perf_counter() - t1)
+        if not intercept.feasible:
+            self.tracker.remove(track.track_id)  # cannot be met: let it go
+            return False
+        if intercept.meet_time > MAX_LEAD_S + WAIT_STEP_S:
+            self.next_decision = t + WAIT_STEP_S  # the cycle model was optimistic: wait
+            return False
+        self.current_pick = track
+        self.tracker.remove(track.track_id)
+        self._pick_started = (track, choice)
+        self.robot.start(intercept)
+        return True
+
+    def run(self) -> None:
+        """Simulate until the episode ends, the configured decision manager choosing."""
+        while self.step_until_decision():
+            self.apply(self.choose())
+
+    # ----- stepping ------------------------------------------------------------------------------
+
+    def _step_picking(self) -> None:
+        """One physics step of a pick: set-points, step, cup, scheduler, outcome."""
+        self.robot.before_step()
+        mujoco.mj_step(self.model, self.data, nstep=1)
+        self.robot.after_step()
+        self._after_step()
+        outcome = self.robot.poll()
+        if outcome is not None:
+            self._finish_pick(outcome)
+
+    def _step_idle(self) -> None:
+        """Step in one block up to the next scheduled event (the robot holds its set-points)."""
+        mujoco.mj_step(self.model, self.data, nstep=self._idle_steps())
+        self._after_step()
+        t = self.data.time
+        if self.progress is not None and t - self._last_report >= 1.0:
+            self._last_report = t
+            self.progress(min(t / self.t_end, 1.0), self.status_text())
+
+    def _after_step(self) -> None:
+        """The scheduler: everything due at the current sim time except decisions."""
+        t = self.data.time
+        if self.next_spawn < len(self.flow) and self.flow.t_spawn[self.next_spawn] <= t:
+            self._spawn()
+        if t + 1e-9 >= self.next_obs:
+            self._observe(t)
+            self.next_obs += self.config.observation_period_s
+        if t + 1e-9 >= self.next_check:
+            self._check_items(t)
+            self.next_check += CHECK_PERIOD_S
+        if self.video is not None and self.video.due(t):
+            t0 = time.perf_counter()
+            self.video.capture(self.data, overlay_of(self, t))
+            self.timings["video"] += time.perf_counter() - t0
+
+    def _finish_pick(self, outcome: PickOutcome) -> None:
+        """Book a finished pick and decide again at once."""
+        track, choice = self._pick_started
+        self._pick_started = None
+        self.current_pick = None
+        if not outcome.held_to_bin and track.true_id is not None:
+            self.failures[track.true_id] = self.failures.get(track.true_id, 0) + 1
+        if outcome.item_id >= 0:  # the cup may have sealed on a neighbour: forget its track too
+            self.tracker.remove_true(outcome.item_id)
+        true_class = int(self.flow.class_id[outcome.item_id]) if outcome.item_id >= 0 else None
+        if true_class is None and track.true_id is not None:
+            true_class = int(self.flow.class_id[track.true_id])
+        self.metrics.on_pick(
+            PickRecord(
+                t_start_s=outcome.t_start,
+                t_end_s=outcome.t_end,
+                item_id=outcome.item_id if outcome.item_id >= 0 else (track.true_id or -1),
+                true_class=true_class,
+                predicted_class=track.predicted_class,
+                bin=choice.bin_class,
+                success=outcome.held_to_bin,
+            )
+        )
+        self.next_decision = self.data.time
+
+    def _spawn(self) -> None:
+        """Hand the due items over to the belt (at its speed, as from an infeed conveyor)."""
+        first = self.next_spawn
+        self.next_spawn = self.cell.pool.feed(self.data, self.flow, first)
+        mujoco.mj_kinematics(self.model, self.data)  # poses of the new items for the checks
+        for i in range(first, self.next_spawn):
+            self.metrics.on_entered(i, int(self.flow.class_id[i]))
+
+    def _observe(self, t: float) -> None:
+        t0 = time.perf_counter()
+        mujoco.mj_kinematics(self.model, self.data)
+        self.tracker.update(self.perception.observe(t))
+        dt = time.perf_counter() - t0
+        self.timings["perception"] += dt
+        self.latencies["perception"].append(dt)
+
+    def _check_items(self, t: float) -> None:
+        pool, data = self.cell.pool, self.data
+        held = self.robot.suction.held_slot
+        for slot in pool.active_slots():
+            if slot == held:
+                continue
+            pos = data.xpos[pool.body_ids[slot]]
+            if pos[0] > self.x_discard and pos[2] > BELOW_BELT_Z:  # passed the robot: discarded
+                item_id = pool.park(data, int(slot))
+                self.metrics.on_missed(item_id)
+                self.tracker.remove_true(item_id)
+        for item_id in pool.park_missed(data):  # past the belt's end (e.g. pushed along)
+            self.metrics.on_missed(item_id)
+            self.tracker.remove_true(item_id)
+        for landing in self.bins.update(data, held):
+            if landing.bin is None:
+                self.metrics.on_dropped(landing.item_id)
+            else:
+                bin_class = BIN_CLASSES.index(landing.bin) + 2
+                self.metrics.on_binned(landing.item_id, landing.true_class, bin_class)
+            self.tracker.remove_true(landing.item_id)
+        self.tracker.prune(t, self.x_discard)
+        self.riding.update(data, held)
+
+    def _tracked_items(self, t: float) -> list[TrackedItem]:
+        items = []
+        for tr in self.tracker.tracks():
+            if self.failures.get(tr.true_id, 0) >= MAX_FAILURES:
+                continue  # truth mode: an item the cup failed on twice is given up
+            items.append(TrackedItem(tr.track_id, tr.x_at(t, self.speed), tr.y, tuple(tr.probs)))
+        return items
+
+    def _finished(self) -> bool:
+        if self.robot.busy:  # a pick under way is always finished
+            return False
+        t = self.data.time
+        if t >= self.t_cap:
+            return True
+        if self.next_spawn < len(self.flow) or len(self.cell.pool.active_slots()):
+            return False
+        return t >= self.t_last_spawn + SETTLE_S
+
+    def _idle_steps(self) -> int:
+        """Physics steps until the next event while the robot idles."""
+        t, dt = self.data.time, self.model.opt.timestep
+        events = [self.next_obs, self.next_check, self.next_decision]
+        if self.next_spawn < len(self.flow):
+            events.append(float(self.flow.t_spawn[self.next_spawn]))
+        if self.video is not None:
+            events.append(self.video.next_frame_time)
+        return max(1, int(math.ceil((min(events) - t) / dt - 1e-9)))
+
+    def _close_out(self) -> None:
+        """Items still on the belt at the time cap count as missed (once)."""
+        if self._closed_out:
+            return
+        self._closed_out = True
+        for slot in self.cell.pool.active_slots():
+            self.metrics.on_missed(int(self.cell.pool.park(self.data, int(slot))))
+
+    def status_text(self) -> str:
+        """One line for the progress bar."""
+        m = self.metrics
+        return (
+            f"t {self.data.time:6.1f} s  entered {m.n_entered}  picked {m.n_picked}  "
+            f"missed {len(m.missed)}  profit {m.profit:.2f} EUR"
+        )

@@ -1,0 +1,248 @@
+"""The robot's side of an episode: plan the chosen pick, play it in physics, seal, release.
+
+The chosen item is met where it will be (`planner.motion.intercept.intercept_item`: ruckig chain
+arriving on the item at the belt's velocity), the chain is played by
+`sim.cell.executor.TrajectoryExecutor` (IK motor set-points at every physics step), and the vacuum
+cup (`sim.cell.suction.SuctionCup`) seals if its lip rests on an item for the seal time, holds it
+within its force budget, and lets it go over the bin.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import mujoco
+import numpy as np
+
+from planner.errors import PlannerInputError
+from planner.motion.intercept import Intercept, intercept_item
+from planner.motion.pick_cycle import PickPlaceConfig
+from planner.motion.trajectory import State
+from sim.cell.cell import Cell
+from sim.cell.executor import Playback
+from sim.cell.suction import SuctionCup
+from sim.flow.catalogue import Catalogue
+
+PRESS_DEPTH_M = 0.003
+"""The cup aims this far below the item's top so that its lip touches it [m]."""
+DEFAULT_TOP_Z = 0.02
+"""Assumed top of an item when no item is found near the detection [m]."""
+NEAR_M = 0.08
+"""Radius within which the item under a detection is looked for [m]."""
+RAIL_TOP_Z = 0.03
+"""Top of the belt's side rails, the highest obstacle between the belt and the bins [m]."""
+RELEASE_CLEAR_S = 0.06
+"""The cup stays still this long after the release so that the falling item clears its lip
+(about 2 cm of fall) before the next move starts sideways [s]."""
+CLEARANCE_M = 0.025
+"""Gap kept between a held item's bottom and the rails, the tallest item on the belt or a
+bin's rim [m]."""
+
+
+def clear_height(catalogue: Catalogue) -> float:
+    """Height [m] a held item's bottom keeps above the belt once lifted: over the rails and
+    over the tallest catalogue item standing on the belt (a held item swept lower knocks
+    standing cans off the belt), plus `CLEARANCE_M`."""
+    tallest = max(2.0 * t.rest_height for t in catalogue.types)
+    return max(RAIL_TOP_Z, tallest) + CLEARANCE_M
+
+
+@dataclass(frozen=True)
+class PickOutcome:
+    """What one pick attempt did.
+
+    Attributes:
+        t_start: Sim time the attempt started [s].
+        t_end: Sim time the release ended [s].
+        item_id: Flow id of the item the cup held (-1: none).
+        sealed: The cup sealed on an item.
+        held_to_bin: The item was still held when released over the bin.
+    """
+
+    t_start: float
+    t_end: float
+    item_id: int
+    sealed: bool
+    held_to_bin: bool
+
+
+class PickController:
+    """Plans and executes picks on a `Cell`.
+
+    Args:
+        cell: The compiled cell (robot, pool, executor).
+        belt_speed: Belt speed [m/s].
+        pick_pause: Extra dwell after the seal, riding with the item [s].
+        place_pause: Extra dwell over the bin after the release [s].
+    """
+
+    def __init__(
+        self, cell: Cell, belt_speed: float, pick_pause: float = 0.0, place_pause: float = 0.0
+    ):
+        self.cell = cell
+        self.belt_speed = float(belt_speed)
+        base = PickPlaceConfig()
+        # Extra dwell (the thesis's pauses): the cup rides with the item after the seal, and
+        # stays over the bin after the release.
+        self.config = replace(
+            base,
+            seal_time=base.seal_time + pick_pause,
+            release_time=base.release_time + place_pause,
+        )
+        self.suction = SuctionCup(cell.model, cell.pool)
+        mujoco.mj_forward(cell.model, cell.data)
+        self.rest = cell.tcp()
+        self.axis4 = float(cell.data.joint("axis4_joint").qpos[0])
+        self.plan_failures = 0
+        self.clear_z = clear_height(cell.catalogue)
+        self._pick: _PickInProgress | None = None
+
+    def item_near(self, x: float, y: float) -> tuple[float, float]:
+        """(top height [m], heading [rad]) of the item nearest (x, y) now.
+
+        The stand-in for what a stereo camera (the thesis's ZED) measures of an item's shape:
+        read from the simulation in both perception modes. (DEFAULT_TOP_Z, 0) when no item
+        is near.
+        """
+        pool, data = self.cell.pool, self.cell.data
+        best, best_d = (DEFAULT_TOP_Z, 0.0), NEAR_M
+        for slot in pool.active_slots():
+            body = pool.body_ids[slot]
+            px, py, pz = data.xpos[body]
+            d = float(np.hypot(px - x, py - y))
+            if d < best_d and pz > -0.05:
+                xmat = data.xmat[body]
+                yaw = float(np.arctan2(xmat[3], xmat[0]))  # heading of the body's x axis
+                best, best_d = (self.top_of(int(slot)), yaw), d
+        return best
+
+    def top_of(self, slot: int) -> float:
+        """Highest point [m] of the item in `slot` as it lies now (a can may have toppled)."""
+        model, data, pool = self.cell.model, self.cell.data, self.cell.pool
+        geom = pool.geom_id(slot)
+        z = float(data.geom_xpos[geom][2])
+        up = data.geom_xmat[geom].reshape(3, 3)[2]  # world z in the geom's axes
+        size = model.geom_size[geom]
+        kind = model.geom_type[geom]
+        if kind == mujoco.mjtGeom.mjGEOM_BOX:
+            return z + float(np.abs(up) @ size)
+        across = float(np.sqrt(max(0.0, 1.0 - up[2] ** 2)))  # cylinder, capsule: axis = geom z
+        if kind == mujoco.mjtGeom.mjGEOM_CAPSULE:
+            return z + float(size[1] * abs(up[2]) + size[0])
+        return z + float(size[1] * abs(up[2]) + size[0] * across)
+
+    def plan(self, x: float, y: float, bin_class: int) -> Intercept:
+        """Intercept of an item now at (x, y) [m], carried to the bin of `bin_class`.
+
+        The item hangs under the cup by its height (its top is where the cup seals), so the
+        lift and the release point keep its bottom at `clear_height` (over the rails and the
+        tallest item on the belt; the bins' rims are lower); axis 4 turns the item's long axis
+        along the bin's long side.
+        """
+        top, yaw = self.item_near(x, y)
+        # Turn axis 4 on the way so the item's long axis ends along the bins' long side (x).
+        # An item looks the same turned by pi: of the turns that align it, take the one that
+        # ends axis 4 nearest zero, so its angle never drifts into the joint's +-pi limit.
+        turn = -float(np.arctan2(np.sin(yaw), np.cos(yaw)))
+        turn = (turn + np.pi / 2) % np.pi - np.pi / 2
+        turn = min((turn + k * np.pi for k in (-1, 0, 1)), key=lambda a: abs(self.axis4 + a))
+        pick_z = max(top - PRESS_DEPTH_M, 0.0)
+        height = max(top, 0.0)
+        lift = max(self.config.lift_height, self.clear_z + height - pick_z)
+        drop = np.array(self.cell.drop_xyz[bin_class], dtype=float)
+        # Long items overhang the bin towards the belt: keep them above the rails too.
+        drop[2] = max(drop[2], self.clear_z + height)
+        config = replace(self.config, lift_height=lift)
+        try:
+            return intercept_item(
+                State.at_rest(self.rest),
+                (x, y),
+                self.belt_speed,
+                drop,
+                self.cell.generator,
+                pick_z,
+                config,
+                axis4=(self.axis4, self.axis4 + turn),
+            )
+        except PlannerInputError as exc:
+            self.plan_failures += 1
+            return Intercept(False, str(exc), float("nan"), np.full(3, np.nan))
+
+    @property
+    def busy(self) -> bool:
+        """A pick is under way (from `start` until `poll` returns its outcome)."""
+        return self._pick is not None
+
+    def start(self, intercept: Intercept) -> None:
+        """Begin playing a feasible intercept's plan from the current sim time.
+
+        The vacuum opens as the descent starts (the cup seals once its lip has touched the item
+        for the seal time) and closes when the cup reaches the drop point (the item falls the
+        release time later, at the end of the chain). The episode's loop then calls
+        `before_step` and `after_step` around each physics step and `poll` after its other
+        after-step work, until `poll` returns the outcome.
+        """
+        plan = intercept.plan
+        self._pick = _PickInProgress(
+            playback=self.cell.executor.playback(plan.chain, hold=RELEASE_CLEAR_S),
+            vacuum_from=plan.chain.phase_start("descend"),
+            release_time=plan.release_time,
+            t_start=float(self.cell.data.time),
+            end=plan.chain.at_time(plan.chain.duration)[0],
+        )
+
+    def before_step(self) -> None:
+        """Set-points of the coming control period (none once the chain has been played)."""
+        pick = self._pick
+        if pick is not None and pick.k < pick.playback.n:
+            pick.playback.apply(pick.k)
+
+    def after_step(self) -> None:
+        """The cup after a physics step: vacuum on at the descent, off at the drop point."""
+        pick, data, cup = self._pick, self.cell.data, self.suction
+        if pick is None:
+            return
+        if pick.k < pick.playback.n:
+            t_traj = float(pick.playback.times[pick.k])
+            pick.k += 1
+            if not pick.vacuum_on and t_traj >= pick.vacuum_from:
+                cup.vacuum_on()
+                pick.vacuum_on = True
+            if not pick.vacuum_off and t_traj >= pick.release_time:
+                cup.vacuum_off(float(data.time))
+                pick.vacuum_off = True
+        pick.events.extend(cup.update(data))
+
+    def poll(self) -> PickOutcome | None:
+        """The outcome once the chain has been played and the cup has let go, else None."""
+        pick, cup = self._pick, self.suction
+        if pick is None or pick.k < pick.playback.n:
+            return None
+        if not pick.vacuum_off:
+            cup.vacuum_off(float(self.cell.data.time))
+            pick.vacuum_off = True
+        if cup.held_slot is not None:  # finish the release (normally already done)
+            return None
+        self._pick = None
+        sealed = [e for e in pick.events if e.kind == "sealed"]
+        item_id = sealed[0].item_id if sealed else -1
+        released = any(e.kind == "released" and e.item_id == item_id for e in pick.events)
+        self.rest = np.asarray(pick.end[:3], dtype=float)
+        self.axis4 = float(pick.end[3])
+        t_end = float(self.cell.data.time)
+        return PickOutcome(pick.t_start, t_end, item_id, bool(sealed), released)
+
+
+@dataclass
+class _PickInProgress:
+    """The state of one pick while the loop plays it (period index, vacuum switches, events)."""
+
+    playback: Playback
+    vacuum_from: float
+    release_time: float
+    t_start: float
+    end: np.ndarray
+    k: int = 0
+    vacuum_on: bool = False
+    vacuum_off: bool = False
+    events: list = field(default_factory=list)

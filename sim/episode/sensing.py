@@ -1,0 +1,191 @@
+"""What the cell sees of the belt once per observation period: detections for the tracker.
+
+Two sources with one interface, `observe(t) -> list[Detection]`:
+
+- `TruthPerception` (`--perception truth`, the fast path): no rendering; every period, each
+  item past the camera line is reported where the simulation has it, with its true class as
+  a certainty (perfect perception: an item that slips on the belt is still tracked exactly).
+- `CameraPerception`: the belt camera's frame and its registered depth map (a stereo camera's
+  output) are rendered (`sim.cell.camera.BeltCamera`, real lens distortion), turned into a row of 5
+  observation codes from the items' footprints (`perception.camera.pipeline`), filtered by
+  the online stripe HMMs (`perception.hmm.online`), and items are extracted from the decoded
+  class grid (`perception.items.from_grid`). The thesis runs k-means on batches of 20 rows;
+  online that would report an item 10 s after it passed the camera, 1.85 m downstream at x1
+  and so already past the robot 1.48 m away. Here items are the blobs of item pixels of a
+  sliding window of rows (`perception.items.blobs`), reported the period after their last row,
+  at the centroid of their pixels (the 5-stripe grid alone would place an item up to 8 cm off,
+  more than the cup's lip tolerates), with the filtered HMM posteriors of the cells they cover
+  as class probabilities. (Connected regions of one decoded class, the components alternative
+  of `items_from_grid`, split an item whose cells decode to two materials into two phantom
+  items.) A frame the pipeline cannot use is counted and its row read as empty.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import time
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from perception.codes import EMPTY_CODE, N_STATES, VOID
+from perception.errors import PerceptionError
+from perception.hmm.online import OnlineStripeHmms
+from perception.items.blobs import item_blobs
+from sim.cell.item_pool import ItemPool
+from sim.episode.tracking import Detection
+from sim.flow.config import BELT_HALF_WIDTH, X_CAMERA
+from sim.flow.generator import Flow
+from sim.paths import REPO_ROOT
+
+ON_BELT_TOL_M = 0.02
+"""An item whose centre is higher than its resting height plus this is not on the belt [m]."""
+HMM_CACHE_DIR = REPO_ROOT / "runs" / "cache"
+_HMM_INPUTS = (
+    "sim/data/items.toml",
+    "sim/flow/generator.py",
+    "sim/flow/config.py",
+    "sim/flow/ground_truth.py",
+    "sim/flow/labelled_grids.py",
+    "sim/episode/stripe_hmms.py",
+    "perception/hmm/training.py",
+    "perception/hmm/stripes.py",
+)
+CAMERA_SIZE = (640, 360)
+WINDOW_ROWS = 12
+
+
+def one_hot(class_id: int) -> tuple[float, ...]:
+    """Class probabilities (void, paper, plastic, aluminium) of a certain class."""
+    probs = [0.0] * N_STATES
+    probs[int(class_id) - 1] = 1.0
+    return tuple(probs)
+
+
+class TruthPerception:
+    """True items as they cross the camera line (no rendering)."""
+
+    name = "truth"
+
+    def __init__(
+        self, data: mujoco.MjData, pool: ItemPool, flow: Flow, belt_speed: float, period_s: float
+    ):
+        self.data, self.pool, self.flow = data, pool, flow
+        self.rows = self.unobserved = 0
+
+    def observe(self, t: float) -> list[Detection]:
+        """Every item on the belt past the camera line, where the simulation has it now."""
+        self.rows += 1
+        out = []
+        for slot in self.pool.active_slots():
+            item_id = int(self.pool.item_ids[slot])
+            x, y, z = self.data.xpos[self.pool.body_ids[slot]]
+            resting = -0.05 < z < self.pool.item_type(int(slot)).rest_height + ON_BELT_TOL_M
+            if X_CAMERA <= x and resting and abs(y) <= BELT_HALF_WIDTH:
+                cls = int(self.flow.class_id[item_id])
+                out.append(Detection(t, float(x), float(y), one_hot(cls), true_id=item_id))
+        return out
+
+    def close(self) -> None:
+        """Nothing to free."""
+
+
+def hmm_cache_path() -> Path:
+    """Cache file of the trained stripe HMMs, named after what the training depends on (the
+    catalogue, the flow generator, the recordings and the training code), so a change to any
+    of them trains afresh instead of reusing stale models."""
+    digest = hashlib.sha1()
+    for rel in _HMM_INPUTS:
+        digest.update((REPO_ROOT / rel).read_bytes())
+    return HMM_CACHE_DIR / f"stripe_hmms-{digest.hexdigest()[:12]}.npz"
+
+
+def stripe_models(catalogue):
+    """(stripe HMMs, cells per item): trained once, cached in runs/cache (written atomically)."""
+    from perception.hmm.storage import save_models
+    from sim.episode.stripe_hmms import trained_models
+
+    path = hmm_cache_path()
+    if path.exists():
+        return trained_models(catalogue, cache=path)
+    models, sizes = trained_models(catalogue, cache=None)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.npz")
+    save_models(tmp, models, sizes)
+    os.replace(tmp, path)
+    return models, sizes
+
+
+class CameraPerception:
+    """Rendered frames -> codes -> online stripe HMMs -> items (see the module docstring)."""
+
+    name = "camera"
+
+    def __init__(self, model, data, catalogue, belt_speed: float, period_s: float, camera=None):
+        from perception.camera.grid import BeltGrid
+        from sim.cell.camera import BeltCamera, camera_pipeline
+
+        self.data, self.speed, self.period = data, float(belt_speed), float(period_s)
+        grid = BeltGrid(x_line=X_CAMERA, period_s=period_s)
+        self.pipeline = camera_pipeline(model, data, CAMERA_SIZE, grid)
+        self._own_camera = camera is None
+        self.camera = BeltCamera(model, *CAMERA_SIZE) if camera is None else camera
+        models, self.cells_per_item = stripe_models(catalogue)
+        self.hmm = OnlineStripeHmms(models)
+        stripes = models.pi.shape[0]
+        self.classes = np.full((WINDOW_ROWS, stripes), VOID, dtype=np.int64)
+        self.posteriors = np.zeros((WINDOW_ROWS, stripes, N_STATES))
+        self.pixels = [[np.zeros(0)] * stripes for _ in range(WINDOW_ROWS)]
+        self.pixel_y = [[np.zeros(0)] * stripes for _ in range(WINDOW_ROWS)]
+        self.rows = self.unobserved = 0
+        self.render_s = self.pipeline_s = self.hmm_s = 0.0
+
+    def observe(self, t: float) -> list[Detection]:
+        """Take the frame of time `t` [s]; return the items whose last row was the previous."""
+        t0 = time.perf_counter()
+        frame, depth = self.camera.render_rgbd(self.data)
+        t1 = time.perf_counter()
+        stripes = self.classes.shape[1]
+        try:
+            row = self.pipeline.observe(frame, self.speed, t, depth)
+            codes = row.codes
+            pixels = [np.asarray(c.pixels, dtype=float).reshape(-1, 2) for c in row.cells]
+        except PerceptionError:
+            self.unobserved += 1
+            codes = np.full(stripes, EMPTY_CODE)
+            pixels = [np.zeros((0, 2))] * stripes
+        # Belt coordinate b of each item pixel: the belt travel until it crosses the camera line.
+        self.pixels = self.pixels[1:] + [[self.speed * t + X_CAMERA - p[:, 0] for p in pixels]]
+        self.pixel_y = self.pixel_y[1:] + [[p[:, 1] for p in pixels]]
+        t2 = time.perf_counter()
+        est = self.hmm.step(codes)
+        self.classes = np.roll(self.classes, -1, axis=0)
+        self.posteriors = np.roll(self.posteriors, -1, axis=0)
+        self.classes[-1], self.posteriors[-1] = est.classes, est.filtered
+        self.rows += 1
+        out = self._completed_items(t)
+        self.render_s += t1 - t0
+        self.pipeline_s += t2 - t1
+        self.hmm_s += time.perf_counter() - t2
+        return out
+
+    def _completed_items(self, t: float) -> list[Detection]:
+        out = []
+        # Fixed-lag smoothing: an item is reported once all its rows are in, so the rows after
+        # it inform its class as well as those before (forward-backward over the HMM window).
+        smoothed = self.hmm.smoothed_window()[-WINDOW_ROWS:]
+        posteriors = self.posteriors.copy()
+        posteriors[WINDOW_ROWS - len(smoothed) :] = smoothed
+        for blob in item_blobs(self.pixels, self.pixel_y, posteriors):
+            if blob.last_row != WINDOW_ROWS - 2:
+                continue  # still growing (touches the newest row) or reported already
+            x = X_CAMERA + self.speed * t - blob.b
+            out.append(Detection(t, x, blob.y, tuple(float(p) for p in blob.probs)))
+        return out
+
+    def close(self) -> None:
+        """Free the camera's renderer (unless it was lent by the caller)."""
+        if self._own_camera:
+            self.camera.close()

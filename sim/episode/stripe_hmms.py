@@ -1,0 +1,61 @@
+"""Trained stripe HMMs for an episode: trained once from generated flows, cached as `.npz`.
+
+The episode runner needs the five stripe models and the expected cells per item of each class
+(for k-means's k). Both come from labelled generated recordings (`sim.flow.labelled_grids`),
+trained as
+`sortsim hmm-eval` does; the result is written to `cache` and read back on later calls, so only
+the first episode pays the training (about 10 s for the default seeds).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from perception.errors import PerceptionInputError
+from perception.hmm.storage import load_cells_per_item, load_models, save_models
+from perception.hmm.stripes import StripeHmms
+from perception.hmm.training import TrainConfig, train
+from perception.items.from_grid import cells_per_item
+from sim.flow.labelled_grids import Recording, record
+
+TRAIN_SEEDS = tuple(range(12))
+EXTRA_SEEDS = tuple(range(200, 212))
+
+
+def item_sizes(recordings: list[Recording]) -> np.ndarray:
+    """(4,) expected expanded cells per item of each class in labelled recordings."""
+    counts = np.zeros(4)
+    for rec in recordings:
+        inside = rec.item_cell[:, 0] < rec.classes.shape[0]
+        counts += np.bincount(rec.item_class[inside] - 1, minlength=4)
+    return cells_per_item([r.classes for r in recordings], counts)
+
+
+def trained_models(
+    catalogue,
+    config: TrainConfig | None = None,
+    cache: Path | str | None = None,
+    train_seeds=TRAIN_SEEDS,
+    extra_seeds=EXTRA_SEEDS,
+) -> tuple[StripeHmms, np.ndarray]:
+    """(models, cells per item): read from `cache` when it holds valid ones, else trained.
+
+    A cache file that is unreadable or of another shape is refused (PerceptionInputError), not
+    silently overwritten; delete it to retrain.
+    """
+    config = TrainConfig() if config is None else config
+    if cache is not None and Path(cache).exists():
+        models = load_models(cache, coupled=config.coupled)
+        sizes = load_cells_per_item(cache)
+        if sizes is None:
+            raise PerceptionInputError(f"hmm file {cache}", "a file with cells_per_item")
+        return models, sizes
+    labelled = [record(s, catalogue) for s in train_seeds]
+    extra = [record(s, catalogue).codes for s in extra_seeds]
+    _, models = train([r.classes for r in labelled], [r.codes for r in labelled], extra, config)
+    sizes = item_sizes(labelled)
+    if cache is not None:
+        save_models(cache, models, sizes)
+    return models, sizes

@@ -1,0 +1,83 @@
+"""A flow carried by the belt in physics and looked at once per observation period.
+
+The cell with the robot at home, the belt at the flow's speed and the pool feeding the flow's
+items at their times (handed over at belt speed, as in the episode); `rows` advances the physics
+to each observation time t_k = k T and yields there, so the camera and the truth look at the
+same instant. Used by the camera scoring (`sim.experiments.perception_eval`) and by the HMMs' camera
+recordings (`sim.experiments.camera_recordings`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from sim.cell.conveyor import Belt
+from sim.cell.item_pool import ItemPool
+from sim.cell.mjcf import load_scene
+from sim.flow.config import X_CAMERA, FlowConfig
+from sim.flow.generator import Flow, generate_flow
+from sim.flow.ground_truth import cell_truth_from_poses, yaw_from_xmat
+
+
+@dataclass
+class FlowReplay:
+    """The simulation of one flow on the belt (no robot motion)."""
+
+    config: FlowConfig
+    catalogue: object
+    model: mujoco.MjModel
+    data: mujoco.MjData
+    pool: ItemPool
+    flow: Flow
+
+    @classmethod
+    def start(cls, config: FlowConfig, catalogue) -> FlowReplay:
+        """The cell at its `home` keyframe with the belt at the flow's speed, nothing spawned."""
+        model = load_scene()
+        data = mujoco.MjData(model)
+        mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
+        belt = Belt(model)
+        belt.set_speed(config.belt_speed_mps)
+        pool = ItemPool(model, catalogue, belt)
+        flow = generate_flow(config, catalogue, pool.size)
+        mujoco.mj_forward(model, data)
+        return cls(config, catalogue, model, data, pool, flow)
+
+    @property
+    def speed(self) -> float:
+        """Belt speed [m/s]."""
+        return self.config.belt_speed_mps
+
+    def rows(self, n_rows: int) -> Iterator[int]:
+        """Steps the physics to each observation time k T (k < n_rows) and yields k there."""
+        period, next_item = self.config.observation_period_s, 0
+        for k in range(n_rows):
+            while self.data.time < k * period - 1e-9:
+                next_item = self.pool.feed(self.data, self.flow, next_item)
+                mujoco.mj_step(self.model, self.data)
+            mujoco.mj_kinematics(self.model, self.data)
+            self.pool.park_missed(self.data)
+            yield k
+
+    def truth_now(self, k: int) -> tuple[np.ndarray, np.ndarray] | None:
+        """(classes (5,), codes (5,)) of row k from the items' simulated poses; None when the
+        belt is empty."""
+        slots = self.pool.active_slots()
+        if len(slots) == 0:
+            return None
+        ids, bodies = self.pool.item_ids[slots], self.pool.body_ids[slots]
+        period = self.config.observation_period_s
+        return cell_truth_from_poses(
+            self.data.xpos[bodies],
+            yaw_from_xmat(self.data.xmat[bodies]),
+            self.pool.type_index[slots],
+            self.flow.class_id[ids],
+            self.flow.colour[ids],
+            self.catalogue,
+            self.config.row_pitch_m,
+            x_centre=X_CAMERA + self.speed * (self.data.time - k * period),
+        )

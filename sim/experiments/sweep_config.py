@@ -1,0 +1,170 @@
+"""A sweep: a grid of episodes (variants x planners x speed factors x item counts x seeds).
+
+TOML layout (`experiments/*.toml`)::
+
+    [sweep]
+    name = "table_4_2"
+    table = "4.2"                  # thesis table printed beside ours (sim/data/thesis_tables.toml)
+    speed_factors = [1.0, 1.2, 1.5]
+    items = [50, 100, 120, 150]
+    planners = ["qlearning"]
+    seeds = 10                     # a count (seed_offset .. seed_offset+n-1) or a list
+    seed_offset = 0
+    duration_s_by_items = { 80 = 61.0 }   # optional: flow duration per item count [s]
+
+    [base]                         # fixed settings of every episode (episode-config keys)
+    perception = "truth"
+    duration_s = 90.0
+
+    [[variants]]                   # optional named overrides, e.g. class values of table 4.3
+    name = "weight_paper"
+    values = { paper = 150.22 }
+
+Every episode's config is built (and so validated) when the sweep loads, so a bad value stops
+the sweep before its first episode, naming the key and the file.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from sim.episode import config as episode_config
+from sim.episode.config import EpisodeConfig, read_toml
+from sim.errors import InvalidInput
+
+_SWEEP_KEYS = {
+    "name",
+    "table",
+    "speed_factors",
+    "items",
+    "planners",
+    "seeds",
+    "seed_offset",
+    "duration_s_by_items",
+}
+_TOP_KEYS = {"sweep", "base", "variants"}
+_GRID_FIELDS = ("speed_factor", "items", "planner", "seed")
+
+
+@dataclass(frozen=True)
+class EpisodeSpec:
+    """One episode of a sweep: its grid coordinates and its validated config."""
+
+    variant: str
+    config: EpisodeConfig
+
+    @property
+    def key(self) -> str:
+        """Identity of the episode in the sweep's episodes.csv (for resuming)."""
+        c = self.config
+        return episode_key(self.variant, c.planner, c.speed_factor, c.items, c.seed)
+
+
+def episode_key(variant: str, planner: str, speed_factor: float, items: int, seed: int) -> str:
+    """The string that identifies one episode of a sweep."""
+    return f"{variant}|{planner}|{float(speed_factor):.4f}|{int(items)}|{int(seed)}"
+
+
+@dataclass(frozen=True)
+class SweepConfig:
+    """A validated sweep: name, thesis table id and the ordered list of episodes."""
+
+    name: str
+    table: str | None
+    episodes: tuple[EpisodeSpec, ...]
+    path: str | None = None
+
+
+def _merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
+    out = dict(base)
+    for key, value in over.items():
+        if isinstance(value, dict) and isinstance(out.get(key), dict):
+            out[key] = _merge(out[key], value)
+        else:
+            out[key] = value
+    return out
+
+
+def _list(sweep: dict[str, Any], key: str, default: list, where: str) -> list:
+    value = sweep.get(key, default)
+    if not isinstance(value, list) or not value:
+        raise InvalidInput(f"sweep.{key}", "a non-empty list", value, where)
+    return value
+
+
+def _seeds(sweep: dict[str, Any], where: str) -> list[int]:
+    seeds = sweep.get("seeds", 1)
+    offset = sweep.get("seed_offset", 0)
+    if not isinstance(offset, int) or isinstance(offset, bool) or offset < 0:
+        raise InvalidInput("sweep.seed_offset", "an integer >= 0", offset, where)
+    if isinstance(seeds, int) and not isinstance(seeds, bool):
+        if not 1 <= seeds <= 100000:
+            raise InvalidInput("sweep.seeds", "1..100000 or a list of seeds", seeds, where)
+        return list(range(offset, offset + seeds))
+    return _list(sweep, "seeds", [], where)
+
+
+def from_dict(data: dict[str, Any], where: str) -> SweepConfig:
+    """A `SweepConfig` from a parsed TOML dict; every episode config validated."""
+    for key in data:
+        if key not in _TOP_KEYS:
+            raise InvalidInput(key, "one of " + ", ".join(sorted(_TOP_KEYS)), None, where)
+    sweep = data.get("sweep", {})
+    base = data.get("base", {})
+    variants = data.get("variants", [{"name": "base"}])
+    if not isinstance(sweep, dict) or not isinstance(base, dict):
+        raise InvalidInput("sweep/base", "TOML tables [sweep] and [base]", None, where)
+    for key in sweep:
+        if key not in _SWEEP_KEYS:
+            raise InvalidInput(
+                f"sweep.{key}", "one of " + ", ".join(sorted(_SWEEP_KEYS)), None, where
+            )
+    for key in _GRID_FIELDS:
+        if key in base:
+            raise InvalidInput(f"base.{key}", "set in [sweep] (it is a grid axis)", None, where)
+    by_items = sweep.get("duration_s_by_items", {})
+    if not isinstance(by_items, dict):
+        raise InvalidInput("sweep.duration_s_by_items", "a table items = seconds", by_items, where)
+    if not isinstance(variants, list) or not all(isinstance(v, dict) for v in variants):
+        raise InvalidInput("variants", "an array of tables [[variants]]", None, where)
+    names = [str(v.get("name", "")) for v in variants]
+    if "" in names or len(set(names)) != len(names):
+        raise InvalidInput("variants.name", "a unique, non-empty name per variant", names, where)
+    grid = itertools.product(
+        variants,
+        _list(sweep, "planners", ["qlearning"], where),
+        _list(sweep, "speed_factors", [1.0], where),
+        _list(sweep, "items", [100], where),
+        _seeds(sweep, where),
+    )
+    episodes = []
+    for variant, planner, factor, items, seed in grid:
+        over = {k: v for k, v in variant.items() if k != "name"}
+        point = {"planner": planner, "speed_factor": factor, "items": items, "seed": seed}
+        if str(items) in by_items:
+            point["duration_s"] = by_items[str(items)]
+        config = episode_config.from_dict(_merge(_merge(base, over), point), where)
+        episodes.append(EpisodeSpec(variant=str(variant["name"]), config=config))
+    keys = [e.key for e in episodes]
+    if len(set(keys)) != len(keys):
+        raise InvalidInput("sweep", "grid axes without repeated values", None, where)
+    name = str(sweep.get("name", Path(where).stem))
+    table = sweep.get("table")
+    return SweepConfig(
+        name=name, table=None if table is None else str(table), episodes=tuple(episodes), path=where
+    )
+
+
+def load(path: Path) -> SweepConfig:
+    """The sweep of TOML `path`, refused in one line if anything in it is wrong."""
+    return from_dict(read_toml(Path(path)), str(path))
+
+
+def first_seeds(sweep: SweepConfig, n: int) -> SweepConfig:
+    """The same sweep with only the `n` smallest seeds of each grid point."""
+    seeds = sorted({e.config.seed for e in sweep.episodes})[:n]
+    kept = tuple(e for e in sweep.episodes if e.config.seed in seeds)
+    return SweepConfig(name=sweep.name, table=sweep.table, episodes=kept, path=sweep.path)

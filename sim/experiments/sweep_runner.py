@@ -1,0 +1,159 @@
+"""Running a sweep's episodes: resume, local process pool, or a Ray cluster.
+
+One row is appended to `<out>/episodes.csv` per finished episode (rewritten atomically), so a
+killed sweep keeps every finished episode; running it again skips them (resume). When every
+episode is done the file is rewritten once more in the grid's order, so the same sweep gives
+the same bytes (wall-clock columns aside) whatever the number of workers.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import time
+from collections.abc import Callable, Iterable
+from pathlib import Path
+
+from sim.episode import outputs
+from sim.errors import InvalidInput
+from sim.experiments.sweep_config import EpisodeSpec, SweepConfig, episode_key
+
+RowCallback = Callable[[EpisodeSpec, dict], None]
+
+
+def row_key(row: dict) -> str:
+    """The episode key of an episodes.csv row."""
+    return episode_key(
+        row.get("variant") or "base",
+        row["planner"],
+        float(row["speed_factor"]),
+        int(row["n_items"]),
+        int(row["seed"]),
+    )
+
+
+def pending(sweep: SweepConfig, csv_path: Path) -> list[EpisodeSpec]:
+    """Episodes of `sweep` without a row in `csv_path` yet, in grid order."""
+    done = {row_key(r) for r in outputs.read_rows(csv_path)}
+    return [spec for spec in sweep.episodes if spec.key not in done]
+
+
+def run_spec(spec: EpisodeSpec) -> dict:
+    """Run one episode of a sweep in this process (the compiled model is cached per process)."""
+    from sim.episode.runner import run_episode
+
+    result = run_episode(spec.config, variant=spec.variant)
+    return result.episode_row
+
+
+def _local(specs: list[EpisodeSpec], workers: int, on_row: RowCallback) -> None:
+    if workers <= 1:
+        for spec in specs:
+            on_row(spec, run_spec(spec))
+        return
+    # spawn: a fresh interpreter per worker, no inherited rendering contexts or threads.
+    context = multiprocessing.get_context("spawn")
+    with context.Pool(processes=workers, maxtasksperchild=None) as pool:
+        by_key = {spec.key: spec for spec in specs}
+        for key, row in pool.imap_unordered(_keyed, specs, chunksize=1):
+            on_row(by_key[key], row)
+
+
+def _keyed(spec: EpisodeSpec) -> tuple[str, dict]:
+    return spec.key, run_spec(spec)
+
+
+def require_ray(address: str):
+    """The `ray` module, or a refusal saying how to install the optional extra."""
+    try:
+        import ray
+    except ImportError:
+        raise InvalidInput(
+            "--ray", "a Python with ray installed: pip install 'sortsim[cluster]'", address
+        ) from None
+    return ray
+
+
+def _ray(specs: list[EpisodeSpec], address: str, workers: int, on_row: RowCallback) -> None:
+    ray = require_ray(address)
+    from ray.util import ActorPool
+
+    @ray.remote
+    class EpisodeActor:
+        """Keeps the compiled model and renderer alive between episodes."""
+
+        def __init__(self):
+            from sim.episode.runner import Cell
+
+            self.cell = Cell()
+
+        def run(self, spec: EpisodeSpec) -> tuple[str, dict]:
+            from sim.episode.runner import run_episode
+
+            result = run_episode(spec.config, variant=spec.variant, cell=self.cell)
+            return spec.key, result.episode_row
+
+    ray.init(address=None if address in ("", "local") else address, ignore_reinit_error=True)
+    n = max(1, min(workers, len(specs)))
+    pool = ActorPool([EpisodeActor.remote() for _ in range(n)])
+    by_key = {spec.key: spec for spec in specs}
+    for key, row in pool.map_unordered(lambda actor, spec: actor.run.remote(spec), specs):
+        on_row(by_key[key], row)
+
+
+def default_workers() -> int:
+    """Local worker processes when --workers is not given: the CPUs this process may use."""
+    return max(1, len(os.sched_getaffinity(0)))
+
+
+def run_sweep(
+    sweep: SweepConfig,
+    out_dir: Path,
+    workers: int | None = None,
+    ray_address: str | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> list[dict]:
+    """Run the pending episodes of `sweep` into `out_dir`/episodes.csv; returns all rows."""
+    csv_path = Path(out_dir) / "episodes.csv"
+    todo = pending(sweep, csv_path)
+    total, start = len(sweep.episodes), time.perf_counter()
+    done_before = total - len(todo)
+    if progress:
+        progress(f"{sweep.name}: {len(todo)} of {total} episodes to run ({done_before} done)")
+    count = [done_before]
+
+    def on_row(spec: EpisodeSpec, row: dict) -> None:
+        row = {**row, "variant": spec.variant}
+        outputs.append_episode(csv_path, row)
+        count[0] += 1
+        if progress:
+            elapsed = time.perf_counter() - start
+            progress(
+                f"[{count[0]}/{total}] {spec.key}  accuracy {float(row['accuracy']):.3f}  "
+                f"profit {float(row['profit_eur']):.2f} EUR  ({elapsed:.0f} s)"
+            )
+
+    workers = default_workers() if workers is None else workers
+    if workers < 1:
+        raise InvalidInput("--workers", "an integer >= 1", workers)
+    if todo:
+        if ray_address is not None:
+            _ray(todo, ray_address, workers, on_row)
+        else:
+            _local(todo, workers, on_row)
+    return _sorted_rewrite(sweep, csv_path)
+
+
+def _sorted_rewrite(sweep: SweepConfig, csv_path: Path) -> list[dict]:
+    rows = outputs.read_rows(csv_path)
+    order = {spec.key: i for i, spec in enumerate(sweep.episodes)}
+    rows.sort(key=lambda r: order.get(row_key(r), len(order)))
+    if rows:
+        outputs.write_episodes(csv_path, rows)
+    return rows
+
+
+def mean(values: Iterable[float]) -> float:
+    """Mean of `values` (0 for none)."""
+    values = list(values)
+    return sum(values) / len(values) if values else 0.0

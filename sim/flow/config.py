@@ -1,0 +1,156 @@
+"""Settings of a material flow (thesis 2.2.6) and the belt/grid geometry the flow relies on.
+
+Time and row convention, shared with perception: belt speed v constant per episode, observation
+period T. An item dropped at the infeed X_INFEED at time t crosses the camera line X_CAMERA at
+tau = t + (X_CAMERA - X_INFEED) / v. Row k of the grid is the belt under the camera band
+[X_CAMERA - vT/2, X_CAMERA + vT/2) at time k T, so an item's centre belongs to row
+round(tau / T). Stripe j (0..4) covers y in [-0.4 + 0.16 j, -0.4 + 0.16 (j + 1)), stripe 0 on
+the -y side.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from planner.motion.belt_speeds import SPEED_RANGE_MPS as BELT_SPEED_RANGE_MPS
+from planner.motion.belt_speeds import SPEED_X1_MPS as BELT_SPEED_X1_MPS
+from sim.errors import InvalidInput
+
+BELT_HALF_WIDTH = 0.4
+BELT_X_RANGE = (-3.0, 1.5)
+X_INFEED = -2.75
+X_CAMERA = -1.48
+X_DISCHARGE = BELT_X_RANGE[1]
+OBSERVATION_PERIOD_S = 0.5
+N_STRIPES = 5
+STRIPE_WIDTH = 2 * BELT_HALF_WIDTH / N_STRIPES
+ITEM_CLASSES = (2, 3, 4)
+# The densest thesis flows carry about 11 items per metre of belt (400 items in ~190 s and
+# 3000 items in 25 min at x1); we allow up to 12 and size the item pool for that.
+MAX_ITEMS_PER_METRE = 12.0
+# x1.5 = 0.2775 m/s is the conveyor's top speed of 0.277 m/s, rounded.
+_SPEED_SLACK_MPS = 6e-4
+
+DEFAULT_STRIPE_PRIORS = (0.16, 0.22, 0.24, 0.22, 0.16)
+# Rows: previous item's class in the same stripe (paper, plastic, aluminium); columns: next.
+# Items of a kind come in clumps (one bin emptied at a time), hence the heavier diagonal.
+DEFAULT_TRANSITIONS = (
+    (0.46, 0.30, 0.24),
+    (0.22, 0.50, 0.28),
+    (0.20, 0.28, 0.52),
+)
+# Near the stationary distribution of DEFAULT_TRANSITIONS, and near the thesis's table 4.3
+# (35 paper, 42 plastic, 41 aluminium of 118 items).
+DEFAULT_CLASS_PRIORS = (0.29, 0.36, 0.35)
+
+
+def stripe_of(y: np.ndarray | float) -> np.ndarray:
+    """Stripe index 0..4 of lateral positions y [m] (clipped to the belt)."""
+    index = np.floor((np.asarray(y) + BELT_HALF_WIDTH) / STRIPE_WIDTH).astype(int)
+    return np.clip(index, 0, N_STRIPES - 1)
+
+
+def _probabilities(field: str, values, shape: tuple[int, ...]) -> np.ndarray:
+    array = np.asarray(values, dtype=float)
+    ok = array.shape == shape and np.all(np.isfinite(array)) and np.all(array >= 0)
+    ok = ok and np.allclose(array.sum(axis=-1), 1.0, atol=1e-6)
+    if not ok:
+        rows = "rows each " if len(shape) > 1 else ""
+        allowed = f"{'x'.join(map(str, shape))} non-negative numbers, {rows}summing to 1"
+        raise InvalidInput(field, allowed, values)
+    return array
+
+
+@dataclass(frozen=True)
+class FlowConfig:
+    """One material flow, validated on construction.
+
+    Attributes:
+        n_items: Items dropped on the belt.
+        duration_s: Time over which they arrive [s] (~90 s in the thesis's tables 4.2, 4.3).
+        speed_factor: Belt speed over x1 = 0.185 m/s; any speed inside the conveyor's range
+            0.135..0.277 m/s (x1, x1.2 and x1.5 are the thesis's).
+        stripe_priors: Probability that an item falls in each of the 5 stripes.
+        transitions: 3x3 row-stochastic matrix P(next class | previous class) along the belt
+            within a stripe, classes ordered paper, plastic, aluminium.
+        class_priors: Class probabilities of the first item of each stripe.
+        seed: Seed of `numpy.random.default_rng`.
+        observation_period_s: Grid row period T [s].
+    """
+
+    n_items: int = 100
+    duration_s: float = 90.0
+    speed_factor: float = 1.0
+    stripe_priors: tuple[float, ...] = DEFAULT_STRIPE_PRIORS
+    transitions: tuple[tuple[float, ...], ...] = DEFAULT_TRANSITIONS
+    class_priors: tuple[float, ...] = DEFAULT_CLASS_PRIORS
+    seed: int = 0
+    observation_period_s: float = OBSERVATION_PERIOD_S
+
+    def __post_init__(self):
+        n = self.n_items
+        if isinstance(n, bool) or not isinstance(n, int | np.integer) or not 1 <= n <= 100_000:
+            raise InvalidInput("n_items", "an integer 1..100000", n)
+        if not 1.0 <= float(self.duration_s) <= 1e6:
+            raise InvalidInput("duration_s", "1..1e6 s", self.duration_s)
+        lo, hi = BELT_SPEED_RANGE_MPS
+        speed = BELT_SPEED_X1_MPS * float(self.speed_factor)
+        if not lo - 1e-9 <= speed <= hi + _SPEED_SLACK_MPS:
+            allowed = (
+                f"{lo / BELT_SPEED_X1_MPS:.3f}..1.5 (the conveyor's {lo}..{hi} m/s "
+                f"at {BELT_SPEED_X1_MPS} m/s per x1)"
+            )
+            raise InvalidInput("speed_factor", allowed, self.speed_factor)
+        stripes = _probabilities("stripe_priors", self.stripe_priors, (N_STRIPES,))
+        transitions = _probabilities("transitions", self.transitions, (3, 3))
+        classes = _probabilities("class_priors", self.class_priors, (3,))
+        # Plain tuples (e.g. from TOML lists), so configs hash and compare by value.
+        object.__setattr__(self, "stripe_priors", tuple(stripes.tolist()))
+        object.__setattr__(self, "transitions", tuple(tuple(r) for r in transitions.tolist()))
+        object.__setattr__(self, "class_priors", tuple(classes.tolist()))
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int | np.integer):
+            raise InvalidInput("seed", "an integer >= 0", self.seed)
+        if self.seed < 0:
+            raise InvalidInput("seed", "an integer >= 0", self.seed)
+        if not 0.05 <= float(self.observation_period_s) <= 5.0:
+            raise InvalidInput("observation_period_s", "0.05..5 s", self.observation_period_s)
+        density = self.items_per_metre
+        if density > MAX_ITEMS_PER_METRE * (1 + 1e-9):
+            most = int(MAX_ITEMS_PER_METRE * self.duration_s * self.belt_speed_mps + 1e-6)
+            allowed = (
+                f"at most {MAX_ITEMS_PER_METRE:g} items per metre of belt: <= {most} items "
+                f"in {self.duration_s:g} s at x{self.speed_factor:g} (longer flows carry more)"
+            )
+            raise InvalidInput("n_items", allowed, n)
+
+    @property
+    def belt_speed_mps(self) -> float:
+        """Belt speed v [m/s]."""
+        return BELT_SPEED_X1_MPS * float(self.speed_factor)
+
+    @property
+    def items_per_metre(self) -> float:
+        """Mean number of items per metre of belt."""
+        return self.n_items / (float(self.duration_s) * self.belt_speed_mps)
+
+    @property
+    def row_pitch_m(self) -> float:
+        """Belt travel per observation period, the grid's row pitch [m]."""
+        return self.belt_speed_mps * float(self.observation_period_s)
+
+    @property
+    def infeed_to_camera_s(self) -> float:
+        """Time from the infeed to the camera line [s]."""
+        return (X_CAMERA - X_INFEED) / self.belt_speed_mps
+
+    @property
+    def residence_s(self) -> float:
+        """Time an item spends on the belt from the infeed to the discharge end [s]."""
+        return (X_DISCHARGE - X_INFEED) / self.belt_speed_mps
+
+
+def thesis_duration_s(n_items: int) -> float:
+    """Duration [s] of a thesis flow of `n_items`: ~90 s, longer past 150 items (1.67 items/s)."""
+    return max(90.0, n_items / (150 / 90))
