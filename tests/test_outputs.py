@@ -1,4 +1,4 @@
-"""Output files: DESIGN.md's columns, fixed formatting, atomic writes and appends."""
+"""Output files: the contract's columns, fixed formatting, atomic writes and appends."""
 
 from __future__ import annotations
 

@@ -16,6 +16,7 @@ import pytest
 
 from perception.codes import PAPER
 from sim.cell.cell import Cell
+from sim.cell.conveyor import rail_top_z
 from sim.episode.pick_control import PRESS_DEPTH_M, PickController, clear_height
 from tests.utils import play_pick
 
@@ -51,7 +52,7 @@ def test_a_picked_board_leaves_the_standing_cans_beside_it_and_on_its_way_alone(
     height = 2 * pool.item_type(board).rest_height
     for t in (hit.plan.chain.phase_start("transfer"), hit.plan.release_time):
         bottom = hit.plan.chain.at_time(t)[0][2] + PRESS_DEPTH_M - height
-        assert bottom >= clear_height(cell.catalogue) - 1e-6
+        assert bottom >= clear_height(cell.catalogue, rail_top_z(cell.model)) - 1e-6
     for s in cans:
         now = d.xpos[pool.body_ids[s]]
         expected = start[s] + np.array([SPEED * (d.time - t0), 0.0, 0.0])

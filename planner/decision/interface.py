@@ -28,8 +28,9 @@ from planner.errors import PlannerInputError
 from planner.motion.reach_window import ReachWindow
 
 THESIS_VALUES = THESIS_VALUES_EUR
-# Release points above the bins [m] (sites bin_<class>_drop of models/cell/scene.xml): paper on
-# -y, plastic and aluminium on +y; the episode runner passes the positions it reads from the model.
+# A stand-alone default for the planner's own tests (paper on -y, plastic and aluminium on +y):
+# approximately the cell's release points. Every context the cell builds passes the positions of
+# the sites bin_<class>_drop read from the compiled model instead.
 DEFAULT_BINS = ((0.0, -0.51, 0.06), (-0.21, 0.51, 0.06), (0.21, 0.51, 0.06))
 
 

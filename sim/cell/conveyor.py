@@ -22,9 +22,20 @@ from planner.motion.belt_speeds import SPEED_FACTORS, SPEED_RANGE_MPS, SPEED_X1_
 from sim.errors import InvalidInput
 
 BELT_GEOM = "belt"
+RAIL_GEOMS = ("rail_left", "rail_right")
 SPEED_MIN, SPEED_MAX = SPEED_RANGE_MPS
 SPEED_X1 = SPEED_X1_MPS
 _RATING_RESOLUTION = 0.0005  # [m/s], half of the rated range's last digit
+
+
+def rail_top_z(model: mujoco.MjModel) -> float:
+    """Top of the belt's side rails [m], the highest obstacle between the belt and the bins,
+    read from the compiled model (static boxes `rail_left`, `rail_right` on the world body)."""
+    tops = []
+    for name in RAIL_GEOMS:
+        geom = model.geom(name)
+        tops.append(float(geom.pos[2] + geom.size[2]))
+    return max(tops)
 
 
 def speed_for_factor(factor: float) -> float:

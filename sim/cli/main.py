@@ -1,7 +1,7 @@
 """The `sortsim` command line: one subcommand per module `sim.cli.<name>`.
 
 Each command module defines `add_arguments(parser)` and `main(args) -> int` and keeps its heavy
-imports inside `main`, so `sortsim --help` stays fast. Exit codes (DESIGN.md): 0 done,
+imports inside `main`, so `sortsim --help` stays fast. Exit codes (docs/architecture.md): 0 done,
 2 refused input (one line on stderr naming the field and what is allowed), 1 anything else.
 """
 

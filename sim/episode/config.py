@@ -4,7 +4,7 @@ Every key a TOML file may hold is a field below; unknown keys, wrong types, valu
 range and malformed TOML are refused with one line naming the key and the file
 (`InvalidInput`, exit code 2) before anything runs. Command-line options override the file.
 
-TOML layout (every key optional; defaults are DESIGN.md's headline episode)::
+TOML layout (every key optional; defaults are the headline episode)::
 
     seed = 0
     items = 100

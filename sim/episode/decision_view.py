@@ -25,6 +25,7 @@ PAYLOAD_KG = 1.0  # the payload the runner plans trajectories for
 @functools.lru_cache(maxsize=1)
 def cell_parts():
     """(window, bins, cycle model) of the scene in models/cell."""
+    from sim.cell.conveyor import rail_top_z
     from sim.cell.mjcf import load_scene
     from sim.cell.robot import geometry_from_model
     from sim.episode.pick_control import PRESS_DEPTH_M, clear_height
@@ -40,7 +41,7 @@ def cell_parts():
         for name in ("paper", "plastic", "aluminium")
     )
     # The lift the episode runner makes: a held item's bottom up to the clear height.
-    lift = clear_height(load_catalogue()) + PRESS_DEPTH_M
+    lift = clear_height(load_catalogue(), rail_top_z(model)) + PRESS_DEPTH_M
     model_t = CycleTimeModel(limits=limits_for_payload(PAYLOAD_KG), pick_z=PICK_Z, lift_height=lift)
     return window, bins, model_t
 

@@ -193,16 +193,13 @@ class Episode:
         if not self._ready:
             self.reset()
         while not self._finished():
-            if self.robot.busy:
-                self._step_picking()
-                continue
             t = self.data.time
-            if t + 1e-9 >= self.next_decision:
+            if not self.robot.busy and t + 1e-9 >= self.next_decision:
                 self.next_decision = t + DECIDE_PERIOD_S
                 self._candidates = self._tracked_items(t)
                 if self._candidates:
                     return True
-            self._step_idle()
+            self._step()
         self._close_out()
         return False
 
@@ -259,20 +256,23 @@ class Episode:
 
     # ----- stepping ------------------------------------------------------------------------------
 
-    def _step_picking(self) -> None:
-        """One physics step of a pick: set-points, step, cup, scheduler, outcome."""
-        self.robot.before_step()
-        mujoco.mj_step(self.model, self.data, nstep=1)
-        self.robot.after_step()
+    def _step(self) -> None:
+        """The one physics step of the episode: one control period while a pick is under way
+        (set-points, step, cup, scheduler, outcome), else one block up to the next scheduled
+        event (the robot holds its set-points)."""
+        picking = self.robot.busy
+        if picking:
+            self.robot.before_step()
+        nstep = 1 if picking else self._idle_steps()
+        mujoco.mj_step(self.model, self.data, nstep=nstep)
+        if picking:
+            self.robot.after_step()
         self._after_step()
-        outcome = self.robot.poll()
-        if outcome is not None:
-            self._finish_pick(outcome)
-
-    def _step_idle(self) -> None:
-        """Step in one block up to the next scheduled event (the robot holds its set-points)."""
-        mujoco.mj_step(self.model, self.data, nstep=self._idle_steps())
-        self._after_step()
+        if picking:
+            outcome = self.robot.poll()
+            if outcome is not None:
+                self._finish_pick(outcome)
+            return
         t = self.data.time
         if self.progress is not None and t - self._last_report >= 1.0:
             self._last_report = t

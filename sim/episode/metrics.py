@@ -1,6 +1,6 @@
 """Counters of one episode and the rows of episodes.csv / picks.csv they produce.
 
-Definitions (thesis 4.1.4 and DESIGN.md):
+Definitions (thesis 4.1.4 and docs/episode.md):
 
 - `entered` (SI): items that were dropped onto the belt during the episode.
 - `picked` (SP): items that the robot placed into a bin (any bin), counted by their true class

@@ -1,6 +1,6 @@
 """The episode's output files, written atomically with fixed number formatting.
 
-`episodes.csv` has one row per episode and `picks.csv` one row per pick attempt (DESIGN.md's
+`episodes.csv` has one row per episode and `picks.csv` one row per pick attempt (docs/episode.md's
 columns, plus a few more at the end). Every write goes to a temporary file in the same folder
 and is renamed over the target (`os.replace`), so a killed run leaves either the old file or
 the new one, never half a CSV. Floats are printed with a fixed number of decimals per column,
@@ -34,7 +34,7 @@ EPISODE_COLUMNS = (
     "mean_cycle_s",
     "sim_s",
     "wall_s",
-    # beyond DESIGN.md's minimum
+    # beyond the contract's minimum (docs/episode.md)
     "variant",
     "perception",
     "entered",

@@ -19,6 +19,7 @@ from planner.motion.intercept import Intercept, intercept_item
 from planner.motion.pick_cycle import PickPlaceConfig
 from planner.motion.trajectory import State
 from sim.cell.cell import Cell
+from sim.cell.conveyor import rail_top_z
 from sim.cell.executor import Playback
 from sim.cell.suction import SuctionCup
 from sim.flow.catalogue import Catalogue
@@ -29,8 +30,6 @@ DEFAULT_TOP_Z = 0.02
 """Assumed top of an item when no item is found near the detection [m]."""
 NEAR_M = 0.08
 """Radius within which the item under a detection is looked for [m]."""
-RAIL_TOP_Z = 0.03
-"""Top of the belt's side rails, the highest obstacle between the belt and the bins [m]."""
 RELEASE_CLEAR_S = 0.06
 """The cup stays still this long after the release so that the falling item clears its lip
 (about 2 cm of fall) before the next move starts sideways [s]."""
@@ -39,12 +38,12 @@ CLEARANCE_M = 0.025
 bin's rim [m]."""
 
 
-def clear_height(catalogue: Catalogue) -> float:
+def clear_height(catalogue: Catalogue, rail_top: float) -> float:
     """Height [m] a held item's bottom keeps above the belt once lifted: over the rails and
     over the tallest catalogue item standing on the belt (a held item swept lower knocks
     standing cans off the belt), plus `CLEARANCE_M`."""
     tallest = max(2.0 * t.rest_height for t in catalogue.types)
-    return max(RAIL_TOP_Z, tallest) + CLEARANCE_M
+    return max(rail_top, tallest) + CLEARANCE_M
 
 
 @dataclass(frozen=True)
@@ -94,7 +93,7 @@ class PickController:
         self.rest = cell.tcp()
         self.axis4 = float(cell.data.joint("axis4_joint").qpos[0])
         self.plan_failures = 0
-        self.clear_z = clear_height(cell.catalogue)
+        self.clear_z = clear_height(cell.catalogue, rail_top_z(cell.model))
         self._pick: _PickInProgress | None = None
 
     def item_near(self, x: float, y: float) -> tuple[float, float]:
