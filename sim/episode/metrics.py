@@ -71,6 +71,8 @@ class EpisodeMetrics:
         self.missed: set[int] = set()
         self.dropped: set[int] = set()
         self.picks: list[PickRecord] = []
+        self.thrown_off: set[int] = set()  # items that left the belt other than into a bin
+        self.mujoco_warnings = 0  # MuJoCo warnings raised during the episode
 
     def on_entered(self, item_id: int, true_class: int) -> None:
         """An item was dropped onto the belt."""
@@ -132,6 +134,8 @@ class EpisodeMetrics:
             "entered_paper": self.entered[PAPER],
             "entered_plastic": self.entered[PLASTIC],
             "entered_aluminium": self.entered[ALUMINIUM],
+            "mujoco_warnings": self.mujoco_warnings,
+            "thrown_off": len(self.thrown_off),
         }
 
     def pick_rows(self) -> list[dict[str, object]]:

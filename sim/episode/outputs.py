@@ -45,6 +45,8 @@ EPISODE_COLUMNS = (
     "entered_plastic",
     "entered_aluminium",
     "real_time_factor",
+    "mujoco_warnings",
+    "thrown_off",
 )
 PICK_COLUMNS = (
     "t_start_s",
