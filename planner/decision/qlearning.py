@@ -31,7 +31,7 @@ Reading of the thesis, where it leaves room (each choice marked so it can be rev
   meet now, inside the reachable window, by the cycle-time model, are candidates; an item still
   upstream of the window waits for a later decision (the reward has no notion of waiting). By
   default (`episode_starts` > 0) the episodes run in time as well
-  (`planner.decision.qlearning_episodes`):
+  (`planner.decision.rollout_episodes`):
   one episode per candidate first pick (the `episode_starts` of highest reward), the robot
   released over that item's bin on the cycle-time model's clock, then taking the item of
   highest reward it can still meet, for up to `episode_steps` moves; q of the first pick is
@@ -54,7 +54,7 @@ import numpy as np
 
 from planner.decision.candidates import Candidate, candidates, choice_of
 from planner.decision.interface import MATERIALS, Choice, DecisionContext, RobotState, TrackedItem
-from planner.decision.qlearning_episodes import MIN_DISTANCE, episode_q
+from planner.decision.rollout_episodes import MIN_DISTANCE, episode_q
 from planner.errors import PlannerInputError
 
 OBJECTIVES = ("v/d", "d=1", "v=1")
@@ -74,7 +74,7 @@ class QLearningConfig:
         objective: 'v/d' (eq. 3.3), 'd=1' (value only) or 'v=1' (distance only), section 4.1.3.
         tolerance: Largest q change that counts as converged.
         episode_starts: First picks (those of highest reward) whose episodes in time are run
-            (`planner.decision.qlearning_episodes`); 0 chooses by the q of the reward path alone.
+            (`planner.decision.rollout_episodes`); 0 chooses by the q of the reward path alone.
         episode_steps: Most moves of each such episode after its first pick.
     """
 
