@@ -8,7 +8,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import sim.envs  # noqa: F401  (registers the ids)
-from sim.envs.observation import N_FEATURES
+from planner.decision.slot_features import N_FEATURES
 
 SMALL_CELL = {"items": 12, "duration_s": 8.0}
 

@@ -18,8 +18,8 @@ import numpy as np
 from planner.decision.candidates import exit_time
 from planner.decision.interface import RobotState, TrackedItem
 from planner.decision.kinematic_belt import HOME_TCP, random_belt
+from planner.decision.slot_features import bounds, choice_for, observe, slot_candidates
 from planner.motion.belt_speeds import SPEED_FACTORS, SPEED_X1_MPS
-from sim.envs.observation import bounds, choice_for, observe, slot_candidates
 from sim.episode.decision_view import cell_context
 from sim.errors import InvalidInput
 

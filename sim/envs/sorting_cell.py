@@ -11,7 +11,7 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 
-from sim.envs.observation import bounds, choice_for, observe, slot_candidates
+from planner.decision.slot_features import bounds, choice_for, observe, slot_candidates
 from sim.episode import config as episode_config
 from sim.episode.loop import Episode
 from sim.episode.runner import shared_cell

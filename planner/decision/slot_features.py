@@ -1,4 +1,5 @@
-"""What a learning agent sees at a decision: the K most urgent pick candidates as features.
+"""What a learning agent (or the `learned` decision manager) sees at a decision: the K most
+urgent pick candidates as features.
 
 Shared by both environments (planner level and physics). A slot holds one feasible candidate
 (`planner.decision.candidates`), most urgent first (earliest exit from the reachable window);
