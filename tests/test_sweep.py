@@ -114,3 +114,26 @@ def test_sweep_on_local_ray(swept, tmp_path):
     path, _, _ = swept
     rows = sweep.run_sweep(sweep_config.load(path), tmp_path, workers=2, ray_address="local")
     assert len(rows) == 2
+
+
+def test_results_of_another_sweep_are_refused_not_merged(tmp_path, monkeypatch):
+    def fake_run(spec):
+        c = spec.config
+        return {"seed": c.seed, "planner": c.planner, "speed_factor": c.speed_factor,
+                "n_items": c.items, "accuracy": 1.0, "profit_eur": 0.0}  # fmt: skip
+
+    monkeypatch.setattr(sweep, "run_spec", fake_run)
+    path = tmp_path / "grid.toml"
+    path.write_text(GRID)
+    out = tmp_path / "out"
+    assert len(sweep.run_sweep(sweep_config.load(path), out, workers=1)) == 2
+    assert (out / sweep.IDENTITY_FILE).exists()
+    # More seeds: the same sweep grown, resumed.
+    path.write_text(GRID.replace("seeds = 1", "seeds = 2"))
+    assert len(sweep.run_sweep(sweep_config.load(path), out, workers=1)) == 4
+    before = (out / "episodes.csv").read_bytes()
+    # Another sweep (longer flows) into the same folder: refused before any episode.
+    path.write_text(GRID.replace("duration_s = 3.0", "duration_s = 4.0"))
+    with pytest.raises(sweep.InvalidInput, match="another sweep"):
+        sweep.run_sweep(sweep_config.load(path), out, workers=1)
+    assert (out / "episodes.csv").read_bytes() == before

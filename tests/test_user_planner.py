@@ -119,7 +119,7 @@ duration_s = 3.0
         ("nosuchmodule:X", "ModuleNotFoundError"),
         ("myplanners:Missing", "has no class Missing"),
         ("myplanners:NoChoose", "lacks choose() or reset()"),
-        ("random", "qlearning | proximity | fifo | greedy | oracle | module:Class"),
+        ("random", "module:Class (a class with choose() and reset())"),
     ],
 )
 def test_a_bad_planner_spec_is_refused_in_one_line(user_dir, spec, says):
@@ -136,15 +136,30 @@ def test_make_planner_refuses_options_a_user_class_does_not_take(user_dir, monke
         make_planner("myplanners:MostValuable", gamma=0.5)
 
 
-def test_a_refused_episode_stops_a_two_worker_sweep_within_seconds(tmp_path):
-    (tmp_path / "dense.toml").write_text(
+def test_a_refusal_in_a_worker_stops_a_two_worker_sweep_within_seconds(user_dir):
+    # The planner refuses when an episode starts, inside a worker process: the refusal must
+    # cross back to the parent (it pickles) and stop the sweep with its one line.
+    (user_dir / "refusing.py").write_text(
+        """
+from planner.errors import PlannerInputError
+
+
+class Refusing:
+    def reset(self):
+        raise PlannerInputError("refusing option", "nothing, on purpose", 1)
+
+    def choose(self, items, robot, context):
+        return None
+"""
+    )
+    (user_dir / "refused.toml").write_text(
         """
 [sweep]
-name = "dense"
+name = "refused"
 speed_factors = [1.0]
-items = [4, 3000]
-planners = ["fifo"]
-seeds = 2
+items = [4]
+planners = ["refusing:Refusing"]
+seeds = 3
 
 [base]
 perception = "truth"
@@ -153,9 +168,9 @@ duration_s = 3.0
     )
     t0 = time.monotonic()
     proc = _sortsim(
-        "sweep", "--config", "dense.toml", "--out", "out", "--workers", "2", cwd=tmp_path
+        "sweep", "--config", "refused.toml", "--out", "refused", "--workers", "2", cwd=user_dir
     )
     elapsed = time.monotonic() - t0
     assert proc.returncode == 2, proc.stderr
-    assert proc.stderr.strip().splitlines()[-1].startswith("sortsim sweep: n_items")
+    assert proc.stderr.strip().splitlines()[-1].startswith("sortsim sweep: refusing option")
     assert elapsed < 60.0  # it used to hang forever: the refusal did not unpickle

@@ -3,12 +3,18 @@
 As on a real cell: a printed checkerboard is held in 15+ poses in front of the camera, the inner
 corners are found (`cv2.findChessboardCorners`, refined with `cv2.cornerSubPix`) and
 `cv2.calibrateCamera` estimates the intrinsics and the lens's distortion (k1, k2, p1, p2, k3).
-The result is a JSON file the pipeline loads.
+The result is a JSON file the pipeline loads, written atomically (a temporary beside it, named
+`.<name>.<pid>.<token>.tmp` as all the project's temporaries are, then a rename). Loading
+refuses in one line, naming the field and the file, anything that is not such a file: unreadable,
+not UTF-8 or not JSON, a missing field, NaN or infinite numbers, or values out of range.
 """
 
 from __future__ import annotations
 
 import json
+import math
+import os
+import secrets
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -19,6 +25,62 @@ from perception.errors import PerceptionError, PerceptionInputError
 
 MIN_VIEWS = 10
 _SUBPIX_CRITERIA = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 100, 1e-4)
+DIST_NAMES = ("k1", "k2", "p1", "p2", "k3")
+MAX_SIZE_PX = 16384
+"""Largest frame side a calibration may hold [px]."""
+MAX_DISTORTION = 1e3
+"""Largest magnitude of a distortion coefficient accepted (real lenses: |k| < 10)."""
+
+
+def _no_nan(name: str) -> float:
+    raise ValueError(f"{name} is not a finite number")
+
+
+def _integer(value: object) -> bool:
+    return isinstance(value, int | np.integer) and not isinstance(value, bool)
+
+
+def _real(value: object) -> bool:
+    return isinstance(value, int | float | np.number) and not isinstance(value, bool)
+
+
+def check_calibration(cal: CameraCalibration) -> None:
+    """Refuse a calibration that no camera could have: wrong shapes, NaN or infinite numbers,
+    a focal length <= 0 or a principal point off the image, and so on.
+
+    Raises:
+        PerceptionInputError: naming the field.
+    """
+    size = cal.image_size
+    if len(size) != 2 or not all(_integer(v) and 16 <= v <= MAX_SIZE_PX for v in size):
+        raise PerceptionInputError("image_size", f"(width, height), 16..{MAX_SIZE_PX} px", size)
+    matrix = np.asarray(cal.camera_matrix)
+    if matrix.shape != (3, 3) or matrix.dtype.kind not in "fiu":
+        raise PerceptionInputError("camera_matrix", "a 3x3 matrix", np.shape(matrix))
+    if not np.all(np.isfinite(matrix)):
+        raise PerceptionInputError("camera_matrix", "finite numbers", "NaN or infinite")
+    width, height = size
+    fx, fy, cx, cy = matrix[0, 0], matrix[1, 1], matrix[0, 2], matrix[1, 2]
+    limit = 100.0 * max(size)
+    if not (0 < fx <= limit and 0 < fy <= limit):
+        allowed = f"focal lengths fx, fy in (0, {limit:g}] px"
+        raise PerceptionInputError("camera_matrix", allowed, (float(fx), float(fy)))
+    if not (0 <= cx <= width and 0 <= cy <= height):
+        allowed = f"a principal point inside the {width}x{height} image"
+        raise PerceptionInputError("camera_matrix", allowed, (float(cx), float(cy)))
+    if matrix[1, 0] != 0 or not np.array_equal(matrix[2], [0.0, 0.0, 1.0]):
+        allowed = "the form [[fx, s, cx], [0, fy, cy], [0, 0, 1]]"
+        raise PerceptionInputError("camera_matrix", allowed, matrix.tolist())
+    dist = np.asarray(cal.dist_coeffs)
+    if dist.shape != (5,) or dist.dtype.kind not in "fiu":
+        raise PerceptionInputError("dist_coeffs", "5 numbers", np.shape(dist))
+    if not np.all(np.isfinite(dist)) or np.any(np.abs(dist) > MAX_DISTORTION):
+        allowed = f"5 finite numbers of magnitude <= {MAX_DISTORTION:g}"
+        raise PerceptionInputError("dist_coeffs", allowed, dist.tolist())
+    if not (_real(cal.rms_px) and math.isfinite(cal.rms_px) and cal.rms_px >= 0):
+        raise PerceptionInputError("rms_px", "a finite number >= 0 [px]", cal.rms_px)
+    if not (_integer(cal.n_views) and cal.n_views >= 1):
+        raise PerceptionInputError("n_views", "an integer >= 1", cal.n_views)
 
 
 @dataclass(frozen=True)
@@ -40,46 +102,83 @@ class CameraCalibration:
     n_views: int
 
     def __post_init__(self) -> None:
-        if np.shape(self.camera_matrix) != (3, 3):
-            raise PerceptionInputError(
-                "camera_matrix", "a 3x3 matrix", np.shape(self.camera_matrix)
-            )
-        if np.shape(self.dist_coeffs) != (5,):
-            raise PerceptionInputError("dist_coeffs", "5 numbers", np.shape(self.dist_coeffs))
-        if len(self.image_size) != 2 or min(self.image_size) < 16:
-            raise PerceptionInputError("image_size", "(width, height) >= 16 px", self.image_size)
+        check_calibration(self)
 
     def save(self, path: Path) -> None:
-        """Writes the calibration as JSON."""
+        """Writes the calibration as JSON, atomically (a killed run leaves the old file)."""
         text = {
             "image_size": [int(v) for v in self.image_size],
             "camera_matrix": np.asarray(self.camera_matrix).tolist(),
-            "dist_coeffs": {
-                k: float(v)
-                for k, v in zip(("k1", "k2", "p1", "p2", "k3"), self.dist_coeffs, strict=True)
-            },
+            "dist_coeffs": {k: float(v) for k, v in zip(DIST_NAMES, self.dist_coeffs, strict=True)},
             "rms_px": float(self.rms_px),
             "n_views": int(self.n_views),
         }
-        Path(path).write_text(json.dumps(text, indent=2) + "\n")
+        path = Path(path)
+        data = (json.dumps(text, indent=2, allow_nan=False) + "\n").encode("utf-8")
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
+        try:
+            with open(tmp, "xb") as f:
+                f.write(data)
+                f.flush()
+                os.fsync(f.fileno())
+            os.replace(tmp, path)
+        except BaseException:
+            tmp.unlink(missing_ok=True)
+            raise
 
     @classmethod
     def load(cls, path: Path) -> CameraCalibration:
-        """Reads a calibration written by `save`; PerceptionInputError if it is not one."""
+        """Reads a calibration written by `save`.
+
+        Raises:
+            PerceptionInputError: one line naming the file and what is wrong with it.
+        """
+        where = f"calibration file {path}"
         try:
-            raw = json.loads(Path(path).read_text())
+            raw = json.loads(Path(path).read_bytes().decode("utf-8"), parse_constant=_no_nan)
+        except OSError as err:
+            reason = err.strerror or type(err).__name__
+            raise PerceptionInputError("file", "a readable JSON file", reason, where) from None
+        except UnicodeDecodeError as err:
+            got = f"not UTF-8 at byte {err.start}"
+            raise PerceptionInputError("file", "UTF-8 JSON text", got, where) from None
+        except ValueError as err:
+            reason = " ".join(str(err).split())[:120]
+            raise PerceptionInputError(
+                "file", "JSON of `sortsim calibrate`", reason, where
+            ) from None
+        try:
+            if not isinstance(raw, dict):
+                raise PerceptionInputError("file", "a JSON object", type(raw).__name__)
+            for key in ("image_size", "camera_matrix", "dist_coeffs", "rms_px", "n_views"):
+                if key not in raw:
+                    raise PerceptionInputError(key, "present (as `sortsim calibrate` writes it)")
             dist = raw["dist_coeffs"]
+            if not isinstance(dist, dict) or set(dist) != set(DIST_NAMES):
+                raise PerceptionInputError("dist_coeffs", f"an object of {DIST_NAMES}", dist)
+            size = raw["image_size"]
+            if not isinstance(size, list) or len(size) != 2 or not all(_integer(v) for v in size):
+                raise PerceptionInputError("image_size", "[width, height] integers [px]", size)
+            if not _integer(raw["n_views"]):
+                raise PerceptionInputError("n_views", "an integer >= 1", raw["n_views"])
+            rows = raw["camera_matrix"]
+            square = isinstance(rows, list) and len(rows) == 3
+            if not square or not all(isinstance(r, list) and len(r) == 3 for r in rows):
+                raise PerceptionInputError("camera_matrix", "a 3x3 matrix (3 rows of 3)", None)
+            for key, values in (("camera_matrix", sum(rows, [])), ("dist_coeffs", dist.values())):
+                if not all(_real(v) for v in values):
+                    raise PerceptionInputError(key, "numbers", None)
+            if not _real(raw["rms_px"]):
+                raise PerceptionInputError("rms_px", "a number [px]", raw["rms_px"])
             return cls(
                 camera_matrix=np.array(raw["camera_matrix"], dtype=np.float64),
-                dist_coeffs=np.array([dist[k] for k in ("k1", "k2", "p1", "p2", "k3")]),
-                image_size=(int(raw["image_size"][0]), int(raw["image_size"][1])),
+                dist_coeffs=np.array([dist[k] for k in DIST_NAMES], dtype=np.float64),
+                image_size=(size[0], size[1]),
                 rms_px=float(raw["rms_px"]),
-                n_views=int(raw["n_views"]),
+                n_views=raw["n_views"],
             )
-        except (OSError, ValueError, KeyError, TypeError, IndexError) as err:
-            raise PerceptionInputError(
-                "calibration file", "a JSON file of `sortsim calibrate`", str(path)
-            ) from err
+        except PerceptionInputError as err:
+            raise PerceptionInputError(err.field, err.allowed, err.got, where) from None
 
     def scaled(self, image_size: tuple[int, int]) -> CameraCalibration:
         """The same camera at another resolution of the same aspect ratio."""

@@ -5,11 +5,15 @@ A file holds `format` (the string "sortsim-stripe-hmms"), `version` (an int), `p
 cells per item of each class that the item extraction needs. Loading refuses, with one
 `PerceptionInputError` line naming the file, anything that is not such a file: unreadable or not
 a zip, another format or version, missing arrays, pickled objects, shapes other than the
-expected ones, or rows that do not sum to 1.
+expected ones, numbers that are not finite, or rows that do not sum to 1. Saving writes a
+temporary beside the target (`.<name>.<pid>.<token>.tmp.npz`, the project's scheme for
+temporaries) and renames it over the target.
 """
 
 from __future__ import annotations
 
+import os
+import secrets
 import zipfile
 from pathlib import Path
 
@@ -32,18 +36,22 @@ def save_models(path: Path | str, models: StripeHmms, cells_per_item=None) -> Pa
     if path.suffix != ".npz":
         path = path.with_name(path.name + ".npz")
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp.npz")
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp.npz")
     extra = {} if cells_per_item is None else {"cells_per_item": _cells(cells_per_item, path)}
-    np.savez(
-        tmp,
-        format=np.array(FORMAT),
-        version=np.array(VERSION),
-        pi=models.pi,
-        A=models.A,
-        B=models.B,
-        **extra,
-    )
-    tmp.replace(path)
+    try:
+        np.savez(
+            tmp,
+            format=np.array(FORMAT),
+            version=np.array(VERSION),
+            pi=models.pi,
+            A=models.A,
+            B=models.B,
+            **extra,
+        )
+        tmp.replace(path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
     return path
 
 
@@ -76,10 +84,14 @@ def load_models(
     missing = sorted({"format", "version", "pi", "A", "B"} - set(arrays))
     if missing:
         raise PerceptionInputError(field, "arrays format, version, pi, A, B", f"missing {missing}")
-    if str(arrays["format"]) != FORMAT:
-        raise PerceptionInputError(field, f"format {FORMAT!r}", str(arrays["format"]))
-    if arrays["version"].shape != () or int(arrays["version"]) != VERSION:
-        raise PerceptionInputError(field, f"format version {VERSION}", arrays["version"].tolist())
+    if arrays["format"].shape != () or str(arrays["format"]) != FORMAT:
+        raise PerceptionInputError(field, f"format {FORMAT!r}", str(arrays["format"])[:40])
+    version = arrays["version"]
+    if version.shape != () or version.dtype.kind not in "iu" or int(version) != VERSION:
+        raise PerceptionInputError(field, f"format version {VERSION}", str(version)[:40])
+    for name in ("pi", "A", "B"):
+        if arrays[name].dtype.kind != "f":
+            raise PerceptionInputError(field, f"{name} of floats", str(arrays[name].dtype))
     contexts = {None: (1, states), True: (states,), False: (1,)}[coupled]
     pi, a, b = arrays["pi"], arrays["A"], arrays["B"]
     expected = {"pi": (stripes, states), "B": (stripes, states, codes)}
@@ -105,10 +117,15 @@ def load_models(
 
 
 def _cells(values, path) -> np.ndarray:
-    arr = np.asarray(values, dtype=np.float64)
-    if arr.shape != (N_STATES,) or np.any(np.isnan(arr)) or np.any(arr[1:] <= 0):
-        allowed = f"cells_per_item of {N_STATES} counts, > 0 for the item classes"
-        raise PerceptionInputError(f"hmm file {path}", allowed, arr.tolist())
+    allowed = f"cells_per_item of {N_STATES} counts, finite and > 0 for the item classes"
+    arr = np.asarray(values)
+    if arr.dtype.kind not in "fiu":
+        raise PerceptionInputError(f"hmm file {path}", allowed, str(arr.dtype))
+    arr = arr.astype(np.float64)
+    ok = arr.shape == (N_STATES,) and not np.any(np.isnan(arr))
+    if not ok or not np.all(np.isfinite(arr[1:])) or np.any(arr[1:] <= 0):
+        got = arr.tolist() if arr.size <= N_STATES else f"shape {arr.shape}"
+        raise PerceptionInputError(f"hmm file {path}", allowed, got)
     return arr
 
 

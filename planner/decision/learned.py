@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -97,15 +98,25 @@ class SlotPolicy:
         best = int(np.argmax(scores))
         return best if scores[best] > self.wait_score else self.k_slots
 
-    def save(self, path: Path) -> None:
-        """Write the policy as JSON."""
+    def to_json(self) -> str:
+        """The policy as JSON text (what `load` reads)."""
         data = {
             "terms": list(TERMS),
             "weights": list(self.weights),
             "wait_score": self.wait_score,
             "k_slots": self.k_slots,
         }
-        Path(path).write_text(json.dumps(data, indent=2) + "\n", encoding="utf-8")
+        return json.dumps(data, indent=2) + "\n"
+
+    def save(self, path: Path) -> None:
+        """Write the policy as JSON, through a temporary file and a rename (never half a file)."""
+        path = Path(path)
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+        try:
+            tmp.write_text(self.to_json(), encoding="utf-8")
+            os.replace(tmp, path)
+        finally:
+            tmp.unlink(missing_ok=True)
 
     @classmethod
     def load(cls, path: Path = POLICY_FILE) -> SlotPolicy:

@@ -1,12 +1,12 @@
 """Off-screen frames of the cell's belt camera, seen through a real lens.
 
 `BeltCamera` renders the MJCF camera `belt_camera` with one reused `mujoco.Renderer` (run under
-`MUJOCO_GL=egl`) and passes the pinhole render through `perception.camera.lens.LensDistorter`, so
-the
-frames carry the distortion of a real wide lens. MuJoCo's pinhole has square pixels, the
-principal point at the image centre and the vertical field of view `fovy`; since barrel
-distortion shows rays from outside that field, the pinhole render is made on a larger canvas
-with the same focal length (the camera's fovy is widened for that render only).
+`MUJOCO_GL=egl`; `sim.cell.rendering` refuses a back-end that cannot render) and passes the
+pinhole render through `perception.camera.lens.LensDistorter`, so the frames carry the
+distortion of a real wide lens. MuJoCo's pinhole has square pixels, the principal point at the
+image centre and the vertical field of view `fovy`; since barrel distortion shows rays from
+outside that field, the pinhole render is made on a larger canvas with the same focal length
+(the camera's fovy is widened for that render only).
 
 `true_camera_matrix` is the renderer's exact intrinsics, for tests: perception never uses it,
 it calibrates the camera from checkerboard images instead (`sortsim calibrate`).
@@ -24,6 +24,7 @@ from perception.camera.calibration import CameraCalibration
 from perception.camera.grid import BeltGrid
 from perception.camera.lens import ZED_HD_LEFT, LensDistorter, LensModel, source_canvas
 from perception.camera.pipeline import CameraPipeline
+from sim.cell.rendering import check_backend
 from sim.errors import InvalidInput, ModelFileError
 from sim.paths import CAMERA_CALIBRATION_JSON
 
@@ -129,6 +130,7 @@ class BeltCamera:
         vis = model.vis.global_
         vis.offwidth = max(vis.offwidth, src_size[0])
         vis.offheight = max(vis.offheight, src_size[1])
+        check_backend()  # once per process: a missing back-end refused in one line
         self._renderer = mujoco.Renderer(model, src_size[1], src_size[0])
 
     def render(self, data: mujoco.MjData) -> np.ndarray:

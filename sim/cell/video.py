@@ -4,12 +4,17 @@ Frames are rendered off-screen with one reused `mujoco.Renderer` at a small size
 640x360) at a fixed rate of simulated time, then annotated with OpenCV: each tracked item's
 predicted class next to it (where the cell believes it is), the chosen next pick boxed, the
 pick/miss counters and the profit. The MP4 is written by imageio-ffmpeg to a temporary file and
-renamed into place when the episode ends, so a killed run leaves no half-written video.
+renamed into place when the episode ends, so a killed run leaves no half-written video; the
+temporary follows `sim.paths.temporary_path`, so the next run removes a killed run's leftover.
+`check_encoder` proves, before an episode runs, that the H.264 encoder works here.
 """
 
 from __future__ import annotations
 
+import contextlib
+import functools
 import os
+import subprocess
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -17,6 +22,10 @@ import cv2
 import imageio.v2 as imageio
 import mujoco
 import numpy as np
+
+from sim.cell.rendering import check_backend
+from sim.errors import InvalidInput
+from sim.paths import temporary_path
 
 # The view: the belt from the camera box (x = -1.48) to the robot and its bins.
 LOOKAT = (-0.55, 0.0, 0.0)
@@ -99,6 +108,42 @@ def annotate(frame: np.ndarray, uv: np.ndarray, overlay: Overlay) -> np.ndarray:
     return frame
 
 
+ENCODER = "libx264"
+"""The H.264 encoder of imageio-ffmpeg's ffmpeg that writes the MP4s."""
+
+
+@functools.cache
+def _encoder_failure() -> str | None:
+    """Why ffmpeg cannot encode H.264 here (None when it can): one frame encoded to nothing."""
+    try:
+        import imageio_ffmpeg
+
+        exe = imageio_ffmpeg.get_ffmpeg_exe()
+        probe = subprocess.run(
+            [exe, "-hide_banner", "-loglevel", "error", "-f", "lavfi", "-i",
+             "color=c=black:s=64x64:d=0.1", "-frames:v", "1", "-c:v", ENCODER,
+             "-pix_fmt", "yuv420p", "-f", "null", "-"],
+            capture_output=True, text=True, timeout=60, check=False,
+        )  # fmt: skip
+    except (OSError, RuntimeError, subprocess.SubprocessError) as exc:
+        return f"{type(exc).__name__}: {exc}"
+    if probe.returncode != 0:
+        return (probe.stderr.strip().splitlines() or [f"ffmpeg exit {probe.returncode}"])[-1]
+    return None
+
+
+def check_encoder(field: str = "--video") -> None:
+    """Refuse in one line, before any episode runs, when ffmpeg cannot write H.264 here.
+
+    Raises:
+        InvalidInput: imageio-ffmpeg's ffmpeg is missing or has no working libx264.
+    """
+    failure = _encoder_failure()
+    if failure is not None:
+        allowed = f"a video the encoder can write (imageio-ffmpeg's ffmpeg with {ENCODER})"
+        raise InvalidInput(field, allowed, " ".join(failure.split())[:160])
+
+
 class VideoRecorder:
     """Renders and annotates frames every 1/fps of simulated time into an MP4.
 
@@ -116,9 +161,10 @@ class VideoRecorder:
         self.fps = float(fps)
         self.size = (int(width), int(height))
         self.cam = view_camera()
+        check_backend()
         self.renderer = mujoco.Renderer(model, height=self.size[1], width=self.size[0])
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._tmp = self.path.with_name(f".{self.path.stem}.{os.getpid()}.tmp.mp4")
+        self._tmp = temporary_path(self.path, ".mp4")
         self._writer = imageio.get_writer(
             self._tmp,
             fps=self.fps,
@@ -146,21 +192,35 @@ class VideoRecorder:
         frame = self.renderer.render().copy()
         pts = np.array([it[1:4] for it in overlay.items], dtype=float).reshape(-1, 3)
         annotate(frame, project(self.renderer.scene, pts, self.size), overlay)
-        self._writer.append_data(frame)
+        try:
+            self._writer.append_data(frame)
+        except (OSError, RuntimeError) as exc:  # ffmpeg died: a full disk, a vanished folder
+            raise self._refusal(exc) from None
         self.frames += 1
         self._next_t = self.frames / self.fps
 
+    def _refusal(self, exc: BaseException) -> InvalidInput:
+        reason = " ".join(f"{type(exc).__name__}: {exc}".split())[:160]
+        return InvalidInput("video", "a place the video encoder can write", reason, str(self.path))
+
     def close(self) -> Path:
         """Finish the MP4 and move it into place."""
-        self._writer.close()
+        try:
+            self._writer.close()
+        except (OSError, RuntimeError) as exc:
+            self.renderer.close()
+            Path(self._tmp).unlink(missing_ok=True)
+            raise self._refusal(exc) from None
         self.renderer.close()
-        os.replace(self._tmp, self.path)
+        if Path(self._tmp).exists():
+            os.replace(self._tmp, self.path)
         return self.path
 
     def abort(self) -> None:
-        """Drop the partial video (the episode failed)."""
+        """Drop the partial video (the episode failed; a failing encoder is not reported again)."""
         try:
-            self._writer.close()
+            with contextlib.suppress(OSError, RuntimeError):
+                self._writer.close()
         finally:
             self.renderer.close()
             Path(self._tmp).unlink(missing_ok=True)

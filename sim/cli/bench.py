@@ -25,7 +25,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def main(args: argparse.Namespace) -> int:
     """Run the benchmark scripts; exit 1 if any of them failed."""
     scripts = sorted(BENCH_DIR.glob("bench_*.py"))
-    if args.only:
+    if args.only is not None:
+        names = [s.stem.removeprefix("bench_") for s in scripts]
+        if args.only not in names:
+            from sim.errors import InvalidInput
+
+            raise InvalidInput("--only", "one of " + ", ".join(names), args.only)
         scripts = [s for s in scripts if s.stem == f"bench_{args.only}"]
     failed = []
     for script in scripts:

@@ -4,7 +4,8 @@ Renders a checkerboard target in `--poses` seeded poses in front of the cell's c
 the lens model), finds the corners, runs `cv2.calibrateCamera` and writes the intrinsics and
 distortion to a JSON file the camera pipeline loads. It prints the result next to the
 renderer's true focal length (known here from the camera's fovy), so the calibration is checked,
-not trusted.
+not trusted. Every option, the scene and the output path are checked before anything is
+rendered (a refusal is one line, exit 2); the JSON is written atomically.
 """
 
 from __future__ import annotations
@@ -15,12 +16,17 @@ from pathlib import Path
 from sim.paths import CAMERA_CALIBRATION_JSON, SCENE_XML
 
 DEFAULT_CALIBRATION = CAMERA_CALIBRATION_JSON
+POSES = (15, 500)
+"""Fewest and most checkerboard poses."""
+WIDTH_PX = (320, 4096)
+"""Narrowest and widest frame [px]; the height follows the camera's 16:9."""
+MAX_SEED = 2**32 - 1
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of `sortsim calibrate`."""
     parser.add_argument(
-        "--out", type=Path, default=DEFAULT_CALIBRATION, help="where to write the calibration"
+        "--out", default=str(DEFAULT_CALIBRATION), help="where to write the calibration"
     )
     parser.add_argument("--scene", type=Path, default=SCENE_XML, help="the cell's MJCF")
     parser.add_argument("--poses", type=int, default=20, help="checkerboard poses (15+)")
@@ -29,16 +35,43 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--height", type=int, default=720, help="frame height [px]")
 
 
+def check(args: argparse.Namespace) -> None:
+    """Refuse, before anything is rendered, options and files the calibration cannot use.
+
+    The frame must have the cell camera's 16:9 shape: the episodes scale the calibration to
+    their 640x360 frames.
+    """
+    from sim.episode import outputs
+    from sim.errors import InvalidInput
+
+    lo, hi = POSES
+    if not lo <= args.poses <= hi:
+        raise InvalidInput("--poses", f"{lo}..{hi}", args.poses)
+    if not 0 <= args.seed <= MAX_SEED:
+        raise InvalidInput("--seed", f"0..{MAX_SEED}", args.seed)
+    lo, hi = WIDTH_PX
+    if not lo <= args.width <= hi:
+        raise InvalidInput("--width", f"{lo}..{hi} px", args.width)
+    if args.height * 16 != args.width * 9:
+        allowed = f"the camera's 16:9: {args.width * 9 / 16:g} px for --width {args.width}"
+        raise InvalidInput("--height", allowed, args.height)
+    outputs.check_output_file(args.out, "--out", (".json",), "a JSON file")
+    from sim.cell.mjcf import load_model
+    from sim.cell.rendering import check_backend
+
+    load_model(args.scene, ((("camera",), "belt_camera"),))
+    check_backend()
+
+
 def main(args: argparse.Namespace) -> int:
     """Calibrate, write the JSON file and print the figures."""
+    check(args)
+    args.out = Path(args.out)
     from perception.camera.calibration import calibrate
     from sim.cell.calibration_rig import Checkerboard, render_views
-    from sim.errors import InvalidInput, ModelFileError
+    from sim.paths import remove_stale_temporaries
 
-    if args.poses < 15:
-        raise InvalidInput("--poses", "15 or more", args.poses)
-    if not Path(args.scene).is_file():
-        raise ModelFileError(args.scene, "not found")
+    remove_stale_temporaries(args.out.parent)
     board = Checkerboard()
     images, true_matrix = render_views(
         args.scene, board, args.poses, args.seed, (args.width, args.height)

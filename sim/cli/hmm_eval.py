@@ -11,6 +11,8 @@ items by k-means and by connected components, scored against the flow's true ite
 from __future__ import annotations
 
 import argparse
+import os
+from pathlib import Path
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -62,6 +64,68 @@ DEFAULT_SEEDS = (
     ("extra_seeds", "200-211", ""),
     ("test_seeds", "100-111", "100-101"),
 )
+
+
+MAX_SEEDS = 1000
+"""Most seeds (flows) per seed option."""
+MAX_SEED = 2**32 - 1
+
+
+def parse_seed_option(text: str, field: str) -> list[int]:
+    """Seeds from '0-9', '3,5,8' or '0-4,10', refused before the list is built when it would
+    hold more than `MAX_SEEDS` or a seed outside 0..2^32-1."""
+    from sim.errors import InvalidInput
+    from sim.flow.labelled_grids import parse_seeds
+
+    allowed = f"seeds like 0-9 or 1,4,7 (integers 0..{MAX_SEED}, at most {MAX_SEEDS})"
+    count = 0
+    for part in text.split(","):
+        lo, _, hi = part.strip().partition("-")
+        try:
+            first, last = int(lo), int(hi or lo)
+        except ValueError:
+            raise InvalidInput(field, allowed, text) from None
+        if not 0 <= first <= last <= MAX_SEED:
+            raise InvalidInput(field, allowed, text)
+        count += last - first + 1
+        if count > MAX_SEEDS:
+            raise InvalidInput(field, allowed, text)
+    return parse_seeds(text, field)
+
+
+def check(args: argparse.Namespace) -> None:
+    """Refuse, before any training, options the evaluation cannot use."""
+    import math
+
+    from sim.errors import InvalidInput
+
+    def number(name: str, ok, allowed: str) -> None:
+        value = getattr(args, name)
+        if not (math.isfinite(value) and ok(value)):
+            raise InvalidInput("--" + name.replace("_", "-"), allowed, value)
+
+    if not 0 <= args.iterations <= 1000:
+        raise InvalidInput("--iterations", "0..1000", args.iterations)
+    number("tol", lambda v: v >= 0, "a finite gain >= 0 [nats]")
+    number("anchor", lambda v: v >= 0, "a finite pseudo-count >= 0")
+    number("smoothing", lambda v: v > 0, "a finite pseudo-count > 0")
+    if not 1 <= args.batch_rows <= 1000:
+        raise InvalidInput("--batch-rows", "1..1000", args.batch_rows)
+    if args.save is not None:
+        from sim.episode import outputs
+
+        save = Path(args.save)
+        if not args.save.strip() or args.save.endswith(("/", os.sep)) or save.is_dir():
+            raise InvalidInput("--save", "an .npz file path, not a folder", args.save)
+        save = save if save.suffix == ".npz" else save.with_name(save.name + ".npz")
+        outputs.check_output_file(save, "--save", (".npz",), "an .npz file")
+    if args.perception == "camera":
+        from perception.camera.calibration import CameraCalibration
+        from sim.cell.camera import DEFAULT_CALIBRATION
+        from sim.cell.rendering import check_backend
+
+        CameraCalibration.load(DEFAULT_CALIBRATION)
+        check_backend()
 
 
 def _recordings(seeds, catalogue, perception):
@@ -119,20 +183,25 @@ def main(args: argparse.Namespace) -> int:
     from perception.hmm.storage import save_models
     from perception.hmm.training import TrainConfig, train
     from sim.flow.catalogue import load_catalogue
-    from sim.flow.labelled_grids import parse_seeds
 
     t0 = time.perf_counter()
     camera = args.perception == "camera"
     for name, truth_default, camera_default in DEFAULT_SEEDS:
         if getattr(args, name) is None:
             setattr(args, name, camera_default if camera else truth_default)
-    train_seeds = parse_seeds(args.train_seeds, "--train-seeds")
-    test_seeds = parse_seeds(args.test_seeds, "--test-seeds")
-    extra_seeds = parse_seeds(args.extra_seeds, "--extra-seeds") if args.extra_seeds else []
+    train_seeds = parse_seed_option(args.train_seeds, "--train-seeds")
+    test_seeds = parse_seed_option(args.test_seeds, "--test-seeds")
+    extra = args.extra_seeds
+    extra_seeds = parse_seed_option(extra, "--extra-seeds") if extra else []
     if set(test_seeds) & (set(train_seeds) | set(extra_seeds)):
         from sim.errors import InvalidInput
 
         raise InvalidInput("--test-seeds", "seeds not used for training", args.test_seeds)
+    check(args)
+    if args.save:
+        from sim.paths import remove_stale_temporaries
+
+        remove_stale_temporaries(Path(args.save).parent)
     catalogue = load_catalogue()
     train_recs = _recordings(train_seeds, catalogue, args.perception)
     extra_recs = _recordings(extra_seeds, catalogue, args.perception)

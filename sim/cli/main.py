@@ -2,16 +2,26 @@
 
 Each command module defines `add_arguments(parser)` and `main(args) -> int` and keeps its heavy
 imports inside `main`, so `sortsim --help` stays fast. Exit codes (docs/architecture.md): 0 done,
-2 refused input (one line on stderr naming the field and what is allowed), 1 anything else.
+2 refused input (one line on stderr naming the field and what is allowed), 1 anything else (a
+deliberate error in one line too; a bug with its traceback), 128 + N when stopped by signal N.
+
+Before a command runs, MuJoCo's rendering back-end is made safe to import
+(`sim.cell.rendering.prepare_environment`), and SIGTERM and SIGHUP are turned into an orderly
+stop, so the command's temporary files are removed as after Ctrl-C (a SIGKILLed run's are
+removed by the next run).
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
+import os
+import signal
 import sys
+from collections.abc import Iterator
 
-from sim.errors import NotAvailable, RefusedInput
+from sim.errors import NotAvailable, RefusedInput, SortsimError
 
 COMMANDS = {
     "run": "Run one episode of the sorting cell and write episodes.csv, picks.csv, video.",
@@ -20,6 +30,7 @@ COMMANDS = {
     "calibrate": "Calibrate the cell camera from rendered checkerboard views.",
     "hmm-eval": "Train the per-stripe HMMs and print the thesis's table 4.1.",
     "bench": "Print the performance figures (real-time factors, latencies, cycle time).",
+    "train": "Train the learned pick-order policy on sortsim/PickOrder-v0 (seeded).",
 }
 
 REFUSED = (RefusedInput, NotAvailable)
@@ -50,17 +61,64 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class Stopped(BaseException):
+    """A stop asked by a signal (SIGTERM, SIGHUP): unwinds like Ctrl-C, cleaning up."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _stop(signum: int, frame) -> None:
+    raise Stopped(signum)
+
+
+@contextlib.contextmanager
+def _orderly_stops() -> Iterator[None]:
+    """SIGTERM and SIGHUP raise `Stopped` while a command runs (main thread only)."""
+    saved = {}
+    try:
+        for sig in (signal.SIGTERM, signal.SIGHUP):
+            saved[sig] = signal.signal(sig, _stop)
+    except ValueError:  # not the main thread: leave the signals alone
+        pass
+    try:
+        yield
+    finally:
+        for sig, handler in saved.items():
+            signal.signal(sig, handler)
+
+
+def _say(command: str, text: object) -> None:
+    """The command's one line on stderr."""
+    print(f"sortsim {command}: {' '.join(str(text).split())}", file=sys.stderr, flush=True)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the console script; returns the process exit code."""
     args = build_parser().parse_args(argv)
+    from sim.cell.rendering import prepare_environment
+
+    prepare_environment()
     try:
-        return int(_module(args.command).main(args) or 0)
+        with _orderly_stops():
+            return int(_module(args.command).main(args) or 0)
     except REFUSED as exc:
-        print(f"sortsim {args.command}: {exc}", file=sys.stderr)
+        _say(args.command, exc)
         return 2
+    except SortsimError as exc:
+        _say(args.command, f"error: {exc}")
+        return 1
     except KeyboardInterrupt:
-        print(f"sortsim {args.command}: interrupted", file=sys.stderr)
+        _say(args.command, "interrupted")
         return 130
+    except Stopped as exc:
+        _say(args.command, f"stopped by {signal.Signals(exc.signum).name}")
+        return 128 + exc.signum
+    except BrokenPipeError:  # the reader of stdout went away (e.g. `| head`)
+        with contextlib.suppress(OSError):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
 
 
 if __name__ == "__main__":

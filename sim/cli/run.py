@@ -1,9 +1,12 @@
 """`sortsim run`: one closed-loop episode of the sorting cell.
 
 Writes `<out>/episodes.csv`, `<out>/picks.csv` and, with `--video`, the MP4; prints a progress
-line on stderr while it runs and a one-screen summary at the end. The config (TOML and
-options) is validated before anything is simulated: a refused value exits with code 2 and one
-line naming it.
+line on stderr while it runs and a one-screen summary at the end. Everything is checked before
+anything is simulated (`preflight`): the config (TOML and options), the output folder and video
+path (creatable, writable, not a folder), and for camera perception or a video the rendering
+back-end, the camera's calibration, the cached stripe HMMs and the video encoder. A refused
+value exits with code 2 and one line naming it, and nothing is written. Temporaries a killed
+run left behind are removed when the next run starts.
 """
 
 from __future__ import annotations
@@ -41,7 +44,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         choices=["camera", "truth"],
         help="camera: rendered frames through the HMMs; truth: true codes",
     )
-    parser.add_argument("--video", type=Path, default=None, help="write an MP4 of the episode")
+    parser.add_argument("--video", default=None, help="write an MP4 of the episode")
     parser.add_argument("--out", type=Path, default=Path("runs/latest"), help="output folder")
     parser.add_argument(
         "--duration", type=float, default=None, help="seconds over which the items arrive (90)"
@@ -107,10 +110,49 @@ def summary(result) -> str:
     return "\n".join(lines)
 
 
+def preflight(config, out: Path, video: str | Path | None) -> None:
+    """Refuse, before the episode, every output and back-end it could not use (in one line).
+
+    Args:
+        config: The validated episode config.
+        out: The output folder (episodes.csv, picks.csv).
+        video: The MP4 path as given (a trailing separator means a folder), or None.
+    """
+    from sim.episode import outputs
+
+    outputs.check_output_dir(out, "--out")
+    for name in ("episodes.csv", "picks.csv"):
+        outputs.check_output_file(out / name, "--out")
+    if video is not None:
+        outputs.check_output_file(video, "--video", (".mp4",), "an MP4 file")
+    camera = config.perception == "camera"
+    if camera:
+        from perception.camera.calibration import CameraCalibration
+        from sim.cell.camera import DEFAULT_CALIBRATION
+
+        CameraCalibration.load(DEFAULT_CALIBRATION)
+    if camera or video is not None:
+        from sim.cell.rendering import check_backend
+
+        check_backend()
+    if camera:
+        from sim.episode.sensing import hmm_cache_path
+        from sim.episode.stripe_hmms import read_cache
+
+        cache = hmm_cache_path()
+        if cache.exists():
+            read_cache(cache)
+    if video is not None:
+        from sim.cell.video import check_encoder
+
+        check_encoder()
+
+
 def main(args: argparse.Namespace) -> int:
     """Run one episode and write its files."""
     from sim.episode import config as episode_config
     from sim.episode import outputs
+    from sim.paths import CACHE_DIR, remove_stale_temporaries
 
     config = episode_config.load(
         args.config,
@@ -121,13 +163,16 @@ def main(args: argparse.Namespace) -> int:
         perception=args.perception,
         duration_s=args.duration,
     )
+    out = Path(args.out)
+    preflight(config, out, args.video)
+    video = None if args.video is None else Path(args.video)
+    remove_stale_temporaries(out, CACHE_DIR, *([] if video is None else [video.parent]))
     from sim.episode.runner import run_episode
 
     progress = None if args.quiet else Progress()
-    result = run_episode(config, video_path=args.video, progress=progress)
+    result = run_episode(config, video_path=video, progress=progress)
     if progress is not None:
         progress.done()
-    out = Path(args.out)
     outputs.write_episodes(out / "episodes.csv", [result.episode_row])
     outputs.write_picks(out / "picks.csv", result.pick_rows)
     print(summary(result))

@@ -1,8 +1,11 @@
 """`sortsim sweep`: the experiment grids of the thesis's tables (experiments/*.toml).
 
 The whole config is validated before the first episode (a bad key or value stops it with one
-line naming the key and the file, exit 2). Finished episodes are appended to
-`<out>/episodes.csv` one row at a time; running the same sweep again skips them. At the end
+line naming the key, the file and the grid point, exit 2), and so are the output folder (an
+`episodes.csv` of another sweep there is refused, not merged) and, for camera perception, the
+rendering back-end. Finished episodes are appended to `<out>/episodes.csv` one row at a time;
+running the same sweep again skips them. A refusal raised while an episode runs, in whichever
+worker process, stops the sweep with its one line. At the end
 the thesis's table is printed with our means beside its numbers and the matching figures are
 saved as PNG files in `<out>`.
 """
@@ -12,6 +15,9 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+
+MAX_WORKERS = 256
+"""Most local worker processes a sweep may start."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -38,24 +44,34 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def main(args: argparse.Namespace) -> int:
     """Run the sweep's pending episodes, then print and plot the table."""
     from sim.errors import InvalidInput
-    from sim.experiments import sweep_config, thesis_report
+    from sim.experiments import sweep_config
     from sim.experiments import sweep_runner as sweep
 
+    if args.seeds is not None and args.seeds < 1:
+        raise InvalidInput("--seeds", "an integer >= 1", args.seeds)
+    if args.workers is not None and not 1 <= args.workers <= MAX_WORKERS:
+        raise InvalidInput("--workers", f"an integer 1..{MAX_WORKERS}", args.workers)
     config = sweep_config.load(args.config)
     if args.seeds is not None:
-        if args.seeds < 1:
-            raise InvalidInput("--seeds", "an integer >= 1", args.seeds)
         config = sweep_config.first_seeds(config, args.seeds)
-    if args.workers is not None and args.workers < 1:
-        raise InvalidInput("--workers", "an integer >= 1", args.workers)
     if args.ray is not None:
         sweep.require_ray(args.ray)
+    sweep.check_out_dir(config, args.out)
+    if any(spec.config.perception == "camera" for spec in config.episodes):
+        from perception.camera.calibration import CameraCalibration
+        from sim.cell.camera import DEFAULT_CALIBRATION
+        from sim.cell.rendering import check_backend
+
+        CameraCalibration.load(DEFAULT_CALIBRATION)
+        check_backend()
 
     def say(line: str) -> None:
         print(line, file=sys.stderr, flush=True)
 
     rows = sweep.run_sweep(config, args.out, args.workers, args.ray, progress=say)
     print(f"{config.name}: {len(rows)} episodes in {args.out / 'episodes.csv'}")
+    from sim.experiments import thesis_report
+
     table = thesis_report.format_table(config.table, rows)
     if table:
         print(table)

@@ -28,7 +28,7 @@ def main(args: argparse.Namespace) -> int:
     from dataclasses import fields
 
     from planner.decision.learned import POLICY_FILE
-    from sim.episode.outputs import write_atomic
+    from sim.episode.outputs import check_output_file, write_atomic
     from sim.errors import InvalidInput
     from sim.experiments.policy_training import TrainingConfig, train
 
@@ -42,8 +42,7 @@ def main(args: argparse.Namespace) -> int:
         if value is not None and not 1 <= value <= 100_000:
             raise InvalidInput(f"--{name}", "an integer 1..100000", value)
     out = Path(args.out) if args.out is not None else POLICY_FILE
-    if out.is_dir():
-        raise InvalidInput("--out", "a file path, not a directory", str(out))
+    check_output_file(out, "--out", (".json",), "a JSON file")
     config = TrainingConfig(**overrides)
 
     def progress(iteration: int, best_now: float, best: float) -> None:
@@ -55,10 +54,7 @@ def main(args: argparse.Namespace) -> int:
             )
 
     policy, summary = train(config, progress)
-    text_path = out.with_suffix(out.suffix + ".writing")
-    policy.save(text_path)
-    write_atomic(out, text_path.read_text(encoding="utf-8"))
-    text_path.unlink()
+    write_atomic(out, policy.to_json())
     print(
         f"trained on {summary['belts']} belts ({summary['episodes']} episodes, "
         f"{summary['cpu_s']:.0f} s CPU): {summary['train_profit_eur']:.4f} EUR/belt "

@@ -9,7 +9,8 @@ TOML layout (every key optional; defaults are the headline episode)::
     seed = 0
     items = 100
     speed_factor = 1.0          # belt speed = 0.185 m/s x factor, inside 0.135..0.277 m/s
-    planner = "qlearning"       # qlearning | proximity | fifo | greedy | oracle
+    planner = "qlearning"       # qlearning | rollout | lookahead | proximity | fifo | greedy
+                                # | oracle | module:Class
     perception = "camera"       # camera | truth
     duration_s = 90.0           # items arrive over this time [s]
     observation_period_s = 0.5  # one grid row per period [s]
@@ -18,7 +19,7 @@ TOML layout (every key optional; defaults are the headline episode)::
     paper = 0.22
     plastic = 0.25
     aluminium = 0.27
-    [qlearning]
+    [qlearning]                 # the thesis's Q-learning (also read by rollout); seeded by seed
     gamma = 0.9
     iterations = 50
     batch_rows = 20
@@ -35,6 +36,7 @@ TOML layout (every key optional; defaults are the headline episode)::
 from __future__ import annotations
 
 import dataclasses
+import functools
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -45,6 +47,7 @@ from planner.decision.registry import ALLOWED as ALLOWED_PLANNERS
 from planner.decision.registry import check_planner
 from planner.motion.belt_speeds import SPEED_RANGE_MPS, SPEED_X1_MPS
 from sim.errors import InvalidInput, RefusedInput
+from sim.flow.config import FlowConfig
 
 BELT_SPEED_X1_MPS = SPEED_X1_MPS
 BELT_SPEED_RANGE_MPS = SPEED_RANGE_MPS
@@ -98,7 +101,8 @@ class Values:
 
 @dataclass(frozen=True)
 class QLearning:
-    """Parameters of the thesis's Q-learning decision manager (3.4.1, 4.2)."""
+    """Parameters of the thesis's Q-learning decision manager (3.4.1, 4.2); the rollout planner
+    takes them too. The random actions are drawn from the episode's seed."""
 
     gamma: float = 0.9
     iterations: int = 50
@@ -197,6 +201,16 @@ class EpisodeConfig:
         _check(r in ITEM_RIDINGS, "item_riding", " | ".join(ITEM_RIDINGS), r, w)
         for name, cls in _SECTIONS.items():
             _check(isinstance(getattr(self, name), cls), name, f"a [{name}] table", None, w)
+        self._check_flow()
+
+    def _check_flow(self) -> None:
+        """The flow's own limits (its density: items per metre of belt), checked now rather
+        than when the episode starts."""
+        try:
+            _flow_check(self.items, self.duration_s, self.speed_factor, self.observation_period_s)
+        except InvalidInput as exc:
+            key = {"n_items": "items"}.get(exc.field, exc.field)
+            raise InvalidInput(key, exc.allowed, exc.got, self.where) from None
 
     @property
     def belt_speed_mps(self) -> float:
@@ -212,6 +226,17 @@ class EpisodeConfig:
         out = dataclasses.asdict(self)
         out.pop("where")
         return out
+
+
+@functools.lru_cache(maxsize=4096)
+def _flow_check(items: int, duration_s: float, speed_factor: float, period_s: float) -> None:
+    """`FlowConfig`'s checks of these settings (cached: a sweep repeats them for every seed)."""
+    FlowConfig(
+        n_items=items,
+        duration_s=duration_s,
+        speed_factor=speed_factor,
+        observation_period_s=period_s,
+    )
 
 
 _SECTIONS = {"values": Values, "qlearning": QLearning, "video": Video, "robot": Robot}
@@ -248,16 +273,22 @@ def _from_dict(data: dict[str, Any], where: str | None) -> EpisodeConfig:
 
 
 def read_toml(path: Path) -> dict[str, Any]:
-    """Parsed TOML of `path`; a missing or malformed file is refused in one line."""
+    """Parsed TOML of `path`; a missing, unreadable, non-UTF-8 or malformed file is refused in
+    one line naming the file."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        text = path.read_bytes().decode("utf-8")
     except OSError as exc:
-        raise InvalidInput("config", "a readable TOML file", str(path)) from exc
+        reason = exc.strerror or type(exc).__name__
+        raise InvalidInput("config", "a readable TOML file", reason, str(path)) from None
+    except UnicodeDecodeError as exc:
+        got = f"not UTF-8 at byte {exc.start}"
+        raise InvalidInput("config", "a UTF-8 TOML file", got, str(path)) from None
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise InvalidInput("config", f"valid TOML ({exc})", None, str(path)) from exc
+        reason = " ".join(str(exc).split())
+        raise InvalidInput("config", f"valid TOML ({reason})", None, str(path)) from None
 
 
 def load(path: Path | None = None, **overrides: Any) -> EpisodeConfig:

@@ -6,6 +6,12 @@ and is renamed over the target (`os.replace`), so a killed run leaves either the
 the new one, never half a CSV. Floats are printed with a fixed number of decimals per column,
 so the same seed and config give byte-identical files; only the wall-clock columns
 (`WALL_COLUMNS`) depend on the machine.
+
+Outputs are checked before any work (`check_output_dir`, `check_output_file`): a folder that
+cannot be created or written, a file path naming a folder, are refused in one line before the
+episode runs, so no result is lost to an unusable output. The temporaries follow
+`sim.paths.temporary_path`; those of a killed run are removed at the next start
+(`sim.paths.remove_stale_temporaries`).
 """
 
 from __future__ import annotations
@@ -13,9 +19,11 @@ from __future__ import annotations
 import csv
 import io
 import os
-import tempfile
 from collections.abc import Iterable, Mapping
 from pathlib import Path
+
+from sim.errors import InvalidInput
+from sim.paths import temporary_path
 
 EPISODE_COLUMNS = (
     "seed",
@@ -104,34 +112,109 @@ def write_atomic(path: Path, data: str | bytes) -> Path:
     """Write `data` to `path` through a temporary file in the same folder and a rename."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    mode = "wb" if isinstance(data, bytes) else "w"
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    data = data if isinstance(data, bytes) else data.encode("utf-8")
+    tmp = temporary_path(path)
     try:
-        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes it private; give it a normal file's mode
-        with os.fdopen(fd, mode, **({} if mode == "wb" else {"encoding": "utf-8"})) as f:
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)  # umask applies
+        with os.fdopen(fd, "wb") as f:
             f.write(data)
             f.flush()
             os.fsync(f.fileno())
         os.replace(tmp, path)
     except BaseException:
-        Path(tmp).unlink(missing_ok=True)
+        tmp.unlink(missing_ok=True)
         raise
     return path
 
 
-def _umask() -> int:
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
+def _nearest_existing(path: Path) -> Path:
+    """`path` or its closest ancestor that exists."""
+    path = Path(os.path.abspath(path))
+    while not path.exists() and path != path.parent:
+        path = path.parent
+    return path
+
+
+def check_output_dir(path: Path | str, field: str) -> Path:
+    """Refuse an output folder that cannot be created or written, without creating it.
+
+    Args:
+        path: The folder the command will write into (created later, when it runs).
+        field: The option or key that named it, for the refusal.
+
+    Raises:
+        InvalidInput: `path` is an existing file, lies under a file, or the folder (or the
+            closest existing ancestor it would be created in) is not writable.
+    """
+    path = Path(path)
+    text = str(path)
+    if not text.strip() or "\0" in text:
+        raise InvalidInput(field, "a folder path", text)
+    if path.exists() and not path.is_dir():
+        raise InvalidInput(field, "a folder (this path is an existing file)", text)
+    _check_folder(path, field, "a folder path", text)
+    return path
+
+
+def _check_folder(folder: Path, field: str, kind: str, text: str) -> None:
+    """Refuse `folder` (existing or to be created) when it could not be written; the refusal
+    describes the path given (`kind`, `text`)."""
+    existing = _nearest_existing(folder)
+    if not existing.is_dir():
+        raise InvalidInput(field, f"{kind} ({existing} is a file, not a folder)", text)
+    if not os.access(existing, os.W_OK | os.X_OK):
+        if existing == Path(os.path.abspath(folder)) and kind == "a folder path":
+            raise InvalidInput(field, f"a writable folder ({existing} is not writable)", text)
+        raise InvalidInput(field, f"{kind} in a writable folder ({existing} is not)", text)
+
+
+def check_output_file(
+    path: Path | str, field: str, suffixes: tuple[str, ...] = (), kind: str = "a file"
+) -> Path:
+    """Refuse an output file that could not be written, without writing anything.
+
+    Args:
+        path: The file the command will write (through a temporary and a rename).
+        field: The option or key that named it, for the refusal.
+        suffixes: Allowed suffixes (lower case, e.g. (".mp4",)); any when empty.
+        kind: What the file is, with its article, for the refusal ("an MP4 file").
+
+    Raises:
+        InvalidInput: `path` is a folder (or ends with a separator) or a special file, has
+            another suffix, or its folder cannot be created or written.
+    """
+    text = str(path)
+    path = Path(path)
+    if not path.name or text.endswith(("/", os.sep)) or "\0" in text:
+        raise InvalidInput(field, f"{kind} path, not a folder", text)
+    if path.is_dir():
+        raise InvalidInput(field, f"{kind} path (this path is an existing folder)", text)
+    if path.exists() and not path.is_file():
+        raise InvalidInput(field, f"{kind} path (this path is a special file)", text)
+    if suffixes and path.suffix.lower() not in suffixes:
+        raise InvalidInput(field, f"{kind} path ending in {' or '.join(suffixes)}", text)
+    _check_folder(path.parent, field, f"{kind} path", text)
+    return path
 
 
 def read_rows(path: Path) -> list[dict[str, str]]:
-    """Rows of a CSV written here (empty list when the file does not exist)."""
+    """Rows of a CSV written here (empty list when the file does not exist).
+
+    Raises:
+        InvalidInput: the file is unreadable, not UTF-8 or not a CSV with a header.
+    """
     path = Path(path)
     if not path.exists():
         return []
-    with path.open(newline="", encoding="utf-8") as f:
-        return list(csv.DictReader(f))
+    try:
+        with path.open(newline="", encoding="utf-8") as f:
+            rows = list(csv.DictReader(f))
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        reason = " ".join(str(exc).split())[:120]
+        raise InvalidInput(path.name, "a readable UTF-8 CSV file", reason, str(path)) from None
+    if rows and any(None in r or None in r.values() for r in rows):
+        raise InvalidInput(path.name, "a CSV with as many cells as header names", None, str(path))
+    return rows
 
 
 def write_episodes(path: Path, rows: Iterable[Mapping[str, object]]) -> Path:

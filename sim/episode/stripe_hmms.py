@@ -33,6 +33,24 @@ def item_sizes(recordings: list[Recording]) -> np.ndarray:
     return cells_per_item([r.classes for r in recordings], counts)
 
 
+def read_cache(path: Path | str, coupled: bool | None = False) -> tuple[StripeHmms, np.ndarray]:
+    """(models, cells per item) of a cache file, refused in one line if it is not a valid one.
+
+    Raises:
+        PerceptionInputError: the file is unreadable, of another format or shape, holds
+            non-finite numbers or lacks cells_per_item; the message says to delete it.
+    """
+    try:
+        models = load_models(path, coupled=coupled)
+        sizes = load_cells_per_item(path)
+        if sizes is None:
+            raise PerceptionInputError(f"hmm file {path}", "a file with cells_per_item")
+    except PerceptionInputError as exc:
+        allowed = f"{exc.allowed} (a cache: delete it to train afresh)"
+        raise PerceptionInputError(exc.field, allowed, exc.got, exc.where) from None
+    return models, sizes
+
+
 def trained_models(
     catalogue,
     config: TrainConfig | None = None,
@@ -47,11 +65,7 @@ def trained_models(
     """
     config = TrainConfig() if config is None else config
     if cache is not None and Path(cache).exists():
-        models = load_models(cache, coupled=config.coupled)
-        sizes = load_cells_per_item(cache)
-        if sizes is None:
-            raise PerceptionInputError(f"hmm file {cache}", "a file with cells_per_item")
-        return models, sizes
+        return read_cache(cache, config.coupled)
     labelled = [record(s, catalogue) for s in train_seeds]
     extra = [record(s, catalogue).codes for s in extra_seeds]
     _, models = train([r.classes for r in labelled], [r.codes for r in labelled], extra, config)

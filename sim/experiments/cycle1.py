@@ -23,6 +23,7 @@ from planner.motion.limits import MAX_PAYLOAD_KG, limits_for_payload
 from planner.motion.pick_cycle import plan_cycle1
 from planner.motion.ruckig_trajectory import RuckigTrajectoryGenerator
 from sim.cell.executor import TrajectoryExecutor, lumped_dynamics
+from sim.cell.mjcf import ROBOT_ELEMENTS, compile_spec, load_spec
 from sim.cell.robot import geometry_from_model, set_configuration
 from sim.cell.suction import SuctionConfig
 from sim.errors import InvalidInput
@@ -73,13 +74,19 @@ class CycleReport:
         return asdict(self)
 
 
-def model_with_payload(payload_kg: float) -> mujoco.MjModel:
+def model_with_payload(payload_kg: float, path=None) -> mujoco.MjModel:
     """The robot with a cube of `payload_kg` welded under the cup (no payload body at 0 kg).
 
     The weld holds the cube's centre `_PAYLOAD_HALF` below the cup's lip, axes aligned with the
-    cup's.
+    cup's. The robot's file (`path`, default `models/abb_irb360/irb360.xml`) is checked as
+    `sortsim run` checks its models (`sim.cell.mjcf`): a broken or incomplete one is refused in
+    one line naming the file.
+
+    Raises:
+        ModelFileError: the robot's file is missing, broken or lacks a name the code needs.
     """
-    spec = mujoco.MjSpec.from_file(str(ROBOT_XML))
+    path = ROBOT_XML if path is None else path
+    spec = load_spec(path, ROBOT_ELEMENTS)
     if payload_kg > 0.0:
         while spec.keys:  # keyframes do not know the payload's free joint
             spec.delete(spec.keys[0])
@@ -104,7 +111,7 @@ def model_with_payload(payload_kg: float) -> mujoco.MjModel:
         data = np.array(weld.data, dtype=float)
         data[:11] = np.r_[0.0, 0.0, 0.0, rel, 1.0, 0.0, 0.0, 0.0, 1.0]
         weld.data = data
-    return spec.compile()
+    return compile_spec(spec, path)
 
 
 def _attach_payload(model: mujoco.MjModel, data: mujoco.MjData) -> None:
@@ -127,7 +134,8 @@ def run_cycle1(payload_kg: float) -> CycleReport:
     Raises:
         InvalidInput: payload outside 0 to 3 kg.
     """
-    if not (np.isfinite(payload_kg) and 0.0 <= payload_kg <= MAX_PAYLOAD_KG):
+    number = isinstance(payload_kg, int | float) and not isinstance(payload_kg, bool)
+    if not (number and np.isfinite(payload_kg) and 0.0 <= payload_kg <= MAX_PAYLOAD_KG):
         raise InvalidInput("--payload", f"0 to {MAX_PAYLOAD_KG:g} [kg]", payload_kg)
     model = model_with_payload(payload_kg)
     data = mujoco.MjData(model)

@@ -20,13 +20,19 @@ TOML layout (`experiments/*.toml`)::
     name = "weight_paper"
     values = { paper = 150.22 }
 
-Every episode's config is built (and so validated) when the sweep loads, so a bad value stops
-the sweep before its first episode, naming the key and the file.
+Every episode's config is built (and so validated, the flow's density included) when the sweep
+loads, so a bad value stops the sweep before its first episode, naming the key, the file and the
+grid point. The grid's size (the product of the axes' lengths) is checked before the grid is
+built: at most `MAX_EPISODES`. A sweep's `identity` is a hash of every grid point's resolved
+config, seeds aside, so the runner can tell this sweep's results from another's (adding seeds
+keeps the identity: the sweep resumes and grows).
 """
 
 from __future__ import annotations
 
-import itertools
+import hashlib
+import json
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -47,6 +53,8 @@ _SWEEP_KEYS = {
 }
 _TOP_KEYS = {"sweep", "base", "variants"}
 _GRID_FIELDS = ("speed_factor", "items", "planner", "seed")
+MAX_EPISODES = 100_000
+"""Most episodes a sweep may hold (variants x planners x speed factors x item counts x seeds)."""
 
 
 @dataclass(frozen=True)
@@ -76,6 +84,8 @@ class SweepConfig:
     table: str | None
     episodes: tuple[EpisodeSpec, ...]
     path: str | None = None
+    identity: str = ""
+    """Hash of every grid point's resolved config, seeds aside (see the module docstring)."""
 
 
 def _merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
@@ -130,32 +140,86 @@ def from_dict(data: dict[str, Any], where: str) -> SweepConfig:
         raise InvalidInput("sweep.duration_s_by_items", "a table items = seconds", by_items, where)
     if not isinstance(variants, list) or not all(isinstance(v, dict) for v in variants):
         raise InvalidInput("variants", "an array of tables [[variants]]", None, where)
-    names = [str(v.get("name", "")) for v in variants]
-    if "" in names or len(set(names)) != len(names):
+    names = [v.get("name", "") for v in variants]
+    if not all(isinstance(n, str) and n for n in names) or len(set(names)) != len(names):
         raise InvalidInput("variants.name", "a unique, non-empty name per variant", names, where)
-    grid = itertools.product(
-        variants,
-        _list(sweep, "planners", ["qlearning"], where),
-        _list(sweep, "speed_factors", [1.0], where),
-        _list(sweep, "items", [100], where),
-        _seeds(sweep, where),
-    )
-    episodes = []
-    for variant, planner, factor, items, seed in grid:
+    planners = _list(sweep, "planners", ["qlearning"], where)
+    factors = _list(sweep, "speed_factors", [1.0], where)
+    item_counts = _list(sweep, "items", [100], where)
+    seeds = _seeds(sweep, where)
+    axes = (variants, planners, factors, item_counts, seeds)
+    size = math.prod(len(a) for a in axes)
+    if size > MAX_EPISODES:
+        sizes = " x ".join(str(len(a)) for a in axes)
+        allowed = (
+            f"at most {MAX_EPISODES} episodes (variants x planners x speed_factors x items x seeds)"
+        )
+        raise InvalidInput("sweep", allowed, f"{sizes} = {size}", where)
+    unknown = [k for k in by_items if k not in {str(n) for n in item_counts}]
+    if unknown:
+        allowed = "item counts of sweep.items"
+        raise InvalidInput("sweep.duration_s_by_items", allowed, unknown, where)
+    episodes, points = [], []
+    for variant in variants:
         over = {k: v for k, v in variant.items() if k != "name"}
-        point = {"planner": planner, "speed_factor": factor, "items": items, "seed": seed}
-        if str(items) in by_items:
-            point["duration_s"] = by_items[str(items)]
-        config = episode_config.from_dict(_merge(_merge(base, over), point), where)
-        episodes.append(EpisodeSpec(variant=str(variant["name"]), config=config))
+        for planner in planners:
+            for factor in factors:
+                for items in item_counts:
+                    point = {"planner": planner, "speed_factor": factor, "items": items}
+                    if str(items) in by_items:
+                        point["duration_s"] = by_items[str(items)]
+                    merged = _merge(_merge(base, over), point)
+                    first = None
+                    for seed in seeds:
+                        config = _grid_point(merged, seed, variant["name"], where, first)
+                        episodes.append(EpisodeSpec(variant=variant["name"], config=config))
+                        first = first or config
+                    points.append(_resolved(variant["name"], first))
     keys = [e.key for e in episodes]
     if len(set(keys)) != len(keys):
         raise InvalidInput("sweep", "grid axes without repeated values", None, where)
-    name = str(sweep.get("name", Path(where).stem))
+    name = sweep.get("name", Path(where).stem)
     table = sweep.get("table")
+    for key, value in (("name", name), ("table", table)):
+        if value is not None and not isinstance(value, str | int | float):
+            raise InvalidInput(f"sweep.{key}", "a string", value, where)
     return SweepConfig(
-        name=name, table=None if table is None else str(table), episodes=tuple(episodes), path=where
+        name=str(name),
+        table=None if table is None else str(table),
+        episodes=tuple(episodes),
+        path=where,
+        identity=hashlib.sha256("\n".join(sorted(points)).encode()).hexdigest()[:16],
     )
+
+
+def _grid_point(
+    merged: dict[str, Any], seed: object, variant: str, where: str, like: EpisodeConfig | None
+) -> EpisodeConfig:
+    """The config of one grid point (`like`'s with another seed, when given: faster); a
+    refusal names the point's grid coordinates."""
+    try:
+        if like is not None:
+            return like.replace(seed=seed)
+        return episode_config.from_dict({**merged, "seed": seed}, where)
+    except InvalidInput as exc:
+        coords = ", ".join(
+            f"{k} {v!r}"
+            for k, v in (
+                ("variant", variant),
+                ("planner", merged.get("planner")),
+                ("speed_factor", merged.get("speed_factor")),
+                ("items", merged.get("items")),
+                ("seed", seed),
+            )
+        )
+        raise InvalidInput(exc.field, exc.allowed, exc.got, f"{where} at ({coords})") from None
+
+
+def _resolved(variant: str, config: EpisodeConfig) -> str:
+    """One grid point's resolved config, seed aside, as canonical JSON (for the identity)."""
+    settings = config.to_dict()
+    settings.pop("seed")
+    return json.dumps({"variant": variant, **settings}, sort_keys=True)
 
 
 def load(path: Path) -> SweepConfig:
@@ -167,4 +231,6 @@ def first_seeds(sweep: SweepConfig, n: int) -> SweepConfig:
     """The same sweep with only the `n` smallest seeds of each grid point."""
     seeds = sorted({e.config.seed for e in sweep.episodes})[:n]
     kept = tuple(e for e in sweep.episodes if e.config.seed in seeds)
-    return SweepConfig(name=sweep.name, table=sweep.table, episodes=kept, path=sweep.path)
+    return SweepConfig(
+        name=sweep.name, table=sweep.table, episodes=kept, path=sweep.path, identity=sweep.identity
+    )

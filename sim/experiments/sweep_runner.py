@@ -4,10 +4,19 @@ One row is appended to `<out>/episodes.csv` per finished episode (rewritten atom
 killed sweep keeps every finished episode; running it again skips them (resume). When every
 episode is done the file is rewritten once more in the grid's order, so the same sweep gives
 the same bytes (wall-clock columns aside) whatever the number of workers.
+
+The output folder is checked before the first episode (`check_out_dir`): it must be creatable
+and writable, and an `episodes.csv` already there must be this sweep's. The sweep's identity
+(`SweepConfig.identity`, a hash of its resolved grid, seeds aside) is recorded in `sweep.json`
+beside it; an `episodes.csv` of another sweep is refused, never merged. (A folder written before
+`sweep.json` existed is accepted when every row belongs to this grid.) Leftover temporaries of a
+killed sweep are removed when it starts again. A refusal raised in a worker process reaches the
+parent intact (refusals pickle) and stops the sweep with its one line.
 """
 
 from __future__ import annotations
 
+import json
 import multiprocessing
 import os
 import time
@@ -15,8 +24,12 @@ from collections.abc import Callable, Iterable
 from pathlib import Path
 
 from sim.episode import outputs
-from sim.errors import InvalidInput
+from sim.errors import InvalidInput, RefusedInput
 from sim.experiments.sweep_config import EpisodeSpec, SweepConfig, episode_key
+from sim.paths import remove_stale_temporaries
+
+IDENTITY_FILE = "sweep.json"
+"""The file beside `episodes.csv` that names the sweep its rows belong to."""
 
 RowCallback = Callable[[EpisodeSpec, dict], None]
 
@@ -32,10 +45,77 @@ def row_key(row: dict) -> str:
     )
 
 
+def _row_keys(csv_path: Path) -> list[str]:
+    """The episode keys of the rows of `csv_path`; refused if a row is not a sweep's."""
+    keys = []
+    for number, row in enumerate(outputs.read_rows(csv_path), start=2):
+        try:
+            keys.append(row_key(row))
+        except (KeyError, TypeError, ValueError):
+            allowed = "rows written by sortsim sweep"
+            raise InvalidInput(csv_path.name, allowed, f"line {number}", str(csv_path)) from None
+    return keys
+
+
 def pending(sweep: SweepConfig, csv_path: Path) -> list[EpisodeSpec]:
     """Episodes of `sweep` without a row in `csv_path` yet, in grid order."""
-    done = {row_key(r) for r in outputs.read_rows(csv_path)}
+    done = set(_row_keys(Path(csv_path)))
     return [spec for spec in sweep.episodes if spec.key not in done]
+
+
+def _recorded_identity(out: Path) -> str | None:
+    """The identity in `out`/sweep.json, None without one; refused when unreadable."""
+    path = out / IDENTITY_FILE
+    if not path.exists():
+        return None
+    try:
+        identity = json.loads(path.read_bytes().decode("utf-8"))["identity"]
+    except (OSError, ValueError, KeyError, TypeError):
+        allowed = "a sweep.json written by sortsim sweep (delete the folder's files to start anew)"
+        raise InvalidInput(IDENTITY_FILE, allowed, None, str(out)) from None
+    return str(identity)
+
+
+def _point(key: str) -> str:
+    """An episode key without its seed."""
+    return key.rpartition("|")[0]
+
+
+def check_out_dir(sweep: SweepConfig, out_dir: Path) -> None:
+    """Refuse, before any work, an output folder this sweep cannot use.
+
+    Raises:
+        InvalidInput: the folder cannot be created or written, `episodes.csv` or `sweep.json`
+            there is a folder or unreadable, or the rows there are another sweep's.
+    """
+    out = Path(out_dir)
+    outputs.check_output_dir(out, "--out")
+    for name in ("episodes.csv", IDENTITY_FILE):
+        outputs.check_output_file(out / name, "--out")
+    keys = _row_keys(out / "episodes.csv")
+    if not keys:
+        return
+    recorded = _recorded_identity(out)
+    ours = {_point(spec.key) for spec in sweep.episodes}
+    if recorded is None:  # written before sweep.json existed: every row must be of this grid
+        foreign = any(_point(k) not in ours for k in keys)
+    else:
+        foreign = recorded != sweep.identity
+    if foreign:
+        allowed = (
+            "a new folder, or one holding this sweep's own results to resume "
+            "(the episodes.csv there is of another sweep)"
+        )
+        raise InvalidInput("--out", allowed, str(out))
+
+
+def _start(sweep: SweepConfig, out: Path) -> None:
+    """Remove a killed run's temporaries and record the sweep's identity beside its rows."""
+    out.mkdir(parents=True, exist_ok=True)
+    remove_stale_temporaries(out)
+    if _recorded_identity(out) != sweep.identity:
+        text = {"sweep": sweep.name, "identity": sweep.identity, "config": sweep.path}
+        outputs.write_atomic(out / IDENTITY_FILE, json.dumps(text, indent=2) + "\n")
 
 
 def run_spec(spec: EpisodeSpec) -> dict:
@@ -53,7 +133,7 @@ def _local(specs: list[EpisodeSpec], workers: int, on_row: RowCallback) -> None:
         return
     # spawn: a fresh interpreter per worker, no inherited rendering contexts or threads.
     context = multiprocessing.get_context("spawn")
-    with context.Pool(processes=workers, maxtasksperchild=None) as pool:
+    with context.Pool(processes=min(workers, len(specs)), maxtasksperchild=None) as pool:
         by_key = {spec.key: spec for spec in specs}
         for key, row in pool.imap_unordered(_keyed, specs, chunksize=1):
             on_row(by_key[key], row)
@@ -97,8 +177,14 @@ def _ray(specs: list[EpisodeSpec], address: str, workers: int, on_row: RowCallba
     n = max(1, min(workers, len(specs)))
     pool = ActorPool([EpisodeActor.remote() for _ in range(n)])
     by_key = {spec.key: spec for spec in specs}
-    for key, row in pool.map_unordered(lambda actor, spec: actor.run.remote(spec), specs):
-        on_row(by_key[key], row)
+    try:
+        for key, row in pool.map_unordered(lambda actor, spec: actor.run.remote(spec), specs):
+            on_row(by_key[key], row)
+    except Exception as exc:  # Ray wraps an actor's exception: a refusal keeps its one line
+        cause = getattr(exc, "cause", None)
+        if isinstance(cause, RefusedInput):
+            raise cause from None
+        raise
 
 
 def default_workers() -> int:
@@ -113,7 +199,17 @@ def run_sweep(
     ray_address: str | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> list[dict]:
-    """Run the pending episodes of `sweep` into `out_dir`/episodes.csv; returns all rows."""
+    """Run the pending episodes of `sweep` into `out_dir`/episodes.csv; returns all rows.
+
+    Raises:
+        InvalidInput: `out_dir` is refused (`check_out_dir`), before any episode runs; or an
+            episode was refused (in whichever process ran it).
+    """
+    workers = default_workers() if workers is None else workers
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise InvalidInput("--workers", "an integer >= 1", workers)
+    check_out_dir(sweep, Path(out_dir))
+    _start(sweep, Path(out_dir))
     csv_path = Path(out_dir) / "episodes.csv"
     todo = pending(sweep, csv_path)
     total, start = len(sweep.episodes), time.perf_counter()
@@ -133,9 +229,6 @@ def run_sweep(
                 f"profit {float(row['profit_eur']):.2f} EUR  ({elapsed:.0f} s)"
             )
 
-    workers = default_workers() if workers is None else workers
-    if workers < 1:
-        raise InvalidInput("--workers", "an integer >= 1", workers)
     if todo:
         if ray_address is not None:
             _ray(todo, ray_address, workers, on_row)

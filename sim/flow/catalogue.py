@@ -173,57 +173,117 @@ class Catalogue:
         return self.rgba[colour if isinstance(colour, int) else COLOURS.index(colour)]
 
 
-def _colour_probs(weights: dict, where: str) -> tuple[float, ...]:
-    unknown = set(weights) - set(COLOURS)
-    if unknown or not weights or min(weights.values()) < 0 or sum(weights.values()) <= 0:
+def _finite(value: object) -> bool:
+    """A real number (not a bool), finite."""
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _numbers(entry: dict, key: str, where: str, count: int | None = None) -> tuple[float, ...]:
+    value = entry[key]
+    ok = isinstance(value, list) and all(_finite(v) for v in value)
+    if not ok or (count is not None and len(value) != count):
+        what = f"{count} finite numbers" if count else "a list of finite numbers"
+        raise InvalidInput(key, what, value, where)
+    return tuple(float(v) for v in value)
+
+
+def _number(entry: dict, key: str, where: str) -> float:
+    value = entry[key]
+    if not _finite(value):
+        raise InvalidInput(key, "a finite number", value, where)
+    return float(value)
+
+
+def _text(entry: dict, key: str, where: str) -> str:
+    value = entry[key]
+    if not isinstance(value, str) or not value.strip():
+        raise InvalidInput(key, "a non-empty string", value, where)
+    return value
+
+
+def _colour_probs(weights: object, where: str) -> tuple[float, ...]:
+    ok = isinstance(weights, dict) and weights and set(weights) <= set(COLOURS)
+    ok = ok and all(_finite(w) and w >= 0 for w in weights.values())
+    if not ok or sum(weights.values()) <= 0:
         raise InvalidInput("colours", f"non-negative weights over {COLOURS}", weights, where)
     total = float(sum(weights.values()))
     return tuple(float(weights.get(c, 0.0)) / total for c in COLOURS)
 
 
-def _item_type(entry: dict) -> ItemType:
-    where = f"item {entry.get('name', '?')!r}"
-    keys = ("name", "material", "shape", "pose", "size", "mass", "friction", "weight", "colours")
-    for key in keys:
+_ITEM_KEYS = ("name", "material", "shape", "pose", "size", "mass", "friction", "weight", "colours")
+
+
+def _item_type(entry: object, index: int, path: Path) -> ItemType:
+    if not isinstance(entry, dict):
+        raise InvalidInput("item", "an array of tables [[item]]", type(entry).__name__, str(path))
+    name = entry.get("name", "?")
+    where = f"{path}, item {name!r}" if isinstance(name, str) else f"{path}, item {index}"
+    for key in _ITEM_KEYS:
         if key not in entry:
             raise InvalidInput(key, "present in every [[item]]", None, where)
-    extra = set(entry) - set(keys)
+    extra = set(entry) - set(_ITEM_KEYS)
     if extra:
-        raise InvalidInput(sorted(extra)[0], f"only the keys {keys}", None, where)
-    return ItemType(
-        name=str(entry["name"]),
-        material=entry["material"],
-        shape=entry["shape"],
-        pose=entry["pose"],
-        size=tuple(float(s) for s in entry["size"]),
-        mass=float(entry["mass"]),
-        friction=tuple(float(f) for f in entry["friction"]),
-        weight=float(entry["weight"]),
-        colour_probs=_colour_probs(entry["colours"], where),
-    )
+        raise InvalidInput(sorted(extra)[0], f"only the keys {_ITEM_KEYS}", None, where)
+    try:
+        return ItemType(
+            name=_text(entry, "name", where),
+            material=_text(entry, "material", where),
+            shape=_text(entry, "shape", where),
+            pose=_text(entry, "pose", where),
+            size=_numbers(entry, "size", where),
+            mass=_number(entry, "mass", where),
+            friction=_numbers(entry, "friction", where, 3),
+            weight=_number(entry, "weight", where),
+            colour_probs=_colour_probs(entry["colours"], where),
+        )
+    except InvalidInput as exc:
+        if exc.where == where:
+            raise
+        raise InvalidInput(exc.field, exc.allowed, exc.got, where) from None
 
 
 def load_catalogue(path: Path | str = DATA_DIR / "items.toml") -> Catalogue:
     """Reads and validates an item catalogue.
 
     Args:
-        path: TOML file with a [colours] table and [[item]] entries.
+        path: TOML file (UTF-8) with a [colours] table and [[item]] entries.
 
     Raises:
-        InvalidInput: A missing or malformed field, named in the message.
+        InvalidInput: An unreadable file, not UTF-8 or not TOML, or a missing, malformed,
+            non-finite or out-of-range field; one line naming the field and the file.
     """
     path = Path(path)
     try:
-        data = tomllib.loads(path.read_text())
-    except (OSError, tomllib.TOMLDecodeError) as error:
-        raise InvalidInput("catalogue", "a readable TOML file", f"{path}: {error}") from None
+        text = path.read_bytes().decode("utf-8")
+        data = tomllib.loads(text)
+    except OSError as error:
+        reason = error.strerror or type(error).__name__
+        raise InvalidInput("catalogue", "a readable TOML file", f"{path}: {reason}") from None
+    except UnicodeDecodeError as error:
+        got = f"{path}: not UTF-8 at byte {error.start}"
+        raise InvalidInput("catalogue", "a UTF-8 TOML file", got) from None
+    except tomllib.TOMLDecodeError as error:
+        reason = " ".join(str(error).split())
+        raise InvalidInput("catalogue", "a readable TOML file", f"{path}: {reason}") from None
     colours = data.get("colours", {})
-    if set(colours) != set(COLOURS):
-        raise InvalidInput("colours", f"exactly the names {COLOURS}", sorted(colours), str(path))
+    if not isinstance(colours, dict) or set(colours) != set(COLOURS):
+        got = sorted(colours) if isinstance(colours, dict) else colours
+        raise InvalidInput("colours", f"exactly the names {COLOURS}", got, str(path))
     rgba = []
     for name in COLOURS:
         value = colours[name]
-        if len(value) != 4 or not all(0 <= v <= 1 for v in value):
+        ok = isinstance(value, list) and len(value) == 4
+        if not ok or not all(_finite(v) and 0 <= v <= 1 for v in value):
             raise InvalidInput(f"colours.{name}", "4 numbers in [0, 1]", value, str(path))
         rgba.append(tuple(float(v) for v in value))
-    return Catalogue(types=tuple(_item_type(e) for e in data.get("item", [])), rgba=tuple(rgba))
+    items = data.get("item", [])
+    if not isinstance(items, list):
+        raise InvalidInput("item", "an array of tables [[item]]", type(items).__name__, str(path))
+    extra = set(data) - {"colours", "item"}
+    if extra:
+        raise InvalidInput(sorted(extra)[0], "only [colours] and [[item]]", None, str(path))
+    types = tuple(_item_type(e, i, path) for i, e in enumerate(items))
+    try:
+        return Catalogue(types=types, rgba=tuple(rgba))
+    except InvalidInput as exc:
+        raise InvalidInput(exc.field, exc.allowed, exc.got, str(path)) from None

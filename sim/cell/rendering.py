@@ -1,0 +1,142 @@
+"""MuJoCo's off-screen rendering back-end: checked once, at the first render, refused in one line.
+
+MuJoCo picks its OpenGL back-end from the environment variable `MUJOCO_GL` when it is first
+imported: `egl` (a GPU's driver or Mesa's software EGL) and `osmesa` (Mesa's software renderer)
+render without a display; unset, it tries GLFW, which needs one. A value MuJoCo does not know
+makes `import mujoco` itself fail, which would break runs that never render (truth perception,
+`sortsim cycle`). So the command line calls `prepare_environment` before anything imports
+MuJoCo: an unknown value is put aside (MuJoCo is imported with rendering disabled) and remembered
+for the refusal. `check_backend` then renders one tiny frame the first time something renders
+(the belt camera, the video, the calibration views) and refuses in one line saying what to set
+when that fails. Nothing here imports MuJoCo at module level (`sortsim --help` stays fast).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import gc
+import os
+import warnings
+from collections.abc import Iterator
+
+from sim.errors import InvalidInput
+
+VARIABLE = "MUJOCO_GL"
+KNOWN = ("", "egl", "osmesa", "glx", "glfw", "enable", "enabled", "on", "true", "1")
+"""Values of MUJOCO_GL that MuJoCo accepts on Linux (and which try to render)."""
+DISABLED = ("disable", "disabled", "off", "false", "0")
+"""Values that turn MuJoCo's rendering off."""
+_PUT_ASIDE = "SORTSIM_REFUSED_MUJOCO_GL"
+"""Where `prepare_environment` keeps an unknown MUJOCO_GL (inherited by worker processes)."""
+ALLOWED = (
+    "egl or osmesa, an off-screen OpenGL back-end that works on this machine: set "
+    "MUJOCO_GL=egl PYOPENGL_PLATFORM=egl (a GPU driver or Mesa's EGL), or MUJOCO_GL=osmesa "
+    "PYOPENGL_PLATFORM=osmesa (Mesa's software renderer)"
+)
+WHERE = "the environment"
+_checked: list[bool] = []
+
+
+_LIBRARIES = {"egl": "EGL", "osmesa": "OSMesa"}
+"""The library each off-screen back-end loads when MuJoCo is imported."""
+
+
+def _library_loads(name: str) -> bool:
+    """Whether lib<name> can be loaded, tried as PyOpenGL tries it (.so, then .so.9 .. .so.0)."""
+    import ctypes
+
+    for suffix in ["", *(f".{i}" for i in range(9, -1, -1))]:
+        try:
+            ctypes.CDLL(f"lib{name}.so{suffix}", mode=ctypes.RTLD_GLOBAL)
+        except OSError:
+            continue
+        return True
+    return False
+
+
+def prepare_environment() -> None:
+    """Keep MUJOCO_GL from breaking `import mujoco` (call before anything imports it).
+
+    A value MuJoCo does not know, or an off-screen back-end whose library is missing (MuJoCo's
+    import fails on both), is moved to a variable of ours and MuJoCo's rendering disabled: runs
+    that never render work, and the first render is refused naming the value that was given.
+    """
+    value = os.environ.get(VARIABLE)
+    if value is None:
+        return
+    key = value.strip().lower()
+    missing = key in _LIBRARIES and not _library_loads(_LIBRARIES[key])
+    if key not in KNOWN + DISABLED or missing:
+        os.environ[_PUT_ASIDE] = value
+        os.environ[VARIABLE] = "disable"
+
+
+def _given() -> str:
+    """The MUJOCO_GL the user gave, as text for the refusal."""
+    put_aside = os.environ.get(_PUT_ASIDE)
+    if put_aside is not None:
+        return put_aside
+    value = os.environ.get(VARIABLE)
+    return "unset" if value is None else value
+
+
+@contextlib.contextmanager
+def _quiet_stderr() -> Iterator[None]:
+    """Silence the C libraries' and GLFW's messages on stderr while the back-end is probed."""
+    try:
+        saved = os.dup(2)
+    except OSError:
+        saved = None
+    try:
+        if saved is not None:
+            with open(os.devnull, "wb") as null:
+                os.dup2(null.fileno(), 2)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            yield
+    finally:
+        if saved is not None:
+            os.dup2(saved, 2)
+            os.close(saved)
+
+
+def _refusal(reason: str) -> InvalidInput:
+    reason = " ".join(reason.split())[:100]
+    return InvalidInput(VARIABLE, ALLOWED, f"{_given()}: {reason}", WHERE)
+
+
+def check_backend() -> None:
+    """Render one tiny frame off-screen, once per process; refuse in one line if it fails.
+
+    Raises:
+        InvalidInput: MUJOCO_GL is unknown, disables rendering, or names a back-end that cannot
+            create an OpenGL context here; the message says what to set.
+    """
+    if _checked:
+        return
+    if _PUT_ASIDE in os.environ:
+        key = os.environ[_PUT_ASIDE].strip().lower()
+        if key in _LIBRARIES:
+            raise _refusal(f"lib{_LIBRARIES[key]} is not installed")
+        raise _refusal("not a back-end MuJoCo knows")
+    if os.environ.get(VARIABLE, "").strip().lower() in DISABLED:
+        raise _refusal("rendering is disabled")
+    failure = None
+    with _quiet_stderr():
+        try:
+            import mujoco
+
+            model = mujoco.MjModel.from_xml_string(
+                "<mujoco><worldbody><light pos='0 0 1'/><geom size='0.1'/></worldbody></mujoco>"
+            )
+            renderer = mujoco.Renderer(model, 8, 8)
+            try:
+                renderer.render()
+            finally:
+                renderer.close()
+        except Exception as exc:  # any failure of the GL stack is the same refusal
+            failure = f"{type(exc).__name__}: {exc}"
+        gc.collect()  # a half-made renderer's finaliser may complain: while stderr is quiet
+    if failure is not None:
+        raise _refusal(failure)
+    _checked.append(True)
