@@ -15,3 +15,7 @@ THESIS_SPEEDS_MPS = (0.185, 0.222, 0.2775)
 """The belt speeds of those factors [m/s]."""
 SPEED_RANGE_MPS = (0.135, 0.277)
 """Slowest and fastest speed of the thesis's conveyor [m/s]."""
+SPEED_TOLERANCE_MPS = 0.0005
+"""Half of the rated range's last digit [m/s]: a speed within it of the range is inside (x1.5 =
+0.2775 m/s rounds to the drive's 0.277). The one tolerance the config, the flow and the belt
+all apply, so whatever a config accepts the belt runs."""

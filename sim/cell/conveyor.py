@@ -18,14 +18,19 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from planner.motion.belt_speeds import SPEED_FACTORS, SPEED_RANGE_MPS, SPEED_X1_MPS
+from planner.motion.belt_speeds import (
+    SPEED_FACTORS,
+    SPEED_RANGE_MPS,
+    SPEED_TOLERANCE_MPS,
+    SPEED_X1_MPS,
+)
 from sim.errors import InvalidInput
 
 BELT_GEOM = "belt"
 RAIL_GEOMS = ("rail_left", "rail_right")
 SPEED_MIN, SPEED_MAX = SPEED_RANGE_MPS
 SPEED_X1 = SPEED_X1_MPS
-_RATING_RESOLUTION = 0.0005  # [m/s], half of the rated range's last digit
+_RATING_RESOLUTION = SPEED_TOLERANCE_MPS
 
 
 def rail_top_z(model: mujoco.MjModel) -> float:

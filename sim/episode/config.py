@@ -45,14 +45,14 @@ from typing import Any
 from perception.codes import THESIS_VALUES_EUR
 from planner.decision.registry import ALLOWED as ALLOWED_PLANNERS
 from planner.decision.registry import check_planner
-from planner.motion.belt_speeds import SPEED_RANGE_MPS, SPEED_X1_MPS
+from planner.motion.belt_speeds import SPEED_RANGE_MPS, SPEED_TOLERANCE_MPS, SPEED_X1_MPS
 from sim.errors import InvalidInput, RefusedInput
 from sim.flow.config import FlowConfig
 
 BELT_SPEED_X1_MPS = SPEED_X1_MPS
 BELT_SPEED_RANGE_MPS = SPEED_RANGE_MPS
 # x1.5 is the belt's top speed: 0.2775 m/s rounds to the conveyor's 0.277 m/s.
-_SPEED_TOLERANCE_MPS = 6e-4
+_SPEED_TOLERANCE_MPS = SPEED_TOLERANCE_MPS + 1e-12  # the belt's own check, to the bit
 PERCEPTIONS = ("camera", "truth")
 ITEM_RIDINGS = ("settled", "contact")
 OBJECTIVES = ("value_over_distance", "value_only", "distance_only")

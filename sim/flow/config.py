@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from planner.motion.belt_speeds import SPEED_RANGE_MPS as BELT_SPEED_RANGE_MPS
+from planner.motion.belt_speeds import SPEED_TOLERANCE_MPS
 from planner.motion.belt_speeds import SPEED_X1_MPS as BELT_SPEED_X1_MPS
 from sim.errors import InvalidInput
 
@@ -31,7 +32,7 @@ ITEM_CLASSES = (2, 3, 4)
 # 3000 items in 25 min at x1); we allow up to 12 and size the item pool for that.
 MAX_ITEMS_PER_METRE = 12.0
 # x1.5 = 0.2775 m/s is the conveyor's top speed of 0.277 m/s, rounded.
-_SPEED_SLACK_MPS = 6e-4
+_SPEED_SLACK_MPS = SPEED_TOLERANCE_MPS + 1e-12  # the belt's own check, to the bit
 
 DEFAULT_STRIPE_PRIORS = (0.16, 0.22, 0.24, 0.22, 0.16)
 # Rows: previous item's class in the same stripe (paper, plastic, aluminium); columns: next.
