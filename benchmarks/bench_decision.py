@@ -1,7 +1,10 @@
 """Decision managers: latency per decision with 30 items in view, and profit against the
 oracle's bound on seeded random belts (the cycle-time model is the ruckig-fitted one).
 
-Run: `.venv/bin/python benchmarks/bench_decision.py [--quick]`
+The profit figures are on the held-out belts (`evaluation.HELD_OUT_SEEDS`, seeds 0-199); the
+planners' parameters were chosen on `evaluation.TUNING_SEEDS` (1000-1199, `--tuning`).
+
+Run: `.venv/bin/python benchmarks/bench_decision.py [--quick] [--tuning]`
 """
 
 from __future__ import annotations
@@ -12,7 +15,13 @@ import time
 
 import numpy as np
 
-from planner.decision.evaluation import extreme_value_picks, objective_variants, oracle_fractions
+from planner.decision.evaluation import (
+    HELD_OUT_SEEDS,
+    TUNING_SEEDS,
+    extreme_value_picks,
+    objective_variants,
+    oracle_fractions,
+)
 from planner.decision.interface import RobotState, TrackedItem
 from planner.decision.registry import PLANNERS, make_planner
 from sim.episode.decision_view import cell_context
@@ -36,7 +45,8 @@ def random_view(rng, n_items, t):
 
 def latency(context_for, n_items, decisions):
     """Median and p99 [us] of one `choose` call per planner with `n_items` in view: wall time
-    and this thread's CPU time (the latter unaffected by other processes on the core)."""
+    and this thread's CPU time (the latter less affected by other processes on the core).
+    Each decision starts from `reset()`: qlearning learns its batch at every one."""
     ctx = context_for(0.185)
     out = {}
     for name in PLANNERS:
@@ -60,6 +70,7 @@ def latency(context_for, n_items, decisions):
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--quick", action="store_true", help="fewer decisions and belts")
+    parser.add_argument("--tuning", action="store_true", help="the tuning belts, not held-out")
     args = parser.parse_args()
     if hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})  # one core
@@ -73,31 +84,37 @@ def main() -> int:
         )
     print(f"  load average while measuring: {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
     n_belts = 40 if args.quick else 200
+    seeds = (TUNING_SEEDS if args.tuning else HELD_OUT_SEEDS)[:n_belts]
+    which = "tuning" if args.tuning else "held-out"
     tic = time.perf_counter()
-    result = oracle_fractions(context_for, range(n_belts))
+    result = oracle_fractions(context_for, seeds)
     print(
-        f"profit / oracle bound on {n_belts} seeded busy belts "
-        "(planner.decision.evaluation.short_belt), "
+        f"profit / oracle bound on {n_belts} {which} busy belts, seeds {seeds.start}-"
+        f"{seeds.stop - 1} (planner.decision.evaluation.short_belt), "
         f"{time.perf_counter() - tic:.0f} s"
     )
+    print(f"  bound: {result.bound_used()}")
     for name, (mean, low, total) in result.summary().items():
         print(f"  {name:10s} mean {mean:.3f}  min {low:.3f}  profit {total:.2f} EUR")
     print(f"  oracle     bound profit {result.bound.sum():.2f} EUR")
-    light = oracle_fractions(context_for, range(n_belts), front_x=-0.7)
+    light = oracle_fractions(context_for, seeds, front_x=-0.7)
     print("the same belts arriving from upstream of the window (front_x = -0.7 m): light load")
+    print(f"  bound: {light.bound_used()}")
     for name, (mean, low, total) in light.summary().items():
         print(f"  {name:10s} mean {mean:.3f}  min {low:.3f}  profit {total:.2f} EUR")
     print(f"  oracle     bound profit {light.bound.sum():.2f} EUR")
     seeds = range(3 if args.quick else 10)
     print(f"objective variants (section 4.1.3), {len(seeds)} belts of 118 items in 45 s")
-    for factor in (1.0, 1.2):
-        for objective, (share, profit) in objective_variants(context_for, seeds, factor).items():
-            print(
-                f"  x{factor:g} qlearning {objective:4s} picked {share:.3f} of the items, "
-                f"profit {profit:.2f} EUR per belt"
-            )
+    for planner in ("qlearning", "rollout"):
+        for factor in (1.0, 1.2):
+            variants = objective_variants(context_for, seeds, factor, planner=planner)
+            for objective, (share, profit) in variants.items():
+                print(
+                    f"  x{factor:g} {planner:9s} {objective:4s} picked {share:.3f} of the items, "
+                    f"profit {profit:.2f} EUR per belt"
+                )
     print(f"extreme values (table 4.3): picks per class, {len(seeds)} belts of 118 items in 45 s")
-    for planner in ("qlearning", "greedy", "proximity"):
+    for planner in ("qlearning", "rollout", "lookahead", "greedy", "proximity"):
         for variant, counts in extreme_value_picks(context_for, planner, seeds).items():
             share = counts / max(counts.sum(), 1)
             print(

@@ -51,6 +51,9 @@ def test_context_refuses_bad_input(kwargs, field):
         (dict(batch_rows=0), "batch_rows", ">= 1"),
         (dict(objective="v*d"), "objective", "v/d | d=1 | v=1"),
         (dict(row_period_s=0.0), "row_period_s", "> 0"),
+        (dict(seed=-1), "seed", ">= 0"),
+        (dict(seed=1.5), "seed", ">= 0"),
+        (dict(q_init=-0.1), "q_init", ">= 0"),
     ],
 )
 def test_qlearning_config_refuses_bad_input(kwargs, field, allowed):
@@ -66,7 +69,8 @@ def test_registry_builds_every_planner_and_refuses_unknown_names_and_options():
     with pytest.raises(PlannerInputError) as err:
         make_planner("random")
     assert err.value.allowed == (
-        "qlearning | proximity | fifo | greedy | oracle | module:Class "
+        "qlearning | rollout | lookahead | learned | proximity | fifo | greedy | oracle | "
+        "module:Class "
         "(a class with choose() and reset())"
     )
     with pytest.raises(PlannerInputError) as err:
@@ -77,6 +81,14 @@ def test_registry_builds_every_planner_and_refuses_unknown_names_and_options():
     with pytest.raises(PlannerInputError):
         make_planner("oracle", max_items=0)
     assert make_planner("qlearning", gamma=0.5, objective="d=1").config.gamma == 0.5
+    assert make_planner("qlearning", seed=7).config.seed == 7
+    assert make_planner("rollout", gamma=0.5, episode_starts=0).config.episode_starts == 0
+    assert make_planner("lookahead", horizon=6).config.horizon == 6
+    with pytest.raises(PlannerInputError) as err:
+        make_planner("rollout", seed=1)  # nothing random in the rollout
+    assert "episode_starts" in err.value.allowed
+    with pytest.raises(PlannerInputError):
+        make_planner("lookahead", time_budget_s=0.0)
 
 
 def test_tracked_item_validation_and_bin_class():
@@ -102,9 +114,17 @@ def test_expected_value_ranks_a_confident_aluminium_above_an_uncertain_one():
     assert ctx.expected_value(confident) > ctx.expected_value(paper) > ctx.expected_value(uncertain)
     # Every value-aware planner, at equal distance, prefers the confident one.
     robot = RobotState((0.0, 0.0, 0.06), 0.0)
-    for name in ("qlearning", "greedy", "oracle"):
+    # (The thesis's Q-learning adds the q of random continuations; myopic and on value only,
+    # its q is the expected value.)
+    for name, kw in [
+        ("qlearning", dict(gamma=0.0, objective="d=1")),
+        ("rollout", {}),
+        ("lookahead", {}),
+        ("greedy", {}),
+        ("oracle", {}),
+    ]:
         items = [uncertain, TrackedItem(1, 0.0, -0.1, confident.class_probs)]
-        assert make_planner(name).choose(items, robot, ctx).item_id == 1, name
+        assert make_planner(name, **kw).choose(items, robot, ctx).item_id == 1, name
 
 
 def test_cell_context_reads_bins_from_the_model():
@@ -113,3 +133,22 @@ def test_cell_context_reads_bins_from_the_model():
     assert paper[1] < -0.4 and plastic[1] > 0.4 and aluminium[1] > 0.4
     assert plastic[0] < 0.0 < aluminium[0]
     assert ctx.window.contains(0.0, 0.0) and not ctx.window.contains(0.9, 0.0)
+
+
+def test_the_episode_configures_qlearning_and_rollout_from_its_qlearning_section():
+    from sim.episode import config
+    from sim.episode.loop import make_decision_manager
+
+    base = config.load(None, seed=5, planner="qlearning", observation_period_s=0.25)
+    base = base.replace(qlearning=config.QLearning(gamma=0.8, objective="value_only"))
+    q = make_decision_manager(base)
+    assert (q.name, q.config.seed, q.config.gamma, q.config.objective) == (
+        "qlearning",
+        5,
+        0.8,
+        "d=1",
+    )
+    assert q.config.row_period_s == 0.25 and q.config.iterations == 50
+    r = make_decision_manager(base.replace(planner="rollout"))
+    assert (r.name, r.config.gamma, r.config.objective) == ("rollout", 0.8, "d=1")
+    assert make_decision_manager(base.replace(planner="lookahead")).name == "lookahead"

@@ -1,4 +1,5 @@
-"""The thesis's Q-learning (eq. 3.3, 3.5, stopping rule of 3.4.1) against hand computations."""
+"""The thesis's Q-learning as written (3.4.1, eq. 3.3 and 3.5, the annex's random actions, the
+stopping rule, the 20 x 27 batch grid) against hand computations."""
 
 from __future__ import annotations
 
@@ -7,18 +8,17 @@ import math
 import numpy as np
 import pytest
 
-from planner.decision.candidates import candidates
+from planner.decision.batch_grid import GRID_COLUMNS, column_centre, grid_column
 from planner.decision.interface import RobotState, TrackedItem
+from planner.decision.kinematic_belt import random_belt, simulate
 from planner.decision.qlearning import (
     QLearningConfig,
     QLearningPlanner,
-    batch_index,
-    grid_column,
-    q_values,
-    reward_path,
-    weights,
+    assign_cells,
+    learn,
+    rewards_from,
 )
-from planner.errors import PlannerInputError
+from planner.decision.registry import make_planner
 from sim.episode.decision_view import cell_context
 
 # Rows: robot, paper bin, plastic bin, aluminium bin; items go to paper, plastic, aluminium.
@@ -31,95 +31,140 @@ REWARDS = np.array(
     ]
 )
 NEXT = np.array([1, 2, 3])
+CELLS = [(0, 3), (4, 10), (9, 20)]
+SHAPE = (20, GRID_COLUMNS)
 
 
-def test_path_follows_rewards_and_stops_by_the_thesis_rule():
-    # Start: item 0 (0.50, the most precious). From the paper bin 0.60 + 0.20 >= 0.50: go on,
-    # item 1. From the plastic bin the rest is 0.35 < 0.50: stop.
-    path, collected = reward_path(REWARDS, NEXT)
-    assert path == [0, 1]
-    assert collected == [0.50, 0.60]
+class Scripted:
+    """Stands in for numpy's Generator: zeros for the initial q, then one given list of
+    uniforms per episode (step i of an episode takes item floor(u_i x items left))."""
+
+    def __init__(self, episodes):
+        self.episodes = [list(u) for u in episodes]
+        self.initial = True
+
+    def random(self, size):
+        if self.initial:
+            self.initial = False
+            return np.zeros(size)
+        u = self.episodes.pop(0)
+        assert len(u) == size
+        return np.array(u)
 
 
-def test_q_values_match_the_hand_computation():
-    q, episodes = q_values(REWARDS, NEXT, gamma=0.9, iterations=50)
-    # Episode 1: q1 = 0.6 (nothing after it yet), q0 = 0.5 + 0.9 * 0 (q1 still 0 when q0 was
-    # updated). Episode 2: q0 = 0.5 + 0.9 * 0.6 = 1.04. Episode 3 changes nothing.
-    assert q == pytest.approx([1.04, 0.60, 0.0], abs=1e-12)
-    assert episodes == 3
-    q1, _ = q_values(REWARDS, NEXT, gamma=0.9, iterations=1)
-    assert q1 == pytest.approx([0.50, 0.60, 0.0], abs=1e-12)
+def _learn(episodes, iterations, gamma=0.9, rewards=REWARDS):
+    return learn(rewards, NEXT, CELLS, SHAPE, gamma, iterations, Scripted(episodes))
 
 
-def test_without_the_stopping_rule_firing_q_chains_over_the_whole_batch():
+def test_three_episodes_by_hand():
+    # Episode 1 draws items 0 then 1: q0 = 0.5 + 0.9 max(q1, q2) = 0.5 (both still 0), robot at
+    # the paper bin, where the rest is worth 0.6 + 0.2 >= 0.5 (the most precious reward at the
+    # start): go on; q1 = 0.6 + 0.9 q2 = 0.6; robot at the plastic bin, the rest is 0.35 < 0.5:
+    # the stopping rule ends the episode.
+    learned = _learn([[0.0, 0.0, 0.0]], iterations=1)
+    assert [learned.q_of(k) for k in range(3)] == pytest.approx([0.5, 0.6, 0.0], abs=1e-12)
+    assert (learned.episodes, learned.steps) == (1, 2)
+    # Episode 2 draws items 2, 0, 1: q2 = 0.30 + 0.9 * 0.6 = 0.84 (from the start); from the
+    # aluminium bin (0.20 + 0.45 >= 0.5) q0 = 0.20 + 0.9 q1 = 0.74; from the paper bin (0.6 >=
+    # 0.5) q1 = 0.60 + 0.9 * 0 = 0.6, nothing left.
+    # Episode 3 draws item 1: q1 = 0.40 + 0.9 max(q0, q2) = 0.40 + 0.9 * 0.84 = 1.156; from the
+    # plastic bin the rest is 0.10 + 0.35 < 0.5: stop.
+    episodes = [[0.0, 0.0, 0.0], [0.99, 0.0, 0.0], [0.5, 0.0, 0.0]]
+    learned = _learn(episodes, iterations=3)
+    assert [learned.q_of(k) for k in range(3)] == pytest.approx([0.74, 1.156, 0.84], abs=1e-12)
+    assert (learned.episodes, learned.steps) == (3, 6)
+    assert learned.q.shape == (20, 27)
+    assert learned.q[4, 10] == pytest.approx(1.156)  # the matrix holds q at the items' cells
+    assert np.count_nonzero(learned.q) == 3
+
+
+def test_learning_stops_once_an_episode_changes_nothing():
+    # Episode 4 repeats episode 3: q1 = 0.40 + 0.9 * 0.84 again, nothing changes: the learning
+    # stops after 4 of the 50 episodes.
+    episodes = [[0.0, 0.0, 0.0], [0.99, 0.0, 0.0], [0.5, 0.0, 0.0], [0.5, 0.0, 0.0]]
+    learned = _learn(episodes, iterations=50)
+    assert learned.episodes == 4
+    assert learned.q_of(1) == pytest.approx(1.156)
+
+
+def test_the_stopping_rule_fires_below_the_most_precious_reward_not_at_it():
     rewards = REWARDS.copy()
-    rewards[2, 2] = 0.55  # from the plastic bin, the last item is now worth going on for
-    q, _ = q_values(rewards, NEXT, gamma=0.9, iterations=50)
-    q2 = 0.55
-    q1 = 0.60 + 0.9 * q2
-    q0 = 0.50 + 0.9 * max(q1, q2)
-    assert q == pytest.approx([q0, q1, q2], abs=1e-12)
+    rewards[1] = [0.0, 0.3, 0.2]  # from the paper bin the rest sums to exactly 0.5
+    rewards[2, 2] = 0.5  # and from the plastic bin too
+    assert _learn([[0.0, 0.0, 0.0]], 1, rewards=rewards).steps == 3
+    rewards[1, 2] = 0.2 - 1e-9  # now just below: one step only
+    assert _learn([[0.0, 0.0, 0.0]], 1, rewards=rewards).steps == 1
 
 
 def test_gamma_zero_is_myopic():
-    q, _ = q_values(REWARDS, NEXT, gamma=0.0, iterations=50)
-    assert q == pytest.approx([0.50, 0.60, 0.0])
+    # q is the reward from where the robot was when the item was last taken.
+    episodes = [[0.0, 0.0, 0.0], [0.99, 0.0, 0.0]]
+    learned = _learn(episodes, iterations=2, gamma=0.0)
+    assert [learned.q_of(k) for k in range(3)] == pytest.approx([0.20, 0.60, 0.30])
 
 
-def test_weights_are_value_over_robot_item_bin_distance():
-    ctx = cell_context(0.185)
-    robot = RobotState((0.0, 0.3, 0.06), 10.0)
-    items = [
-        TrackedItem.certain(7, 0.10, 0.20, 4),
-        TrackedItem.certain(8, -0.20, -0.25, 2),
-        TrackedItem.certain(9, 0.05, 0.0, 3),
-    ]
-    cands = candidates(items, robot, ctx)
-    assert len(cands) == 3
+def test_the_random_initial_q_and_actions_come_from_the_seed():
+    a = learn(REWARDS, NEXT, CELLS, SHAPE, 0.9, 50, np.random.default_rng(5))
+    b = learn(REWARDS, NEXT, CELLS, SHAPE, 0.9, 50, np.random.default_rng(5))
+    assert np.array_equal(a.q, b.q) and a.episodes == b.episodes
+    c = learn(REWARDS, NEXT, CELLS, SHAPE, 0.9, 50, np.random.default_rng(6))
+    assert not np.array_equal(a.q, c.q)
+    # The cells no item occupies keep their random initial q, below q_init x the top reward.
+    empty = np.ones(SHAPE, dtype=bool)
+    for r, col in CELLS:
+        empty[r, col] = False
+    assert np.all(a.q[empty] >= 0.0) and np.all(a.q[empty] < 0.01 * 0.6)
+    assert np.count_nonzero(a.q[empty]) > 0
+
+
+def test_rewards_are_value_over_robot_item_bin_distance():
+    points = np.array([[0.1, 0.2], [-0.2, -0.25]])
+    values = np.array([0.27, 0.22])
+    bins = np.array([[0.21, 0.51], [0.0, -0.56]])
+    starts = np.array([[0.0, 0.3], [0.0, -0.56], [-0.21, 0.51], [0.21, 0.51]])
     for objective in ("v/d", "d=1", "v=1"):
-        w, nxt = weights(cands, robot, ctx, objective)
-        for k, c in enumerate(cands):
-            mx, my = c.meet_xy
-            bx, by, _ = ctx.bin_of(c.bin_class)
-            for s, (sx, sy) in enumerate([robot.tcp[:2], *(b[:2] for b in ctx.bins)]):
-                d = math.hypot(mx - sx, my - sy) + math.hypot(bx - mx, by - my)
-                v = ctx.value_of(c.bin_class)
-                want = {"v/d": v / d, "d=1": v, "v=1": 1 / d}[objective]
+        w = rewards_from(points, values, bins, starts, objective)
+        for s in range(4):
+            for k in range(2):
+                d = math.dist(starts[s], points[k]) + math.dist(points[k], bins[k])
+                want = {"v/d": values[k] / d, "d=1": values[k], "v=1": 1 / d}[objective]
                 assert w[s, k] == pytest.approx(want, rel=1e-12)
-            assert nxt[k] == c.bin_class - 1
 
 
-def test_planner_picks_the_max_q_item_of_the_current_batch():
+def test_items_take_distinct_cells():
+    assert assign_cells([(3, 5), (3, 5), (3, 5), (0, 1)], 20) == [(3, 5), (3, 4), (3, 6), (0, 1)]
+    assert assign_cells([(0, 1), (0, 1)], 1) == [(0, 1), (0, 2)]
+    assert grid_column(column_centre(7)) == 7
+
+
+def test_the_planner_learns_on_the_grid_and_picks_the_max_q():
     ctx = cell_context(0.185)
-    robot = RobotState((0.0, -0.51, 0.06), 3.0)
+    cfg = QLearningConfig(seed=3)
+    pitch = 0.185 * cfg.row_period_s
+    robot = RobotState(ctx.bins[0], 0.0)
     items = [
-        TrackedItem.certain(1, -0.05, -0.30, 2),  # paper next to the paper bin
-        TrackedItem.certain(2, 0.10, 0.25, 4),
-        TrackedItem.certain(3, -0.30, 0.0, 3),
+        TrackedItem.certain(1, 0.0, -0.30, 2),  # the first item seen: row 0
+        TrackedItem.certain(2, -2.5 * pitch, 0.25, 4),  # row 2
+        TrackedItem.certain(3, -4.2 * pitch, 0.0, 3),  # row 4
     ]
-    choice = QLearningPlanner().choose(items, robot, ctx)
-    cands = candidates(items, robot, ctx, immediate_only=True)
-    w, nxt = weights(cands, robot, ctx, "v/d")
-    q, _ = q_values(w, nxt, 0.9, 50)
-    assert choice.item_id == cands[int(np.argmax(q))].item.item_id == 1
-    assert "max q" in choice.reason
-
-
-def test_batches_are_20_rows_fixed_to_the_belt():
-    cfg = QLearningConfig()
-    v = 0.185
-    pitch = v * cfg.row_period_s
-    item = TrackedItem.certain(1, -0.5 * pitch, 0.0, 2)  # row 0 at t = 0
-    assert batch_index(item, 0.0, v, cfg) == 0
-    upstream = TrackedItem.certain(2, -20.5 * pitch, 0.0, 2)  # row 20
-    assert batch_index(upstream, 0.0, v, cfg) == 1
-    # Ten seconds later both moved 20 rows downstream with the belt: same rows, same batches.
-    moved = TrackedItem.certain(2, -20.5 * pitch + 10.0 * v, 0.0, 2)
-    assert batch_index(moved, 10.0, v, cfg) == 1
-    # Rows counted from another origin: the item 20.5 rows upstream of it is in batch 1.
-    assert batch_index(upstream, 0.0, v, cfg, origin=-1.0 * pitch) == 0
-    assert batch_index(upstream, 0.0, v, cfg, origin=0.6 * pitch) == 1
-    assert grid_column(-0.4) == 2 and grid_column(0.0) == 14 and grid_column(0.4) == 26
+    planner = QLearningPlanner(cfg)
+    choice = planner.choose(items, robot, ctx)
+    learned = planner._learned
+    # Items by urgency (exit time); rows counted from the first item, columns 0..26 (the
+    # thesis's 1..27), the belt's 25 in 1..25.
+    assert learned.cells == ((0, 4), (2, 21), (4, 13))
+    assert learned.q.shape == (20, 27)
+    q = {i: learned.q_of(k) for k, i in enumerate([1, 2, 3])}
+    assert choice.item_id == max(q, key=q.get)
+    assert "max q" in choice.reason and "episodes" in choice.reason
+    # The same seed, the same choice; the learning is not repeated while no new item arrives.
+    planner.reset()
+    again = planner.choose(items, robot, ctx)
+    assert again.item_id == choice.item_id
+    first = planner._learned
+    later = [TrackedItem(i.item_id, i.x + 0.185 * 0.5, i.y, i.class_probs) for i in items]
+    planner.choose(later[1:], RobotState(ctx.bins[2], 0.5), ctx)
+    assert planner._learned is first
 
 
 def test_an_earlier_batch_keeps_priority_over_a_better_later_one():
@@ -129,41 +174,16 @@ def test_an_earlier_batch_keeps_priority_over_a_better_later_one():
     robot = RobotState((0.2, 0.51, 0.06), 0.0)
     downstream_paper = TrackedItem.certain(1, -0.5 * pitch, -0.3, 2)  # batch 0, far from robot
     upstream_alu = TrackedItem.certain(2, -2.5 * pitch, 0.35, 4)  # batch 1, next to the robot
-    planner = QLearningPlanner(cfg)
-    assert planner.choose([upstream_alu, downstream_paper], robot, ctx).item_id == 1
-    # The first row is the first item seen: the same two items, seen first at another time,
-    # are still two rows apart, so still in two batches.
-    later = RobotState(robot.tcp, 0.3)
-    moved = [
-        TrackedItem(i.item_id, i.x + 0.185 * 0.3, i.y, i.class_probs)
-        for i in (upstream_alu, downstream_paper)
-    ]
-    planner.reset()
-    assert planner.choose(moved, later, ctx).item_id == 1
-    choice = QLearningPlanner().choose([upstream_alu, downstream_paper], robot, ctx)
-    assert choice.item_id == 2  # one 20-row batch: the close, valuable item wins
+    for seed in range(5):
+        planner = QLearningPlanner(QLearningConfig(batch_rows=2, seed=seed))
+        assert planner.choose([upstream_alu, downstream_paper], robot, ctx).item_id == 1
 
 
-def test_episodes_in_time_beat_proximity_and_the_reward_path_on_dense_belts():
-    """Seeded belts at table 4.6's densest regime (x1.2, 300 items over 135 s): the episodes in
-    time earn more than the proximity picker and than q from the reward path alone, belt by
-    belt, on the cycle-time model's simulator."""
-    from planner.decision.kinematic_belt import random_belt, simulate
-    from planner.decision.registry import make_planner
-
-    speed = 0.185 * 1.2
-    ctx = cell_context(speed)
-    per_metre = 300 / (135.0 * speed)
-    for seed in range(4):
-        belt = random_belt(np.random.default_rng(100 + seed), int(per_metre * 12), 12.0, speed)
-        timed = simulate(make_planner("qlearning"), belt, ctx).profit
-        path = simulate(make_planner("qlearning", episode_starts=0), belt, ctx).profit
-        nearest = simulate(make_planner("proximity"), belt, ctx).profit
-        assert timed > nearest and timed > path, (seed, timed, nearest, path)
-
-
-def test_episode_settings_are_validated():
-    with pytest.raises(PlannerInputError, match="episode_steps"):
-        QLearningConfig(episode_steps=-1)
-    with pytest.raises(PlannerInputError, match="episode_starts"):
-        QLearningConfig(episode_starts=1.5)
+def test_runs_are_deterministic_by_seed():
+    ctx = cell_context(0.185)
+    belt = random_belt(np.random.default_rng(8), 40, 3.0, 0.185)
+    a = simulate(make_planner("qlearning", seed=1), belt, ctx)
+    b = simulate(make_planner("qlearning", seed=1), belt, ctx)
+    c = simulate(make_planner("qlearning", seed=2), belt, ctx)
+    assert a.picks == b.picks
+    assert [p.item_id for p in a.picks] != [p.item_id for p in c.picks]

@@ -52,17 +52,26 @@ class Candidate:
 
 
 def intercept(
-    context: DecisionContext, start_xyz, t0: float, x: float, y: float
+    context: DecisionContext,
+    start_xyz,
+    t0: float,
+    x: float,
+    y: float,
+    bounds: tuple[float, float] | None = None,
 ) -> tuple[float, float, bool] | None:
     """Earliest meeting with an item at (x, y) at time t0, or None if it is lost.
+
+    `bounds` is the window's (entry, exit) x at y [m] when the caller has it already
+    (`context.window.bounds(y)`, which must not be None).
 
     Returns:
         (meet_time [s], meet_x [m], waits): waits is True when the robot must wait at the
         window's entry for the item.
     """
-    bounds = context.window.bounds(y)
     if bounds is None:
-        return None
+        bounds = context.window.bounds(y)
+        if bounds is None:
+            return None
     x_in, x_out = bounds
     if x > x_out:
         return None

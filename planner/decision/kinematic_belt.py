@@ -169,10 +169,18 @@ def simulate(
 
 
 def oracle_bound(
-    belt: Belt, context: DecisionContext, start_tcp: tuple[float, float, float] = HOME_TCP
+    belt: Belt,
+    context: DecisionContext,
+    start_tcp: tuple[float, float, float] = HOME_TCP,
+    max_nodes: int | None = None,
 ) -> Plan:
-    """Best profit any pick sequence reaches on the belt's true classes (items known at t = 0)."""
+    """Best profit any pick sequence reaches on the belt's true classes (items known at t = 0).
+
+    `Plan.bound` is an upper bound on every planner's profit on the belt: the exact best profit
+    when the search finished (`Plan.exact`), else the relaxation of `oracle.slot_bound`
+    (`max_nodes` caps the search; None searches to the end).
+    """
     items = [TrackedItem(it.item_id, it.x0, it.y, one_hot(it.true_class)) for it in belt.items]
     values = [context.value_of(it.true_class) for it in belt.items]
     bins = [it.true_class for it in belt.items]
-    return best_sequence(items, values, bins, RobotState(start_tcp, 0.0), context)
+    return best_sequence(items, values, bins, RobotState(start_tcp, 0.0), context, max_nodes)

@@ -1,7 +1,10 @@
 """The one registry of decision managers: built-in names, and a user's own class.
 
-`make_planner('qlearning', gamma=0.9)` builds a built-in manager; `make_planner('mymod:MyPlanner')`
-(or `path/to/file.py:MyPlanner`) imports the user's class and builds it with no arguments. A
+`make_planner('qlearning', gamma=0.9)` builds a built-in manager (qlearning: the thesis's
+algorithm; rollout: our timed rollout over its reward; lookahead: our budgeted branch and
+bound; proximity, fifo, greedy; oracle: exact search over the items in view).
+`make_planner('mymod:MyPlanner')` (or `path/to/file.py:MyPlanner`) imports the user's class
+and builds it with no arguments. A
 user's class implements `planner.decision.interface.DecisionManager`: a `choose(items, robot,
 context)` returning a `Choice` or None, and a `reset()` called at the start of every episode;
 its `name` attribute, if any, is what episodes.csv records (else the spec). Unknown names, specs
@@ -22,6 +25,9 @@ from planner.errors import PlannerInputError
 # Imported only when built, so that the command line's --help stays light.
 _BUILT_IN = {
     "qlearning": "planner.decision.qlearning:QLearningPlanner",
+    "rollout": "planner.decision.rollout:RolloutPlanner",
+    "lookahead": "planner.decision.lookahead:LookaheadPlanner",
+    "learned": "planner.decision.learned:LearnedPlanner",
     "proximity": "planner.decision.proximity:ProximityPlanner",
     "fifo": "planner.decision.fifo:FifoPlanner",
     "greedy": "planner.decision.greedy:GreedyPlanner",
@@ -94,15 +100,26 @@ def check_planner(spec: str) -> None:
         raise PlannerInputError("planner", ALLOWED, spec)
 
 
+# The managers built from a config dataclass: name -> "module:ConfigClass".
+_CONFIGS = {
+    "qlearning": "planner.decision.qlearning:QLearningConfig",
+    "rollout": "planner.decision.rollout:RolloutConfig",
+    "lookahead": "planner.decision.lookahead:LookaheadConfig",
+}
+
+
+def _load(spec: str):
+    module_name, _, attr = spec.partition(":")
+    return getattr(importlib.import_module(module_name), attr)
+
+
 def _built_in(name: str) -> tuple[type, tuple[str, ...]]:
     """A built-in manager's class and the options it takes."""
-    module_name, _, class_name = _BUILT_IN[name].partition(":")
-    cls = getattr(importlib.import_module(module_name), class_name)
-    if name == "qlearning":
-        from planner.decision.qlearning import QLearningConfig
-
-        return cls, tuple(f.name for f in dataclasses.fields(QLearningConfig))
-    return cls, ("max_items",) if name == "oracle" else ()
+    cls = _load(_BUILT_IN[name])
+    if name in _CONFIGS:
+        return cls, tuple(f.name for f in dataclasses.fields(_load(_CONFIGS[name])))
+    extra = {"oracle": ("max_items",), "learned": ("policy_file",)}
+    return cls, extra.get(name, ())
 
 
 def make_planner(spec: str, **params):
@@ -110,8 +127,10 @@ def make_planner(spec: str, **params):
 
     Args:
         spec: One of PLANNERS, or `module:Class` of the user's own class.
-        **params: Options of that planner (qlearning: the fields of QLearningConfig; oracle:
-            max_items; the others, and users' classes, take none).
+        **params: Options of that planner (qlearning, rollout, lookahead: the fields of
+            QLearningConfig, RolloutConfig, LookaheadConfig; oracle: max_items; learned:
+            policy_file (a JSON written by `sortsim train`); the others, and
+            users' classes, take none).
 
     Raises:
         PlannerInputError: Unknown name or option, or an option out of range.
@@ -129,10 +148,8 @@ def make_planner(spec: str, **params):
     if unknown:
         allowed = ", ".join(options) or "no options"
         raise PlannerInputError(f"{spec} option {unknown[0]}", allowed, params[unknown[0]])
-    if spec == "qlearning":
-        from planner.decision.qlearning import QLearningConfig
-
-        return cls(QLearningConfig(**params))
+    if spec in _CONFIGS:
+        return cls(_load(_CONFIGS[spec])(**params))
     planner = cls(**params)
     if is_user_spec(spec) and not getattr(planner, "name", None):
         try:

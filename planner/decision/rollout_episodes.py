@@ -1,10 +1,9 @@
-"""Episodes in time for the Q-learning decision manager: q of each first move from the robot's
-state now.
+"""Episodes in time for the rollout planner (`planner.decision.rollout`): the score of each first
+move from the robot's state now.
 
-The thesis's learner (3.4.1) runs episodes over a batch: a first action, then movements selected
-by their reward, q updated by eq. 3.5 along the way; and (3.4.2) it keeps the episodes "in real
-time", so that "the robot will eventually lose items due to the movement of the conveyor belt".
-Here each candidate first pick starts one episode. After it the robot is at that item's bin
+Ours, after the thesis's 3.4.2, which keeps its picking "in real time", so that "the robot will
+eventually lose items due to the movement of the conveyor belt". Each candidate first pick
+starts one greedy episode. After it the robot is at that item's bin
 when the release ends (the cycle-time model's clock); from there the item of highest reward
 w = v / d among those it can still meet before they leave the window is taken, and so on, until
 no item can be met or `steps` moves are made. q of the first pick is eq. 3.5 backwards along its
@@ -15,7 +14,7 @@ The thesis's stopping rule (stop when the remaining rewards sum to less than the
 one) is not applied here: in time, the belt ends an episode by carrying items away, and the rule
 would cut the episode after a precious first pick and not after a cheap one (with a paper and an
 aluminium item, value only, it made the robot take the paper first and lose nothing but the
-aluminium's extra value). It still ends the reward path of `planner.decision.qlearning.reward_path`.
+aluminium's extra value). It still ends the reward path of `planner.decision.rollout.reward_path`.
 
 Items are handled as plain tuples (id, x at t0, y, expected value, bin class) in this inner
 loop; the meeting and place times are the same calls `planner.decision.candidates` makes.

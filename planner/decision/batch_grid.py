@@ -1,0 +1,59 @@
+"""The thesis's belt grid (sections 3.3, 3.4): rows fixed to the belt, 27 columns, 20-row batches.
+
+The belt is seen as a grid whose rows are one observation period of belt travel apart (row
+pitch = belt speed x observation period, 0.0925 m at x1 and 0.5 s) and whose 27 columns are the
+25 across the belt (columns 2..26, numbered from 1 as in the thesis) and the two bin columns
+(1 and 27). Rows are fixed to the belt: an item keeps its row as it moves. Row 0 is the row of
+the first item the planner sees (the start of the thesis's sequence), and rows are counted
+upstream from it; the rows are handed to the learner in batches of `batch_rows` (20).
+"""
+
+from __future__ import annotations
+
+import math
+
+from planner.decision.interface import TrackedItem
+
+BELT_COLUMNS = 25
+GRID_COLUMNS = BELT_COLUMNS + 2
+BELT_HALF_WIDTH = 0.4
+"""Half the belt's width the 25 columns span [m]."""
+
+
+def belt_coordinate(item: TrackedItem, t: float, belt_speed: float) -> float:
+    """Where the item was at t = 0 [m]: a coordinate fixed to the belt."""
+    return item.x - belt_speed * t
+
+
+def grid_row(
+    item: TrackedItem, t: float, belt_speed: float, row_period_s: float, origin: float = 0.0
+) -> int:
+    """Row of an item, counted upstream from the belt coordinate `origin` [m] (row 0 holds the
+    first item seen); 0 on a stopped belt."""
+    if belt_speed <= 0.0:
+        return 0
+    u = belt_coordinate(item, t, belt_speed)
+    return math.floor((origin - u) / (belt_speed * row_period_s))
+
+
+def batch_index(
+    item: TrackedItem,
+    t: float,
+    belt_speed: float,
+    row_period_s: float,
+    batch_rows: int,
+    origin: float = 0.0,
+) -> int:
+    """Batch of an item: its grid row // batch_rows (see `grid_row`)."""
+    return grid_row(item, t, belt_speed, row_period_s, origin) // batch_rows
+
+
+def grid_column(y: float, half_width: float = BELT_HALF_WIDTH) -> int:
+    """Grid column 2..26 of a belt position y [m] (1 and 27 are the bin columns)."""
+    k = int((y + half_width) / (2 * half_width) * BELT_COLUMNS)
+    return 2 + min(max(k, 0), BELT_COLUMNS - 1)
+
+
+def column_centre(column: int, half_width: float = BELT_HALF_WIDTH) -> float:
+    """y [m] of the centre of grid column 2..26."""
+    return -half_width + (column - 1.5) * (2 * half_width / BELT_COLUMNS)
