@@ -7,7 +7,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.sortsim-installed
 
-.PHONY: run test test-all bench lint format venv clean
+.PHONY: run test test-all bench soak lint format venv clean
 
 $(STAMP): pyproject.toml
 	@test -x $(PY) || python3 -m venv $(VENV)
@@ -28,6 +28,11 @@ test-all: $(STAMP)
 
 bench: $(STAMP)
 	$(VENV)/bin/sortsim bench
+
+# 200 random episodes, each checked: counts add up, no MuJoCo warning, finite state, nothing
+# thrown off the belt (benchmarks/soak.py; --episodes, --workers, --seed).
+soak: $(STAMP)
+	$(PY) benchmarks/soak.py
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .

@@ -27,6 +27,7 @@ from planner.motion.pick_cycle import (
     PickPlan,
     delay_contact,
     join_pick_place,
+    lift_travel,
     pick_place_waypoints,
     plan_pick,
     plan_place,
@@ -46,6 +47,12 @@ MAX_PLANS = 20
 
 HORIZON = 10.0
 """Longest wait considered for an item upstream of the window [s]."""
+
+FINE_DT = 0.0005
+"""Time step at which a finished plan is checked to stay inside the workspace [s]."""
+
+MAX_LATER = 5
+"""Times a plan leaving the workspace between the generator's checks is moved `SCAN_DT` later."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -71,9 +78,12 @@ def _refuse(reason: str) -> Intercept:
     return Intercept(False, reason, float("nan"), np.full(3, np.nan))
 
 
-def window_mask(geom, xs, y, pick_z, belt_speed, config: PickPlaceConfig) -> np.ndarray:
+def window_mask(
+    geom, xs, y, pick_z, belt_speed, config: PickPlaceConfig, lift_travel: float = 0.0
+) -> np.ndarray:
     """Whether an item met at each x of `xs` [m] has its contact, approach, seal-end and lift
-    points inside the workspace."""
+    points inside the workspace (the lift ending `lift_travel` [m] downstream of the seal's
+    end when the cup lifts with the belt)."""
     xs = np.asarray(xs, dtype=float)
     seal = belt_speed * config.seal_time
     pts = []
@@ -81,7 +91,7 @@ def window_mask(geom, xs, y, pick_z, belt_speed, config: PickPlaceConfig) -> np.
         (0.0, 0.0),
         (0.0, config.approach_height),
         (seal, 0.0),
-        (seal, config.lift_height),
+        (seal + lift_travel, config.lift_height),
     ):
         pts.append(np.stack([xs + dx, np.full_like(xs, y), np.full_like(xs, pick_z + dz)], axis=1))
     return np.all([reachable_mask(geom, p) for p in pts], axis=0)
@@ -122,10 +132,13 @@ def intercept_item(
     config = config or PickPlaceConfig()
     x0, y = float(item_xy[0]), float(item_xy[1])
     times = np.arange(0.0, HORIZON + SCAN_DT, SCAN_DT)
-    inside = window_mask(geom, x0 + belt_speed * times, y, pick_z, belt_speed, config)
+    travel = 0.0
+    if config.lift_with_belt:
+        travel = lift_travel(config.lift_height, belt_speed, generator)
+    inside = window_mask(geom, x0 + belt_speed * times, y, pick_z, belt_speed, config, travel)
     if not np.any(inside):
         line = np.linspace(x0 - 3.0, x0 + 3.0, 601)
-        crossed = window_mask(geom, line, y, pick_z, belt_speed, config)
+        crossed = window_mask(geom, line, y, pick_z, belt_speed, config, travel)
         if np.any(crossed) and x0 > line[crossed].max():
             return _refuse("the item has already left the reachable window")
         return _refuse("the item's path never enters the reachable window")
@@ -167,10 +180,39 @@ def intercept_item(
     point = np.array([x0 + belt_speed * t, y, pick_z])
     if not with_plan:
         return Intercept(True, "", t, point)
-    wps = wps_at(t)
-    try:
-        pick = delay_contact(pick, wps[1], generator, t)
-        plan = join_pick_place(pick, plan_place(wps, generator, config), point, belt_speed)
-    except PlannerInputError as exc:
-        return _refuse(f"no pick within the motor limits meets the item inside the window ({exc})")
-    return Intercept(True, "", t, point, plan)
+    for _ in range(MAX_LATER + 1):
+        point = np.array([x0 + belt_speed * t, y, pick_z])
+        wps = wps_at(t)
+        try:
+            pick = delay_contact(pick, wps[1], generator, t)
+            plan = join_pick_place(pick, plan_place(wps, generator, config), point, belt_speed)
+        except PlannerInputError as exc:
+            return _refuse(
+                f"no pick within the motor limits meets the item inside the window ({exc})"
+            )
+        low = (plan.chain.phase_start("descend"), plan.chain.phase_start("transfer"))
+        if path_inside(plan.chain, geom, *low):
+            return Intercept(True, "", t, point, plan)
+        # The descent swings a millimetre or two about the contact point as it matches the
+        # belt's velocity; at the window's edge that can leave the workspace between the
+        # generator's 2 ms checks: meet the item a little later, further inside.
+        t += SCAN_DT
+        if t > t_exit:
+            break
+        pick, contact = earliest_contact(t)
+        if pick is None or contact > t + 1e-9:
+            break
+    return _refuse("every plan meeting the item inside the window leaves the workspace")
+
+
+def path_inside(
+    chain, geom: DeltaGeometry, t_start: float = 0.0, t_end: float | None = None, dt=FINE_DT
+) -> bool:
+    """Whether the TCP of `chain` stays inside the workspace from `t_start` to `t_end` [s]
+    (its end when None), sampled every `dt` [s]: finer than the executor's control period,
+    which turns every sample into motor set-points. The intercept checks the low part of the
+    path (descent, seal, lift), where it runs along the workspace's lower edge."""
+    t_end = chain.duration if t_end is None else t_end
+    times = np.append(np.arange(t_start, t_end, dt), t_end)
+    xyz = np.array([chain.at_time(float(t))[0][:3] for t in times])
+    return bool(np.all(reachable_mask(geom, xyz)))

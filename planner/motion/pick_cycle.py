@@ -1,11 +1,11 @@
 """A pick-and-place cycle as a chain of ruckig segments, and ABB's Cycle 1.
 
 Pick and place: approach a point above the item, descend onto it arriving at the belt's
-velocity, seal (35 ms) while moving with the belt, lift straight up, transfer to the bin's drop
+velocity, seal (35 ms) while moving with the belt, lift straight up (still moving with the belt,
+so the held item rises straight up from among its neighbours), transfer to the bin's drop
 point, release (35 ms). The robot then sets off from the drop point to the next item. The corner
-above the item is blended by `planner.motion.blending.plan_chain`; the cup stops at the top of the
-lift,
-so the held item is up before it moves sideways.
+above the item is blended by `planner.motion.blending.plan_chain`; the lift ends with no
+vertical speed at its top, so the held item is up before it moves sideways.
 """
 
 from __future__ import annotations
@@ -37,6 +37,10 @@ class PickPlaceConfig:
             belt's velocity while it seals (about 0.1 mm of settling left at touch-down) for
             ~18 ms more per pick; with 1 it is within ~2 % (0.25 mm of settling).
         blend: Pass the corners with non-zero velocity where that is faster.
+        lift_with_belt: Keep the belt's velocity along x through the lift (conveyor tracking),
+            so the item rises straight up from among its neighbours, which ride on beside it;
+            False stops the cup's x during the lift, and a neighbour a few mm upstream runs
+            into the held item's low end (a lying can was struck at 0.85 m/s so).
     """
 
     approach_height: float = 0.025
@@ -45,6 +49,7 @@ class PickPlaceConfig:
     release_time: float = VACUUM_RELEASE_S
     touchdown_slow: float = 1.0
     blend: bool = True
+    lift_with_belt: bool = True
 
     def __post_init__(self):
         for name in ("approach_height", "lift_height", "seal_time", "release_time"):
@@ -117,6 +122,7 @@ def pick_place_waypoints(
         ),
         # Straight up to the lift height, then the transfer: a held item swept sideways while
         # still low hits its neighbours on the belt (a stop costs ~8 ms of a ~0.3 s place).
+        # `plan_place` moves this point along with the belt (`lift_with_belt`).
         Waypoint(np.append(lift, axis4[0]), velocity=np.zeros(4), label="lift"),
         Waypoint(
             np.append(b, axis4[1]),
@@ -190,15 +196,41 @@ def delay_contact(
     return Chain(pick.segments[:k] + tail.segments)
 
 
+def lift_travel(
+    lift_height: float, belt_velocity: float, generator: RuckigTrajectoryGenerator
+) -> float:
+    """How far [m] the belt carries an item while the cup lifts it by `lift_height` [m] (the
+    rest-to-rest time of the vertical move, at the robot's nominal pose)."""
+    if belt_velocity == 0.0 or lift_height <= 0.0:
+        return 0.0
+    rise = generator.plan_unchecked(
+        State.at_rest([0.0, 0.0, 0.0]), State.at_rest([0.0, 0.0, lift_height])
+    )
+    return float(belt_velocity) * rise.duration
+
+
 def plan_place(
     waypoints: Sequence[Waypoint], generator: RuckigTrajectoryGenerator, config: PickPlaceConfig
 ) -> Chain:
     """The place half (lift, transfer, release) of `pick_place_waypoints`, from the seal's end.
 
     The seal's end state is fixed (contact point and belt velocity), so the two halves are
-    planned apart: their corners do not interact.
+    planned apart: their corners do not interact. With `config.lift_with_belt` the lift ends
+    where the belt has carried the item by then, still at the belt's velocity: ruckig then
+    moves x at exactly the belt's velocity (the z move sets the duration), so the held item
+    rises straight up relative to the belt.
     """
-    return plan_chain(_seal_end(waypoints[1]), waypoints[2:], generator, blend=config.blend)
+    start = _seal_end(waypoints[1])
+    place = list(waypoints[2:])
+    vb = float(waypoints[1].velocity[0])
+    if config.lift_with_belt and vb != 0.0:
+        lift = place[0]
+        travel = lift_travel(lift.position[2] - start.position[2], vb, generator)
+        along = np.array([travel, 0.0, 0.0, 0.0])
+        place[0] = replace(
+            lift, position=lift.position + along, velocity=np.array([vb, 0.0, 0.0, 0.0])
+        )
+    return plan_chain(start, place, generator, blend=config.blend)
 
 
 def join_pick_place(pick: Chain, place: Chain, pick_xyz, belt_velocity: float) -> PickPlan:

@@ -2,14 +2,14 @@
 
 In the manner of dm_control's `Environment.step` with task hooks. Each physics step is
 `before_step` (the robot's executor writes its set-points) -> `mj_step` -> after-step hooks
-(the cup; then the scheduler: items dropped at the infeed, observations, item checks with the
-bins and riding, video frames) -> the pick's outcome once the robot is free again. While the
-robot idles the physics is stepped in blocks up to the next scheduled event; while it moves,
-one step per control period. Decisions are the episode's public surface: `step_until_decision`
-advances until the robot is free and a choice is needed, `apply` takes the choice (from the
-configured decision manager in `run`, or from outside: a Gymnasium agent, a line coordinator).
-The episode ends when every item has been dropped and left the belt (picked, missed, dropped)
-and the robot is idle.
+(the cup; then the scheduler: items dropped at the infeed, observations, item checks with
+MuJoCo's warnings, items thrown off the belt, the bins and riding, video frames) -> the pick's
+outcome once the robot is free again. While the robot idles the physics is stepped in blocks
+up to the next scheduled event; while it moves, one step per control period. Decisions are
+the episode's public surface: `step_until_decision` advances until the robot is free and a
+choice is needed, `apply` takes the choice (from the configured decision manager in `run`, or
+from outside: a Gymnasium agent, a line coordinator). The episode ends when every item has
+been dropped and left the belt (picked, missed, dropped) and the robot is idle.
 """
 
 from __future__ import annotations
@@ -26,7 +26,9 @@ from planner.decision.registry import make_planner
 from planner.motion.cycle_model import CycleTimeModel
 from sim.cell.bins import BIN_CLASSES, Bins
 from sim.cell.cell import PICK_Z_NOMINAL, Cell
+from sim.cell.mj_warnings import WarningCounter
 from sim.cell.riding import ItemRiding
+from sim.cell.thrown import ThrowWatch
 from sim.cell.video import overlay_of
 from sim.episode.config import EpisodeConfig
 from sim.episode.metrics import EpisodeMetrics, PickRecord
@@ -58,16 +60,20 @@ _OBJECTIVES = {"value_over_distance": "v/d", "value_only": "d=1", "distance_only
 
 
 def make_decision_manager(config: EpisodeConfig):
-    """The configured planner (Q-learning parameters from the config)."""
-    if config.planner == "qlearning":
+    """The configured planner: qlearning and rollout take the [qlearning] section's parameters
+    and the observation period as their grid's row period; qlearning draws its random actions
+    from the episode's seed."""
+    if config.planner in ("qlearning", "rollout"):
         q = config.qlearning
+        options = {"seed": config.seed} if config.planner == "qlearning" else {}
         return make_planner(
-            "qlearning",
+            config.planner,
             gamma=q.gamma,
             iterations=q.iterations,
             batch_rows=q.batch_rows,
             row_period_s=config.observation_period_s,
             objective=_OBJECTIVES[q.objective],
+            **options,
         )
     return make_planner(config.planner)
 
@@ -129,6 +135,10 @@ class Episode:
         self.riding = ItemRiding(
             self.model, cell.pool, cell.wake_x, enabled=config.item_riding == "settled"
         )
+        # MuJoCo's warning counts start at zero (the reset above clears them).
+        self.mj_warnings = WarningCounter(self.data)
+        self.throw_watch = ThrowWatch(self.model, cell.pool)
+        self._cup_events_seen = 0
         self.context = DecisionContext(
             belt_speed=self.speed,
             cycle_model=CycleTimeModel(
@@ -246,7 +256,7 @@ class Episode:
         self.current_pick = track
         self.tracker.remove(track.track_id)
         self._pick_started = (track, choice)
-        self.robot.start(intercept)
+        self.robot.start(intercept, -1 if track.true_id is None else int(track.true_id))
         return True
 
     def run(self) -> None:
@@ -336,8 +346,19 @@ class Episode:
         self.latencies["perception"].append(dt)
 
     def _check_items(self, t: float) -> None:
+        """Every `CHECK_PERIOD_S`: MuJoCo's new warnings, items thrown off the belt
+        (`sim.cell.thrown`), items past the robot or the belt's end, landings, riding."""
         pool, data = self.cell.pool, self.data
-        held = self.robot.suction.held_slot
+        cup = self.robot.suction
+        held = cup.held_slot
+        self.metrics.on_warnings(self.mj_warnings.update())
+        # Items the cup let go of over a bin fall into it: not thrown, never judged as such.
+        for event in cup.events[self._cup_events_seen :]:
+            if event.kind == "released":
+                self.throw_watch.note_released(event.item_id)
+        self._cup_events_seen = len(cup.events)
+        for throw in self.throw_watch.update(data, held):
+            self.metrics.on_thrown(throw, self.robot.activity())
         for slot in pool.active_slots():
             if slot == held:
                 continue
@@ -350,7 +371,9 @@ class Episode:
             self.metrics.on_missed(item_id)
             self.tracker.remove_true(item_id)
         for landing in self.bins.update(data, held):
-            if landing.bin is None:
+            if landing.bin is None or landing.item_id not in self.throw_watch.released:
+                # Only what the cup carried and let go of over a bin is picked; an item that
+                # reached a bin otherwise (knocked off the belt) is dropped.
                 self.metrics.on_dropped(landing.item_id)
             else:
                 bin_class = BIN_CLASSES.index(landing.bin) + 2
@@ -392,6 +415,7 @@ class Episode:
         if self._closed_out:
             return
         self._closed_out = True
+        self.metrics.on_warnings(self.mj_warnings.update())
         for slot in self.cell.pool.active_slots():
             self.metrics.on_missed(int(self.cell.pool.park(self.data, int(slot))))
 

@@ -13,6 +13,22 @@ Definitions (thesis 4.1.4 and docs/episode.md):
   runner takes them off the belt there); `dropped`: items that fell anywhere but into a bin
   (off the belt, off the cup, beside a bin).
 - `mean_cycle_s`: mean time from the start of one pick attempt to the end of its release.
+- `thrown_off`: items the robot struck or flung off the belt (`sim.cell.thrown`: left the belt's
+  top area sideways or upstream, or moved faster than 1.5 m/s, while neither held nor released
+  over a bin by the cup). Each is also booked where it ends: dropped when it came to rest off
+  the belt (in a bin too: only what the cup carries there is picked), missed or picked when it
+  stayed on the belt.
+- `mujoco_warnings`: MuJoCo's warnings (`data.warning`) raised during the episode, all kinds.
+
+Accounting identities, true of every finished episode (`accounting_failures` checks them):
+
+- entered = picked + missed + dropped, the three sets disjoint (every item ends in exactly
+  one: in a bin, past the robot or at the time cap, or anywhere else);
+- entered = entered_paper + entered_plastic + entered_aluminium, and the same for picked;
+- wrong_bin <= picked <= attempts - failed_picks (only an item the cup carried and released
+  over a bin can be in one);
+- thrown_off is a subset of picked | missed | dropped (a thrown item is booked where it ends);
+- accuracy = picked / entered.
 """
 
 from __future__ import annotations
@@ -71,8 +87,10 @@ class EpisodeMetrics:
         self.missed: set[int] = set()
         self.dropped: set[int] = set()
         self.picks: list[PickRecord] = []
-        self.thrown_off: set[int] = set()  # items that left the belt other than into a bin
+        self.thrown_off: set[int] = set()  # items struck or flung off the belt
+        self.throws: list[tuple[object, str]] = []  # (sim.cell.thrown.Throw, robot activity)
         self.mujoco_warnings = 0  # MuJoCo warnings raised during the episode
+        self.warning_kinds: dict[str, int] = {}  # the same per kind (sim.cell.mj_warnings)
 
     def on_entered(self, item_id: int, true_class: int) -> None:
         """An item was dropped onto the belt."""
@@ -91,6 +109,19 @@ class EpisodeMetrics:
         """An item fell somewhere other than the belt's end or a bin."""
         if item_id not in self.binned:
             self.dropped.add(int(item_id))
+
+    def on_thrown(self, throw, doing: str = "") -> None:
+        """An item was thrown off the belt (`sim.cell.thrown.Throw`); `doing` says what the
+        robot was doing at the time."""
+        if throw.item_id not in self.thrown_off:
+            self.thrown_off.add(int(throw.item_id))
+            self.throws.append((throw, doing))
+
+    def on_warnings(self, by_kind: dict[str, int]) -> None:
+        """MuJoCo raised warnings ({kind: count}) since the last call."""
+        for kind, n in by_kind.items():
+            self.warning_kinds[kind] = self.warning_kinds.get(kind, 0) + int(n)
+            self.mujoco_warnings += int(n)
 
     def on_pick(self, record: PickRecord) -> None:
         """A pick attempt finished (successfully or not)."""
@@ -137,6 +168,41 @@ class EpisodeMetrics:
             "mujoco_warnings": self.mujoco_warnings,
             "thrown_off": len(self.thrown_off),
         }
+
+    def accounting_failures(self) -> list[str]:
+        """The accounting identities of the module docstring that do not hold (empty: all do).
+
+        Call once the episode has finished (no item left on the belt)."""
+        row = self.row()
+        fails = []
+        picked, missed, dropped = set(self.binned), self.missed, self.dropped
+        if row["entered"] != len(picked) + len(missed) + len(dropped):
+            fails.append(
+                f"entered {row['entered']} != picked {len(picked)} + missed {len(missed)} "
+                f"+ dropped {len(dropped)}"
+            )
+        for name, a, b in (("picked&missed", picked, missed), ("picked&dropped", picked, dropped)):
+            if a & b:
+                fails.append(f"{name} overlap: {sorted(a & b)}")
+        if missed & dropped:
+            fails.append(f"missed&dropped overlap: {sorted(missed & dropped)}")
+        for what in ("entered", "picked"):
+            parts = sum(row[f"{what}_{c}"] for c in ("paper", "plastic", "aluminium"))
+            if parts != row[what]:
+                fails.append(f"{what} {row[what]} != sum by class {parts}")
+        carried = row["attempts"] - row["failed_picks"]
+        if not row["wrong_bin"] <= row["picked"] <= carried:
+            fails.append(
+                f"not wrong_bin {row['wrong_bin']} <= picked {row['picked']} "
+                f"<= carried to a bin {carried}"
+            )
+        unbooked = self.thrown_off - picked - missed - dropped
+        if unbooked:
+            fails.append(f"thrown off but never booked: {sorted(unbooked)}")
+        n_in = row["entered"]
+        if n_in and abs(row["accuracy"] - row["picked"] / n_in) > 1e-12:
+            fails.append("accuracy != picked / entered")
+        return fails
 
     def pick_rows(self) -> list[dict[str, object]]:
         """picks.csv rows, in the order the attempts started."""

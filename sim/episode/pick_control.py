@@ -5,6 +5,13 @@ arriving on the item at the belt's velocity), the chain is played by
 `sim.cell.executor.TrajectoryExecutor` (IK motor set-points at every physics step), and the vacuum
 cup (`sim.cell.suction.SuctionCup`) seals if its lip rests on an item for the seal time, holds it
 within its force budget, and lets it go over the bin.
+
+Nothing but the item picked is to be touched: the empty cup comes down over the tallest
+neighbour near its path (the plan is checked against the items around, as they ride on, and
+the corner above the item raised where it passes one too low), the lift keeps the belt's
+velocity so the held item rises straight up from among its neighbours, and a pick whose lip
+would touch a neighbour on the way down, or whose item has another lying on it, is refused.
+A seal that does not form leaves the cup to lift straight up, empty.
 """
 
 from __future__ import annotations
@@ -15,6 +22,13 @@ import mujoco
 import numpy as np
 
 from planner.errors import PlannerInputError
+from planner.motion.clearance import (
+    TOUCH_MARGIN_XY,
+    Obstacle,
+    footprint_distances,
+    outline_points,
+    path_conflicts,
+)
 from planner.motion.intercept import Intercept, intercept_item
 from planner.motion.pick_cycle import PickPlaceConfig
 from planner.motion.trajectory import State
@@ -36,6 +50,11 @@ RELEASE_CLEAR_S = 0.06
 CLEARANCE_M = 0.025
 """Gap kept between a held item's bottom and the rails, the tallest item on the belt or a
 bin's rim [m]."""
+APPROACH_CLEARANCE_M = 0.025
+"""Gap kept between the empty cup's lip and the top of a neighbour it would pass on the way
+down to the item it picks [m]."""
+MAX_RAISES = 3
+"""Times the approach is planned again over a neighbour the last plan passed too low."""
 
 
 def clear_height(catalogue: Catalogue, rail_top: float) -> float:
@@ -93,8 +112,21 @@ class PickController:
         self.rest = cell.tcp()
         self.axis4 = float(cell.data.joint("axis4_joint").qpos[0])
         self.plan_failures = 0
+        self.raises = 0  # approaches planned again over a neighbour
+        self.neighbour_refusals = 0  # picks refused: a neighbour in the cup's way down
         self.clear_z = clear_height(cell.catalogue, rail_top_z(cell.model))
         self._pick: _PickInProgress | None = None
+
+    def slot_near(self, x: float, y: float) -> int | None:
+        """Pool slot of the item on the belt nearest (x, y) now, within `NEAR_M`, or None."""
+        pool, data = self.cell.pool, self.cell.data
+        best, best_d = None, NEAR_M
+        for slot in pool.active_slots():
+            px, py, pz = data.xpos[pool.body_ids[slot]]
+            d = float(np.hypot(px - x, py - y))
+            if d < best_d and pz > -0.05:
+                best, best_d = int(slot), d
+        return best
 
     def item_near(self, x: float, y: float) -> tuple[float, float]:
         """(top height [m], heading [rad]) of the item nearest (x, y) now.
@@ -103,17 +135,62 @@ class PickController:
         read from the simulation in both perception modes. (DEFAULT_TOP_Z, 0) when no item
         is near.
         """
+        slot = self.slot_near(x, y)
+        if slot is None:
+            return DEFAULT_TOP_Z, 0.0
+        xmat = self.cell.data.xmat[self.cell.pool.body_ids[slot]]
+        return self.top_of(slot), float(np.arctan2(xmat[3], xmat[0]))  # heading of body x
+
+    def neighbours(self, exclude: int | None) -> list[tuple[int, Obstacle]]:
+        """(slot, obstacle) of the items over the belt but `exclude` (a slot), measured now
+        (the same stand-in for a stereo camera as `item_near`)."""
         pool, data = self.cell.pool, self.cell.data
-        best, best_d = (DEFAULT_TOP_Z, 0.0), NEAR_M
+        belt = pool.belt.geometry
+        out = []
         for slot in pool.active_slots():
-            body = pool.body_ids[slot]
-            px, py, pz = data.xpos[body]
-            d = float(np.hypot(px - x, py - y))
-            if d < best_d and pz > -0.05:
-                xmat = data.xmat[body]
-                yaw = float(np.arctan2(xmat[3], xmat[0]))  # heading of the body's x axis
-                best, best_d = (self.top_of(int(slot)), yaw), d
-        return best
+            centre = data.xpos[pool.body_ids[slot]]
+            # Items over the belt only: one just let go of over a bin is falling into it.
+            if slot == exclude or not belt.on_belt(centre[:2]) or centre[2] < belt.top_z - 0.05:
+                continue
+            out.append((int(slot), self.obstacle_of(int(slot))))
+        return out
+
+    def obstacle_of(self, slot: int) -> Obstacle:
+        """The item in `slot` as the cup's obstacle: its outline seen from above and its top."""
+        model, data = self.cell.model, self.cell.data
+        geom = self.cell.pool.geom_id(slot)
+        cx, cy = (float(v) for v in data.geom_xpos[geom][:2])
+        rot = data.geom_xmat[geom].reshape(3, 3)
+        size = model.geom_size[geom]
+        top = self.top_of(slot)
+        if model.geom_type[geom] == mujoco.mjtGeom.mjGEOM_BOX:
+            # Its own x-y rectangle, grown by its thickness when tilted (a conservative outline
+            # of the projection).
+            tilt = float(np.sqrt(max(0.0, 1.0 - rot[2, 2] ** 2)))
+            heading = float(np.arctan2(rot[1, 0], rot[0, 0]))
+            return Obstacle(cx, cy, heading, size[0], size[1], size[2] * tilt, top)
+        # Cylinder or capsule: its axis seen from above, grown by its radius.
+        ax, ay = rot[0, 2], rot[1, 2]
+        half = float(size[1] * np.hypot(ax, ay))
+        return Obstacle(cx, cy, float(np.arctan2(ay, ax)), half, 0.0, float(size[0]), top)
+
+    def resting_on(self, target: int, neighbours: list[tuple[int, Obstacle]]) -> list[int]:
+        """Slots of the neighbours lying on or leaning against the item in `target`: their
+        outlines overlap and their centre is higher. Lifting the item at the cup's 100 m/s^2
+        would fling them (a standing can on a board's edge left it at 2.7 m/s)."""
+        if not neighbours:
+            return []
+        shape = self.obstacle_of(target)
+        points = outline_points(shape)
+        data, bodies = self.cell.data, self.cell.pool.body_ids
+        z = data.xpos[bodies[target], 2]
+        out = []
+        obstacles = [o for _, o in neighbours]
+        inside = footprint_distances(obstacles, points, np.zeros(len(points))) <= 0.0
+        for (slot, _), overlap in zip(neighbours, inside.any(axis=1), strict=True):
+            if overlap and data.xpos[bodies[slot], 2] > z + 1e-3:
+                out.append(slot)
+        return out
 
     def top_of(self, slot: int) -> float:
         """Highest point [m] of the item in `slot` as it lies now (a can may have toppled)."""
@@ -137,7 +214,15 @@ class PickController:
         lift and the release point keep its bottom at `clear_height` (over the rails and the
         tallest item on the belt; the bins' rims are lower); axis 4 turns the item's long axis
         along the bin's long side.
+
+        The items around it are measured too (`neighbours`), and the plan is checked against
+        them as they ride on (`planner.motion.clearance`): where the empty cup would pass a
+        neighbour too low on its way, the corner above the item is raised over that
+        neighbour's top (`APPROACH_CLEARANCE_M`) and the pick planned again, so the cup comes
+        down straight from above it. The pick is refused, with the reason, when the lip would
+        touch a neighbour on the last way down, or another item lies on this one.
         """
+        target = self.slot_near(x, y)
         top, yaw = self.item_near(x, y)
         # Turn axis 4 on the way so the item's long axis ends along the bins' long side (x).
         # An item looks the same turned by pi: of the turns that align it, take the one that
@@ -151,28 +236,74 @@ class PickController:
         drop = np.array(self.cell.drop_xyz[bin_class], dtype=float)
         # Long items overhang the bin towards the belt: keep them above the rails too.
         drop[2] = max(drop[2], self.clear_z + height)
-        config = replace(self.config, lift_height=lift)
-        try:
-            return intercept_item(
-                State.at_rest(self.rest),
-                (x, y),
+        neighbours = self.neighbours(exclude=target)
+        if target is not None and self.resting_on(target, neighbours):
+            self.neighbour_refusals += 1
+            reason = "another item lies on it (lifting it would fling that one)"
+            return Intercept(False, reason, float("nan"), np.full(3, np.nan))
+        obstacles = [o for _, o in neighbours]
+        approach = self.config.approach_height
+        for _ in range(MAX_RAISES + 1):
+            config = replace(self.config, lift_height=lift, approach_height=approach)
+            try:
+                hit = intercept_item(
+                    State.at_rest(self.rest),
+                    (x, y),
+                    self.belt_speed,
+                    drop,
+                    self.cell.generator,
+                    pick_z,
+                    config,
+                    axis4=(self.axis4, self.axis4 + turn),
+                )
+            except PlannerInputError as exc:
+                self.plan_failures += 1
+                return Intercept(False, str(exc), float("nan"), np.full(3, np.nan))
+            if not hit.feasible:
+                return hit
+            chain, radius = hit.plan.chain, self.suction.radius
+            t_down = chain.phase_start("descend")
+            # The way down onto the item, nearly vertical: only a neighbour the lip would
+            # touch stops the pick (no corner height helps).
+            landing = path_conflicts(
+                chain,
+                hit.plan.contact_time,
+                obstacles,
                 self.belt_speed,
-                drop,
-                self.cell.generator,
-                pick_z,
-                config,
-                axis4=(self.axis4, self.axis4 + turn),
+                radius,
+                margin_xy=TOUCH_MARGIN_XY,
+                margin_z=0.0,
+                t_start=t_down,
             )
-        except PlannerInputError as exc:
-            self.plan_failures += 1
-            return Intercept(False, str(exc), float("nan"), np.full(3, np.nan))
+            if landing:
+                conflicts = landing
+                break
+            # The flight to the corner above the item: a neighbour passed too low or too close
+            # is flown over instead (the corner raised over its top), then straight down.
+            conflicts = path_conflicts(chain, t_down, obstacles, self.belt_speed, radius)
+            if not conflicts:
+                return hit
+            need = max(c.top for c in conflicts) + APPROACH_CLEARANCE_M - pick_z
+            if need <= approach + 1e-6:
+                break
+            approach = need
+            self.raises += 1
+        self.neighbour_refusals += 1
+        c = max(conflicts, key=lambda c: c.top - c.cup_z)
+        return Intercept(
+            False,
+            f"the cup would pass {c.gap * 1e3:.0f} mm beside a neighbour whose top is "
+            f"{c.top - c.cup_z:+.3f} m above the lip",
+            float("nan"),
+            np.full(3, np.nan),
+        )
 
     @property
     def busy(self) -> bool:
         """A pick is under way (from `start` until `poll` returns its outcome)."""
         return self._pick is not None
 
-    def start(self, intercept: Intercept) -> None:
+    def start(self, intercept: Intercept, target: int = -1) -> None:
         """Begin playing a feasible intercept's plan from the current sim time.
 
         The vacuum opens as the descent starts (the cup seals once its lip has touched the item
@@ -180,14 +311,37 @@ class PickController:
         release time later, at the end of the chain). The episode's loop then calls
         `before_step` and `after_step` around each physics step and `poll` after its other
         after-step work, until `poll` returns the outcome.
+
+        Args:
+            intercept: A feasible intercept with its plan.
+            target: Flow id of the item aimed at, when known (for `activity`).
         """
         plan = intercept.plan
         self._pick = _PickInProgress(
+            chain=plan.chain,
+            target=int(target),
             playback=self.cell.executor.playback(plan.chain, hold=RELEASE_CLEAR_S),
             vacuum_from=plan.chain.phase_start("descend"),
             release_time=plan.release_time,
             t_start=float(self.cell.data.time),
             end=plan.chain.at_time(plan.chain.duration)[0],
+        )
+
+    def activity(self) -> str:
+        """What the robot is doing now, in a few words (for logs of unexpected events)."""
+        pick = self._pick
+        if pick is None:
+            return "idle"
+        if pick.k >= pick.playback.n:
+            phase = "releasing"
+        else:
+            t = float(pick.playback.times[max(pick.k - 1, 0)])
+            i = int(np.searchsorted(pick.chain.starts, t, side="right")) - 1
+            phase = pick.chain.segments[min(max(i, 0), len(pick.chain.segments) - 1)].label
+        held = self.suction.held_item
+        return (
+            f"pick of item {pick.target}: {phase}, "
+            f"{'holding item ' + str(held) if held is not None else 'holding nothing'}"
         )
 
     def before_step(self) -> None:
@@ -236,6 +390,8 @@ class PickController:
 class _PickInProgress:
     """The state of one pick while the loop plays it (period index, vacuum switches, events)."""
 
+    chain: object
+    target: int
     playback: Playback
     vacuum_from: float
     release_time: float

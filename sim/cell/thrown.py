@@ -1,0 +1,126 @@
+"""Items thrown off the belt: what a plant would stop the line for.
+
+An item is *thrown off* when, not held by the cup and not let go by it over a bin,
+
+- its centre leaves the belt's top area sideways: beyond the outer face of a side rail;
+- or upstream: more than `UPSTREAM_MARGIN_M` upstream of the infeed's drop line (the belt only
+  ever carries items downstream; past its discharge end they are missed, not thrown);
+- or it moves faster than `THROW_SPEED_MPS` anywhere: on the belt items move at its speed
+  (at most 0.28 m/s), so only a blow from the cup or a held item makes them that fast.
+
+Items the cup released over a bin fall into it at up to 3 m/s and are never judged here, nor
+is the held item. An item counts once per episode, at the first check that sees it thrown; it
+is then left to physics (it comes to rest somewhere and the bins book it as dropped).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from sim.cell.conveyor import RAIL_GEOMS
+from sim.cell.item_pool import ItemPool
+from sim.flow.config import X_INFEED
+
+THROW_SPEED_MPS = 1.5
+"""An item not held moving faster than this has been struck or flung [m/s] (the belt's top
+speed is 0.28 m/s; a struck can left the belt at 2.3 m/s)."""
+UPSTREAM_MARGIN_M = 0.05
+"""How far upstream of the infeed's drop line an item may be before it counts as thrown [m]
+(items are handed over at the belt's speed and stay within 2 mm of where they drop)."""
+
+
+@dataclass(frozen=True)
+class Throw:
+    """One item thrown off the belt.
+
+    Attributes:
+        item_id: Flow id.
+        time: Sim time of the check that saw it [s].
+        reason: "sideways", "upstream" or "fast".
+        position: Its centre then [m].
+        velocity: Its linear velocity then [m/s].
+    """
+
+    item_id: int
+    time: float
+    reason: str
+    position: tuple[float, float, float]
+    velocity: tuple[float, float, float]
+
+    @property
+    def speed(self) -> float:
+        """Speed when seen [m/s]."""
+        return float(np.linalg.norm(self.velocity))
+
+
+def rail_outer_y(model: mujoco.MjModel) -> float:
+    """|y| of the side rails' outer faces [m] (the belt's top area ends there)."""
+    return max(
+        abs(float(model.geom(name).pos[1])) + float(model.geom(name).size[1]) for name in RAIL_GEOMS
+    )
+
+
+class ThrowWatch:
+    """Looks for items thrown off the belt (see the module docstring).
+
+    Args:
+        model: The cell.
+        pool: Its item pool.
+        speed_limit: `THROW_SPEED_MPS` unless given [m/s].
+    """
+
+    def __init__(self, model: mujoco.MjModel, pool: ItemPool, speed_limit: float = THROW_SPEED_MPS):
+        self.pool = pool
+        self.speed_limit = float(speed_limit)
+        belt = pool.belt.geometry
+        self.y_centre = belt.y_centre
+        self.y_limit = rail_outer_y(model) - belt.y_centre
+        self.x_upstream = X_INFEED - UPSTREAM_MARGIN_M
+        self.released: set[int] = set()
+        self.thrown: dict[int, Throw] = {}
+        self.peak_speed = 0.0
+        """Fastest item seen not held and not released over a bin [m/s] (margin to the limit)."""
+
+    def note_released(self, item_id: int) -> None:
+        """The cup let go of `item_id` at the drop point: it falls into a bin, not judged."""
+        self.released.add(int(item_id))
+
+    def update(self, data: mujoco.MjData, held_slot: int | None = None) -> list[Throw]:
+        """The items newly thrown off since the last call (call every few ms)."""
+        pool = self.pool
+        slots = pool.active_slots()
+        if held_slot is not None:
+            slots = slots[slots != held_slot]
+        if not len(slots):
+            return []
+        ids = pool.item_ids[slots]
+        judged = np.array([i not in self.released for i in ids.tolist()], dtype=bool)
+        if not judged.any():
+            return []
+        slots, ids = slots[judged], ids[judged]
+        pos = data.xpos[pool.body_ids[slots]]
+        vel = data.qvel[pool.dof_adr[slots, None] + np.arange(3)]
+        speed = np.linalg.norm(vel, axis=1)
+        self.peak_speed = max(self.peak_speed, float(speed.max()))
+        sideways = np.abs(pos[:, 1] - self.y_centre) > self.y_limit
+        upstream = pos[:, 0] < self.x_upstream
+        fast = speed > self.speed_limit
+        new = []
+        for k in np.flatnonzero(sideways | upstream | fast):
+            item = int(ids[k])
+            if item in self.thrown:
+                continue
+            reason = "sideways" if sideways[k] else "upstream" if upstream[k] else "fast"
+            throw = Throw(
+                item,
+                float(data.time),
+                reason,
+                tuple(map(float, pos[k])),
+                tuple(map(float, vel[k])),
+            )
+            self.thrown[item] = throw
+            new.append(throw)
+        return new

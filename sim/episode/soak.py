@@ -1,0 +1,142 @@
+"""Soak checks: random episodes, each checked for what must never happen.
+
+`draw_configs` draws episodes across the space the cell runs in (item density up to the flow's
+limit of 12 items per metre, belt speeds x1 / x1.2 / x1.5, every built-in decision manager but
+the oracle, both riding modes, random seeds and durations); `soak_episode` runs one and checks:
+
+- the accounting identities of `sim.episode.metrics` (entered = picked + missed + dropped, ...)
+  and that every item of the flow entered the belt and left it before the time cap;
+- no MuJoCo warning (`data.warning`, all kinds) during the episode;
+- a finite state (positions, velocities, controls) at every decision and at the end;
+- no item thrown off the belt (`sim.cell.thrown`).
+
+`benchmarks/soak.py` runs many of them in worker processes (`make soak`); `tests/test_soak.py`
+runs a few.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from sim.episode import config as episode_config
+from sim.episode.config import EpisodeConfig
+from sim.episode.loop import Episode
+from sim.episode.runner import shared_cell
+from sim.flow.config import MAX_ITEMS_PER_METRE
+
+PLANNERS = ("qlearning", "proximity", "fifo", "greedy")
+SPEED_FACTORS = (1.0, 1.2, 1.5)
+RIDINGS = ("settled", "contact")
+DURATION_S = (20.0, 60.0)
+"""Range of the episodes' flow durations [s] (short, so that hundreds run in half an hour)."""
+DENSITY_PER_M = (2.0, MAX_ITEMS_PER_METRE)
+"""Range of the items per metre of belt drawn (the flow refuses more than 12)."""
+
+
+def draw_configs(n: int, seed: int = 0) -> list[EpisodeConfig]:
+    """`n` random truth-perception episode configs (reproducible from `seed`)."""
+    rng = np.random.default_rng(seed)
+    configs = []
+    for _ in range(n):
+        speed = float(rng.choice(SPEED_FACTORS))
+        duration = float(np.round(rng.uniform(*DURATION_S), 1))
+        density = rng.uniform(*DENSITY_PER_M)
+        metres = duration * episode_config.belt_speed_mps(speed)
+        most = int(MAX_ITEMS_PER_METRE * metres + 1e-6)
+        items = int(min(max(5, round(density * metres)), most))
+        configs.append(
+            episode_config.load(
+                None,
+                seed=int(rng.integers(0, 2**31)),
+                items=items,
+                speed_factor=speed,
+                planner=str(rng.choice(PLANNERS)),
+                perception="truth",
+                duration_s=duration,
+                item_riding=str(rng.choice(RIDINGS)),
+            )
+        )
+    return configs
+
+
+@dataclass
+class SoakResult:
+    """One soaked episode: its figures and what failed (empty `failures`: all checks passed)."""
+
+    config: EpisodeConfig
+    row: dict
+    failures: list[str] = field(default_factory=list)
+    throws: list[str] = field(default_factory=list)
+    warning_kinds: dict[str, int] = field(default_factory=dict)
+    nonfinite: bool = False
+    identity_failures: int = 0
+    peak_loose_speed: float = 0.0
+    cpu_s: float = 0.0
+
+    @property
+    def ok(self) -> bool:
+        """Every check passed."""
+        return not self.failures
+
+    def line(self) -> str:
+        """One line of the soak's log."""
+        c, r = self.config, self.row
+        head = (
+            f"seed {c.seed:>10}  {c.items:>3} items {c.duration_s:4.1f} s x{c.speed_factor:<3g} "
+            f"{c.planner:<9} {c.item_riding:<7}  picked {r['picked']:>3}/{r['entered']:<3} "
+            f"missed {r['missed']:>2} dropped {r['dropped']:>2} failed {r['failed_picks']:>2}  "
+            f"thrown {r['thrown_off']}  warnings {r['mujoco_warnings']}  "
+            f"peak {self.peak_loose_speed:4.2f} m/s  cpu {self.cpu_s:5.1f} s"
+        )
+        return head + ("  OK" if self.ok else "  FAIL: " + "; ".join(self.failures))
+
+
+def _finite(data) -> bool:
+    return all(np.isfinite(a).all() for a in (data.qpos, data.qvel, data.ctrl))
+
+
+def soak_episode(config: EpisodeConfig) -> SoakResult:
+    """Run one episode on this process's cell and check it (see the module docstring)."""
+    cpu0 = time.process_time()
+    cell = shared_cell()
+    nonfinite = False
+    with Episode(config, cell) as episode:
+        episode.reset()
+        while episode.step_until_decision():
+            nonfinite |= not _finite(cell.data)
+            episode.apply(episode.choose())
+        nonfinite |= not _finite(cell.data)
+    metrics = episode.metrics
+    row = {**metrics.row(), "sim_s": float(cell.data.time)}
+    failures = []
+    identity = metrics.accounting_failures()
+    if row["entered"] != config.items:
+        identity.append(f"entered {row['entered']} of the flow's {config.items} items")
+    if cell.data.time >= episode.t_cap:
+        identity.append(f"hit the time cap at {cell.data.time:.1f} s")
+    failures += identity
+    if metrics.mujoco_warnings:
+        failures.append(f"MuJoCo warnings {metrics.warning_kinds}")
+    if nonfinite:
+        failures.append("non-finite state")
+    throws = [
+        f"item {t.item_id} {t.reason} at t {t.time:.2f} s, ({t.position[0]:.2f}, "
+        f"{t.position[1]:.2f}, {t.position[2]:.2f}) m, {t.speed:.2f} m/s; robot: {doing}"
+        for t, doing in metrics.throws
+    ]
+    if throws:
+        failures.append(f"{len(throws)} thrown off: " + " | ".join(throws))
+    return SoakResult(
+        config=config,
+        row=row,
+        failures=failures,
+        throws=throws,
+        warning_kinds=dict(metrics.warning_kinds),
+        nonfinite=nonfinite,
+        identity_failures=len(identity),
+        peak_loose_speed=episode.throw_watch.peak_speed,
+        cpu_s=time.process_time() - cpu0,
+    )

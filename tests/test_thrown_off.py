@@ -1,0 +1,182 @@
+"""Items thrown off the belt: how they are judged, and picks that leave the neighbours alone.
+
+The cup flies over a standing can on its way down to a flat board (the plan planned without
+the neighbours would strike the can at over 5 m/s); a board with a can on its edge is not
+picked (lifting it would fling the can); a pick whose seal fails leaves both its item and
+the neighbour beside it on the belt; a held bottle lifts straight up from beside the can
+lying 5 mm upstream of it, which rides on at the belt's speed.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import mujoco
+import numpy as np
+import pytest
+
+from perception.codes import PAPER, PLASTIC
+from planner.motion.clearance import path_conflicts
+from planner.motion.intercept import intercept_item
+from planner.motion.trajectory import State
+from sim.cell.cell import Cell
+from sim.cell.suction import SuctionConfig, SuctionCup
+from sim.cell.thrown import THROW_SPEED_MPS, ThrowWatch, rail_outer_y
+from sim.episode.pick_control import PRESS_DEPTH_M, PickController
+
+SPEED = 0.185
+
+
+@pytest.fixture(scope="module")
+def cell() -> Cell:
+    """A cell of this module's own (its items are spawned by hand)."""
+    return Cell()
+
+
+def _spawn(cell: Cell, item_id: int, name: str, x: float, y: float, speed: float = SPEED) -> int:
+    """Drop a catalogue item at (x, y) [m], heading along the belt, at the belt's `speed`."""
+    k = [t.name for t in cell.catalogue.types].index(name)
+    return cell.pool.spawn(cell.data, item_id, k, x, y, 0.0, (0.5, 0.5, 0.5, 1), speed)
+
+
+def _speed(cell: Cell, slot: int) -> float:
+    dof = cell.pool.dof_adr[slot]
+    return float(np.linalg.norm(cell.data.qvel[dof : dof + 3]))
+
+
+def _play(robot: PickController, intercept, watched: list[int]):
+    """Play a pick as the episode's loop does; returns (outcome, peak speed of each watched
+    slot [m/s], the items thrown off as the episode judges them every 20 ms)."""
+    cell = robot.cell
+    watch = ThrowWatch(cell.model, cell.pool)
+    peak = dict.fromkeys(watched, 0.0)
+    throws = []
+    robot.start(intercept)
+    k = 0
+    while True:
+        robot.before_step()
+        mujoco.mj_step(cell.model, cell.data)
+        robot.after_step()
+        for slot in watched:
+            peak[slot] = max(peak[slot], _speed(cell, slot))
+        k += 1
+        if k % 20 == 0:
+            for event in robot.suction.events:
+                if event.kind == "released":
+                    watch.note_released(event.item_id)
+            throws += watch.update(cell.data, robot.suction.held_slot)
+        outcome = robot.poll()
+        if outcome is not None:
+            return outcome, peak, throws
+
+
+def test_the_watch_judges_items_by_where_they_are_and_how_fast_they_move(cell):
+    cell.reset(SPEED)
+    outer = rail_outer_y(cell.model)
+    assert outer == pytest.approx(0.43)
+    on_belt = _spawn(cell, 0, "can_330_lying", -0.5, 0.0)
+    beside = _spawn(cell, 1, "can_330_lying", -0.5, outer + 0.05)  # over the floor
+    upstream = _spawn(cell, 2, "can_330_lying", -2.9, 0.0)  # upstream of the infeed
+    flung = cell.pool.spawn(cell.data, 3, 0, -0.2, 0.1, 0.0, (1, 1, 1, 1), THROW_SPEED_MPS + 0.1)
+    released = _spawn(cell, 4, "can_330_lying", 0.0, -0.56)  # let go of over the paper bin
+    held = _spawn(cell, 5, "can_330_lying", 0.0, outer + 0.2)  # carried by the cup
+    mujoco.mj_forward(cell.model, cell.data)
+    watch = ThrowWatch(cell.model, cell.pool)
+    watch.note_released(4)
+    throws = {t.item_id: t.reason for t in watch.update(cell.data, held_slot=held)}
+    assert throws == {1: "sideways", 2: "upstream", 3: "fast"}
+    assert watch.update(cell.data, held_slot=held) == []  # each item once
+    assert {on_belt, beside, upstream, flung, released} == {0, 1, 2, 3, 4}
+
+
+def test_the_cup_flies_over_a_standing_can_on_its_way_down(cell):
+    cell.reset(SPEED)
+    board = _spawn(cell, 0, "cardboard_flat", -0.30, -0.25)  # 4 mm flat, 0.25 x 0.18 m
+    can = _spawn(cell, 1, "can_330_standing", -0.16, -0.12)  # 11.5 cm, on the way from home
+    mujoco.mj_step(cell.model, cell.data, nstep=200)  # settle
+    robot = PickController(cell, SPEED)
+    x, y = (float(v) for v in cell.data.xpos[cell.pool.body_ids[board], :2])
+    # Planned without the neighbours, the cup would come down onto the board through the can.
+    top = robot.top_of(board)
+    config = replace(robot.config, lift_height=robot.clear_z + PRESS_DEPTH_M)
+    drop = np.array(cell.drop_xyz[PAPER])
+    drop[2] = robot.clear_z + top
+    blind = intercept_item(
+        State.at_rest(robot.rest), (x, y), SPEED, drop, cell.generator, top - PRESS_DEPTH_M, config
+    )
+    neighbours = [o for _, o in robot.neighbours(exclude=board)]
+    t_down = blind.plan.chain.phase_start("descend")
+    assert path_conflicts(blind.plan.chain, t_down, neighbours, SPEED, robot.suction.radius)
+    hit = robot.plan(x, y, PAPER)
+    assert hit.feasible, hit.reason
+    assert robot.raises >= 1
+    chain = hit.plan.chain
+    assert not path_conflicts(chain, hit.plan.contact_time, neighbours, SPEED, 0.03)
+    start = cell.data.xpos[cell.pool.body_ids[can]].copy()
+    t0 = cell.data.time
+    outcome, peak, throws = _play(robot, hit, [can])
+    assert outcome.sealed and outcome.held_to_bin and outcome.item_id == 0
+    assert throws == []
+    assert peak[can] < 0.25  # carried by the belt (0.185 m/s), never struck
+    now = cell.data.xpos[cell.pool.body_ids[can]]
+    expected = start + np.array([SPEED * (cell.data.time - t0), 0.0, 0.0])
+    assert np.linalg.norm(now - expected) < 0.005
+    assert cell.data.xmat[cell.pool.body_ids[can]][8] > math.cos(0.05)  # still standing
+
+
+def test_a_board_with_a_can_on_its_edge_is_not_picked(cell):
+    cell.reset(SPEED)
+    board = _spawn(cell, 0, "cardboard_flat", -0.30, -0.25)
+    _spawn(cell, 1, "can_330_standing", -0.18, -0.15)  # overlaps the board's corner
+    mujoco.mj_step(cell.model, cell.data, nstep=200)
+    robot = PickController(cell, SPEED)
+    x, y = (float(v) for v in cell.data.xpos[cell.pool.body_ids[board], :2])
+    hit = robot.plan(x, y, PAPER)
+    assert not hit.feasible
+    assert "lies on it" in hit.reason
+
+
+def test_a_failed_seal_leaves_the_item_and_its_neighbour_on_the_belt(cell):
+    cell.reset(SPEED)
+    target = _spawn(cell, 0, "can_330_standing", -0.30, 0.10)
+    types = {t.name: t for t in cell.catalogue.types}
+    r = types["can_330_standing"].size[0]
+    beside = _spawn(cell, 1, "can_330_standing", -0.30, 0.10 + 2 * r + 0.005)
+    lying = _spawn(cell, 2, "pet_bottle_1l5", -0.30, 0.10 - r - 0.045 - 0.005)
+    mujoco.mj_step(cell.model, cell.data, nstep=200)
+    robot = PickController(cell, SPEED)
+    # A seal that never forms (a leaking cup): the cup touches down, lifts and goes empty.
+    robot.suction = SuctionCup(cell.model, cell.pool, SuctionConfig(seal_time=1.0))
+    x, y = (float(v) for v in cell.data.xpos[cell.pool.body_ids[target], :2])
+    hit = robot.plan(x, y, PLASTIC)
+    assert hit.feasible, hit.reason
+    outcome, peak, throws = _play(robot, hit, [target, beside, lying])
+    assert not outcome.sealed and outcome.item_id == -1
+    assert throws == []
+    assert max(peak.values()) < 0.5, peak
+    mujoco.mj_step(cell.model, cell.data, nstep=300)
+    for slot in (target, beside, lying):
+        pos = cell.data.xpos[cell.pool.body_ids[slot]]
+        assert abs(pos[1]) < 0.4 and abs(_speed(cell, slot) - SPEED) < 0.02, (slot, pos)
+    for slot in (target, beside):
+        assert cell.data.xmat[cell.pool.body_ids[slot]][8] > math.cos(0.1)  # still standing
+
+
+def test_a_held_bottle_rises_straight_up_from_beside_its_neighbour(cell):
+    fast = 0.2775  # x1.5: a cup stopping along x while it lifts leaves the belt 1.3 cm behind
+    cell.reset(fast)
+    types = {t.name: t for t in cell.catalogue.types}
+    bottle = _spawn(cell, 0, "pet_bottle_1l5", -0.30, 0.05, fast)
+    end = types["pet_bottle_1l5"].half_length + types["can_330_lying"].half_length
+    can = _spawn(cell, 1, "can_330_lying", -0.30 - end - 0.005, 0.05, fast)  # 5 mm upstream
+    mujoco.mj_step(cell.model, cell.data, nstep=200)
+    robot = PickController(cell, fast)
+    x, y = (float(v) for v in cell.data.xpos[cell.pool.body_ids[bottle], :2])
+    hit = robot.plan(x, y, PLASTIC)
+    assert hit.feasible, hit.reason
+    outcome, peak, throws = _play(robot, hit, [can])
+    assert outcome.held_to_bin and outcome.item_id == 0
+    assert throws == []
+    # Untouched: the belt's speed. Stopping x during the lift, the bottle's end hit it (0.38 m/s).
+    assert peak[can] < fast + 0.01, peak
