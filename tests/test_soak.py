@@ -74,7 +74,7 @@ def test_the_draw_spans_the_cell_within_the_flows_limits():
 
 @pytest.mark.slow
 def test_six_random_episodes_pass_every_soak_check():
-    for config in draw_configs(6, seed=2026):
+    for config in draw_configs(6, seed=2026, duration_s=(20.0, 35.0)):
         result = soak_episode(config)
         assert result.ok, result.line()
         assert result.row["thrown_off"] == 0 and result.row["mujoco_warnings"] == 0

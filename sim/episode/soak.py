@@ -36,13 +36,16 @@ DENSITY_PER_M = (2.0, MAX_ITEMS_PER_METRE)
 """Range of the items per metre of belt drawn (the flow refuses more than 12)."""
 
 
-def draw_configs(n: int, seed: int = 0) -> list[EpisodeConfig]:
-    """`n` random truth-perception episode configs (reproducible from `seed`)."""
+def draw_configs(
+    n: int, seed: int = 0, duration_s: tuple[float, float] = DURATION_S
+) -> list[EpisodeConfig]:
+    """`n` random truth-perception episode configs (reproducible from `seed`), their flows
+    lasting `duration_s` (low, high) [s]."""
     rng = np.random.default_rng(seed)
     configs = []
     for _ in range(n):
         speed = float(rng.choice(SPEED_FACTORS))
-        duration = float(np.round(rng.uniform(*DURATION_S), 1))
+        duration = float(np.round(rng.uniform(*duration_s), 1))
         density = rng.uniform(*DENSITY_PER_M)
         metres = duration * episode_config.belt_speed_mps(speed)
         most = int(MAX_ITEMS_PER_METRE * metres + 1e-6)
