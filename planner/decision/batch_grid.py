@@ -14,6 +14,11 @@ import math
 
 from planner.decision.interface import TrackedItem
 
+OBJECTIVES = ("v/d", "d=1", "v=1")
+"""The thesis's objectives (section 4.1.3): value over distance, value only, distance only."""
+MIN_DISTANCE = 1e-3
+"""[m] keeps w = v / d finite for an item under the cup."""
+
 BELT_COLUMNS = 25
 GRID_COLUMNS = BELT_COLUMNS + 2
 BELT_HALF_WIDTH = 0.4

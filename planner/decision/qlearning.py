@@ -62,6 +62,8 @@ import numpy as np
 from planner.decision.batch_grid import (
     BELT_COLUMNS,
     GRID_COLUMNS,
+    MIN_DISTANCE,
+    OBJECTIVES,
     batch_index,
     belt_coordinate,
     column_centre,
@@ -71,9 +73,6 @@ from planner.decision.batch_grid import (
 from planner.decision.candidates import candidates, choice_of, exit_time
 from planner.decision.interface import MATERIALS, Choice, DecisionContext, RobotState, TrackedItem
 from planner.errors import PlannerInputError
-
-OBJECTIVES = ("v/d", "d=1", "v=1")
-MIN_DISTANCE = 1e-3  # [m] keeps w finite for an item under the cup
 
 
 @dataclass(frozen=True)

@@ -37,13 +37,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from planner.decision.batch_grid import batch_index, belt_coordinate, grid_column
+from planner.decision.batch_grid import (
+    MIN_DISTANCE,
+    OBJECTIVES,
+    batch_index,
+    belt_coordinate,
+    grid_column,
+)
 from planner.decision.candidates import Candidate, candidates, choice_of
 from planner.decision.interface import MATERIALS, Choice, DecisionContext, RobotState, TrackedItem
-from planner.decision.rollout_episodes import MIN_DISTANCE, episode_q
+from planner.decision.rollout_episodes import episode_q
 from planner.errors import PlannerInputError
-
-OBJECTIVES = ("v/d", "d=1", "v=1")
 
 
 @dataclass(frozen=True)

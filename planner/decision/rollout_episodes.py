@@ -24,10 +24,9 @@ from __future__ import annotations
 
 import math
 
+from planner.decision.batch_grid import MIN_DISTANCE
 from planner.decision.candidates import Candidate, intercept
 from planner.decision.interface import DecisionContext
-
-MIN_DISTANCE = 1e-3  # [m] keeps w finite for an item under the cup
 
 
 def weight(value: float, start_xy, meet_xy, bin_xy, objective: str) -> float:
