@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from sim.cell.cell import Cell
-from sim.cell.mj_warnings import KINDS, MujocoWarning, WarningCounter
+from sim.cell.monitors.mj_warnings import KINDS, MujocoWarning, WarningCounter
 from sim.episode import config as episode_config
 from sim.episode.loop import Episode
 

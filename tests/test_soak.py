@@ -10,7 +10,7 @@ from __future__ import annotations
 import pytest
 
 from perception.codes import ALUMINIUM, PAPER, PLASTIC
-from sim.cell.thrown import Throw
+from sim.cell.monitors.thrown import Throw
 from sim.episode.metrics import EpisodeMetrics, PickRecord
 from sim.episode.soak import PLANNERS, RIDINGS, SPEED_FACTORS, draw_configs, soak_episode
 from sim.flow.config import MAX_ITEMS_PER_METRE

@@ -25,7 +25,8 @@ class Candidate:
 
     Attributes:
         item: The tracked item.
-        expected_value: p(bin class) * value(bin class) [EUR].
+        expected_value: p(bin class) * value(bin class) [EUR], net of the pick's energy cost
+            when the context prices energy (`DecisionContext.net_value`).
         bin_class: Destination class (2..4).
         meet_time: Time the cup meets the item [s].
         meet_xy: Where the item is then [m].
@@ -119,10 +120,16 @@ def evaluate(
     meet_time, meet_x, waits = met
     c = item.bin_class if bin_class is None else bin_class
     ev = context.expected_value(item) if expected_value is None else expected_value
+    bin_xyz = context.bin_of(c)
+    if context.energy.price_eur_per_kwh > 0.0:
+        distance = math.dist(start_xyz[:2], (meet_x, item.y)) + math.dist(
+            (meet_x, item.y), bin_xyz[:2]
+        )
+        ev = float(context.net_value(ev, distance))
     end = math.nan
     if with_place:
         meet_xyz = (meet_x, item.y, context.window.pick_z)
-        end = meet_time + context.cycle_model.time_to_place(meet_xyz, context.bin_of(c))
+        end = meet_time + context.cycle_model.time_to_place(meet_xyz, bin_xyz)
     return Candidate(
         item=item,
         expected_value=ev,
@@ -143,7 +150,8 @@ def candidates(
     immediate_only: bool = False,
     with_place: bool = True,
 ) -> list[Candidate]:
-    """Feasible picks worth something (expected value > 0), most urgent (earliest exit) first.
+    """Feasible picks worth something (expected value > 0, net of the energy cost when the
+    context prices it), most urgent (earliest exit) first.
 
     With `immediate_only`, items the robot would have to wait for at the window's entry are
     left out: planners blind to time use it so they never commit to idling for an item while
@@ -155,7 +163,7 @@ def candidates(
         if context.expected_value(item) <= 0.0:
             continue
         cand = evaluate(context, robot.tcp, robot.time, item, with_place=with_place)
-        if cand is not None:
+        if cand is not None and cand.expected_value > 0.0:
             out.append(cand)
     out.sort(key=lambda c: (c.exit_time, c.item.item_id))
     if immediate_only:

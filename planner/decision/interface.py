@@ -24,6 +24,7 @@ from perception.codes import (
     N_STATES,
     THESIS_VALUES_EUR,
 )
+from planner.decision.energy_cost import EnergyPrice
 from planner.errors import PlannerInputError
 from planner.motion.reach_window import ReachWindow
 
@@ -117,6 +118,8 @@ class DecisionContext:
         window: Where the cup can meet an item on the belt.
         bins: Release points of the paper, plastic and aluminium bins [m], three (x, y, z).
         values: Value of a paper, plastic and aluminium item [EUR] (thesis table 3.3).
+        energy: The price of a pick's motor energy (`planner.decision.energy_cost`); at the
+            default price 0 no planner sees it.
     """
 
     belt_speed: float
@@ -124,6 +127,7 @@ class DecisionContext:
     window: ReachWindow
     bins: tuple[tuple[float, float, float], ...] = DEFAULT_BINS
     values: tuple[float, float, float] = THESIS_VALUES
+    energy: EnergyPrice = EnergyPrice()
 
     def __post_init__(self):
         if not (math.isfinite(self.belt_speed) and self.belt_speed >= 0.0):
@@ -136,6 +140,8 @@ class DecisionContext:
         bins = tuple(tuple(float(c) for c in b) for b in self.bins)
         if len(bins) != 3 or any(len(b) != 3 or not all(map(math.isfinite, b)) for b in bins):
             raise PlannerInputError("bins", "three (x, y, z) release points [m]", self.bins)
+        if not isinstance(self.energy, EnergyPrice):
+            raise PlannerInputError("energy", "an EnergyPrice", type(self.energy).__name__)
         if not isinstance(self.cycle_model, CycleTimeEstimator):
             raise PlannerInputError("cycle_model", "an object with time_to_pick, time_to_place")
         object.__setattr__(self, "values", values)
@@ -154,9 +160,18 @@ class DecisionContext:
         c = item.bin_class
         return item.class_probs[c - 1] * self.value_of(c)
 
+    def net_value(self, expected_value, distance_m):
+        """Expected value [EUR] net of the energy cost of a pick over the thesis's distance
+        `distance_m` (start -> item -> bin) [m]; scalars or arrays."""
+        if self.energy.price_eur_per_kwh == 0.0:
+            return expected_value
+        return expected_value - self.energy.cost_eur(distance_m)
+
     def with_values(self, values: tuple[float, float, float]) -> DecisionContext:
         """The same context with other class values [EUR]."""
-        return DecisionContext(self.belt_speed, self.cycle_model, self.window, self.bins, values)
+        return DecisionContext(
+            self.belt_speed, self.cycle_model, self.window, self.bins, values, self.energy
+        )
 
 
 @dataclass(frozen=True)

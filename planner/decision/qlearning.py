@@ -222,6 +222,7 @@ def rewards_from(
     bins_xy: np.ndarray,
     starts_xy: np.ndarray,
     objective: str,
+    energy=None,
 ) -> np.ndarray:
     """(S, n) rewards of eq. 3.3 from each robot position.
 
@@ -231,14 +232,18 @@ def rewards_from(
         bins_xy: (n, 2) release point of each item's bin [m].
         starts_xy: (S, 2) robot positions [m].
         objective: 'v/d', 'd=1' or 'v=1'.
+        energy: An `EnergyPrice`: when it prices energy, each value is net of the pick's
+            energy cost over its distance (ours; the thesis's reward has no such term).
     """
     d = np.linalg.norm(points[None, :, :] - starts_xy[:, None, :], axis=2)
     d = np.maximum(d + np.linalg.norm(bins_xy - points, axis=1)[None, :], MIN_DISTANCE)
+    if energy is not None and energy.price_eur_per_kwh > 0.0:
+        values = np.asarray(values, dtype=float)[None, :] - energy.cost_eur(d)
     if objective == "d=1":
         return np.broadcast_to(values, d.shape).astype(float)
     if objective == "v=1":
-        return np.where(values[None, :] > 0.0, 1.0 / d, 0.0)
-    return values[None, :] / d
+        return np.where(np.broadcast_to(values, d.shape) > 0.0, 1.0 / d, 0.0)
+    return np.broadcast_to(values, d.shape) / d
 
 
 def assign_cells(wanted: list[tuple[int, int]], rows: int) -> list[tuple[int, int]]:
@@ -343,7 +348,7 @@ class QLearningPlanner:
         values = np.array([context.expected_value(it) for it in batch])
         bins_xy = np.array([context.bin_of(it.bin_class)[:2] for it in batch]).reshape(-1, 2)
         starts = np.array([robot.tcp[:2], *(b[:2] for b in context.bins)])
-        rewards = rewards_from(points, values, bins_xy, starts, cfg.objective)
+        rewards = rewards_from(points, values, bins_xy, starts, cfg.objective, context.energy)
         next_state = np.array([1 + MATERIALS.index(it.bin_class) for it in batch], dtype=int)
         learned = learn(
             rewards,

@@ -29,9 +29,12 @@ from planner.decision.candidates import Candidate, intercept
 from planner.decision.interface import DecisionContext
 
 
-def weight(value: float, start_xy, meet_xy, bin_xy, objective: str) -> float:
-    """Eq. 3.3 (and the 4.1.3 variants): value over the distance start -> item -> bin [m]."""
+def weight(value: float, start_xy, meet_xy, bin_xy, objective: str, energy=None) -> float:
+    """Eq. 3.3 (and the 4.1.3 variants): value over the distance start -> item -> bin [m];
+    the value net of the pick's energy cost when `energy` (an `EnergyPrice`) prices it."""
     d = math.dist(start_xy, meet_xy) + math.dist(meet_xy, bin_xy)
+    if energy is not None and energy.price_eur_per_kwh > 0.0:
+        value = value - float(energy.cost_eur(d))
     d = max(d, MIN_DISTANCE)
     if objective == "d=1":
         return value
@@ -80,7 +83,7 @@ def episode_q(
             alive.append(item)
             meet_time, meet_x, _ = met
             bin_xyz = context.bin_of(bin_class)
-            w = weight(value, pos[:2], (meet_x, y), bin_xyz[:2], objective)
+            w = weight(value, pos[:2], (meet_x, y), bin_xyz[:2], objective, context.energy)
             if w > best_w:
                 best_w = w
                 best = (item, meet_time + model.time_to_place((meet_x, y, z), bin_xyz), bin_xyz)

@@ -49,6 +49,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--duration", type=float, default=None, help="seconds over which the items arrive (90)"
     )
+    parser.add_argument(
+        "--energy-price",
+        type=float,
+        default=None,
+        metavar="EUR_PER_KWH",
+        help="price of the motors' electrical energy; > 0: every planner nets it (default 0)",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress line")
 
 
@@ -162,6 +169,7 @@ def main(args: argparse.Namespace) -> int:
         planner=args.planner,
         perception=args.perception,
         duration_s=args.duration,
+        energy_price_eur_per_kwh=args.energy_price,
     )
     out = Path(args.out)
     preflight(config, out, args.video)

@@ -15,6 +15,7 @@ TOML layout (every key optional; defaults are the headline episode)::
     duration_s = 90.0           # items arrive over this time [s]
     observation_period_s = 0.5  # one grid row per period [s]
     item_riding = "settled"     # settled | contact (see sim/cell/riding.py)
+    energy_price_eur_per_kwh = 0.0  # > 0: every planner nets each pick's motor energy cost
     [values]                    # EUR per item (thesis table 3.3)
     paper = 0.22
     plastic = 0.25
@@ -57,6 +58,8 @@ PERCEPTIONS = ("camera", "truth")
 ITEM_RIDINGS = ("settled", "contact")
 OBJECTIVES = ("value_over_distance", "value_only", "distance_only")
 MAX_ITEMS = 20000
+MAX_ENERGY_PRICE = 1e6
+"""Highest energy price accepted [EUR/kWh] (far above any tariff: a stress test's price)."""
 
 
 def _check(ok: bool, key: str, allowed: str, got: object, where: str | None) -> None:
@@ -168,6 +171,7 @@ class EpisodeConfig:
     duration_s: float = 90.0
     observation_period_s: float = 0.5
     item_riding: str = "settled"
+    energy_price_eur_per_kwh: float = 0.0
     values: Values = field(default_factory=Values)
     qlearning: QLearning = field(default_factory=QLearning)
     video: Video = field(default_factory=Video)
@@ -199,6 +203,9 @@ class EpisodeConfig:
         _check(ok, "observation_period_s", "0.05..5 s", t, w)
         r = self.item_riding
         _check(r in ITEM_RIDINGS, "item_riding", " | ".join(ITEM_RIDINGS), r, w)
+        e = self.energy_price_eur_per_kwh
+        ok = _number(e) and 0.0 <= e <= MAX_ENERGY_PRICE
+        _check(ok, "energy_price_eur_per_kwh", f"0..{MAX_ENERGY_PRICE:g} EUR/kWh", e, w)
         for name, cls in _SECTIONS.items():
             _check(isinstance(getattr(self, name), cls), name, f"a [{name}] table", None, w)
         self._check_flow()

@@ -21,14 +21,16 @@ from dataclasses import replace
 import mujoco
 import numpy as np
 
+from planner.decision.energy_cost import EnergyPrice
 from planner.decision.interface import Choice, DecisionContext, RobotState, TrackedItem
 from planner.decision.registry import make_planner
 from planner.motion.cycle_model import CycleTimeModel
 from sim.cell.bins import BIN_CLASSES, Bins
 from sim.cell.cell import PICK_Z_NOMINAL, Cell
-from sim.cell.mj_warnings import WarningCounter
+from sim.cell.monitors.energy import EnergyMeter
+from sim.cell.monitors.mj_warnings import WarningCounter
+from sim.cell.monitors.thrown import ThrowWatch
 from sim.cell.riding import ItemRiding
-from sim.cell.thrown import ThrowWatch
 from sim.cell.video import overlay_of
 from sim.episode.config import EpisodeConfig
 from sim.episode.metrics import EpisodeMetrics, PickRecord
@@ -126,7 +128,7 @@ class Episode:
         # When the last item has passed the robot (the end of a normal episode) and a cap.
         self.t_end = self.t_last_spawn + (self.x_discard - X_INFEED) / self.speed + SETTLE_S
         self.t_cap = self.t_end + 10.0
-        self.metrics = EpisodeMetrics(config.values.by_class())
+        self.metrics = EpisodeMetrics(config.values.by_class(), config.energy_price_eur_per_kwh)
         self.tracker = Tracker(self.speed)
         self.planner.reset()
         pauses = config.robot
@@ -138,6 +140,7 @@ class Episode:
         # MuJoCo's warning counts start at zero (the reset above clears them).
         self.mj_warnings = WarningCounter(self.data)
         self.throw_watch = ThrowWatch(self.model, cell.pool)
+        self.energy = EnergyMeter(self.model, self.data)
         self._cup_events_seen = 0
         self.context = DecisionContext(
             belt_speed=self.speed,
@@ -152,6 +155,7 @@ class Episode:
             window=cell.window,
             bins=cell.bins_tuple(),
             values=config.values.as_tuple(),
+            energy=EnergyPrice(config.energy_price_eur_per_kwh),
         )
         period = config.observation_period_s
         if config.perception == "truth":
@@ -171,7 +175,8 @@ class Episode:
         self.next_check = 0.0
         self.next_decision = 0.0
         self.current_pick = None  # the track being picked (shown in the video)
-        self._pick_started: tuple | None = None  # (track, choice) of the pick under way
+        # (track, choice, energy reading at the start, travel [m]) of the pick under way
+        self._pick_started: tuple | None = None
         self.failures: dict[int, int] = {}  # failed attempts per true item id (truth mode)
         self.timings = dict.fromkeys(
             ("physics", "perception", "decision", "planning", "video"), 0.0
@@ -210,6 +215,7 @@ class Episode:
                 if self._candidates:
                     return True
             self._step()
+        self.metrics.on_energy(*self.energy.reading())
         self._close_out()
         return False
 
@@ -255,7 +261,13 @@ class Episode:
             return False
         self.current_pick = track
         self.tracker.remove(track.track_id)
-        self._pick_started = (track, choice)
+        # The thesis's distance of the pick (rest -> item -> bin, in the belt's plane) [m].
+        meet_xy = intercept.pick_xyz[:2]
+        drop_xy = np.asarray(self.cell.drop_xyz[choice.bin_class][:2], dtype=float)
+        travel = float(
+            np.linalg.norm(meet_xy - self.robot.rest[:2]) + np.linalg.norm(drop_xy - meet_xy)
+        )
+        self._pick_started = (track, choice, self.energy.reading(), travel)
         self.robot.start(intercept, -1 if track.true_id is None else int(track.true_id))
         return True
 
@@ -275,6 +287,7 @@ class Episode:
             self.robot.before_step()
         nstep = 1 if picking else self._idle_steps()
         mujoco.mj_step(self.model, self.data, nstep=nstep)
+        self.energy.add(nstep * self.model.opt.timestep)
         if picking:
             self.robot.after_step()
         self._after_step()
@@ -306,8 +319,9 @@ class Episode:
 
     def _finish_pick(self, outcome: PickOutcome) -> None:
         """Book a finished pick and decide again at once."""
-        track, choice = self._pick_started
+        track, choice, (mech0, elec0), travel = self._pick_started
         self._pick_started = None
+        mech, elec = self.energy.reading()
         self.current_pick = None
         if not outcome.held_to_bin and track.true_id is not None:
             self.failures[track.true_id] = self.failures.get(track.true_id, 0) + 1
@@ -325,6 +339,9 @@ class Episode:
                 predicted_class=track.predicted_class,
                 bin=choice.bin_class,
                 success=outcome.held_to_bin,
+                travel_m=travel,
+                energy_mech_j=mech - mech0,
+                energy_elec_j=elec - elec0,
             )
         )
         self.next_decision = self.data.time
@@ -347,7 +364,7 @@ class Episode:
 
     def _check_items(self, t: float) -> None:
         """Every `CHECK_PERIOD_S`: MuJoCo's new warnings, items thrown off the belt
-        (`sim.cell.thrown`), items past the robot or the belt's end, landings, riding."""
+        (`sim.cell.monitors.thrown`), items past the robot or the belt's end, landings, riding."""
         pool, data = self.cell.pool, self.data
         cup = self.robot.suction
         held = cup.held_slot

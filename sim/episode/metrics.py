@@ -13,12 +13,19 @@ Definitions (thesis 4.1.4 and docs/episode.md):
   runner takes them off the belt there); `dropped`: items that fell anywhere but into a bin
   (off the belt, off the cup, beside a bin).
 - `mean_cycle_s`: mean time from the start of one pick attempt to the end of its release.
-- `thrown_off`: items the robot struck or flung off the belt (`sim.cell.thrown`: left the belt's
-  top area sideways or upstream, or moved faster than 1.5 m/s, while neither held nor released
-  over a bin by the cup). Each is also booked where it ends: dropped when it came to rest off
-  the belt (in a bin too: only what the cup carries there is picked), missed or picked when it
-  stayed on the belt.
+- `thrown_off`: items the robot struck or flung off the belt (`sim.cell.monitors.thrown`: left
+  the belt's top area sideways or upstream, or moved faster than 1.5 m/s, while neither held
+  nor released over a bin by the cup). Each is also booked where it ends: dropped when it came
+  to rest off the belt (in a bin too: only what the cup carries there is picked), missed or
+  picked when it stayed on the belt.
 - `mujoco_warnings`: MuJoCo's warnings (`data.warning`) raised during the episode, all kinds.
+- `energy_mech_j`, `energy_elec_j`: the robot's motor energy over the whole episode, idle time
+  included (`sim.cell.monitors.energy`: mechanical = integral of |tau omega|; electrical =
+  the regenerative-free estimate); per pick in picks.csv, from the start of the attempt to the
+  end of its release, with the pick's distance `travel_m` (the thesis's d: rest -> item -> bin
+  in the belt's plane).
+- `energy_cost_eur` = electrical energy [kWh] x the configured price; `net_profit_eur` =
+  profit_eur - energy_cost_eur.
 
 Accounting identities, true of every finished episode (`accounting_failures` checks them):
 
@@ -36,6 +43,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from perception.codes import ALUMINIUM, CLASS_NAMES, PAPER, PLASTIC
+from sim.cell.monitors.energy import JOULES_PER_KWH
 
 ITEM_CLASSES = (PAPER, PLASTIC, ALUMINIUM)
 
@@ -58,6 +66,9 @@ class PickRecord:
     predicted_class: int
     bin: int | None
     success: bool
+    travel_m: float = 0.0
+    energy_mech_j: float = 0.0
+    energy_elec_j: float = 0.0
 
     def row(self) -> dict[str, object]:
         """The picks.csv row of this attempt."""
@@ -70,6 +81,9 @@ class PickRecord:
             "bin": class_name(self.bin),
             "success": self.success,
             "cycle_s": self.t_end_s - self.t_start_s,
+            "travel_m": self.travel_m,
+            "energy_mech_j": self.energy_mech_j,
+            "energy_elec_j": self.energy_elec_j,
         }
 
 
@@ -78,19 +92,25 @@ class EpisodeMetrics:
 
     Args:
         values: Value per class id [EUR] (2 paper, 3 plastic, 4 aluminium).
+        energy_price: Price of the motors' electrical energy [EUR/kWh].
     """
 
-    def __init__(self, values: dict[int, float]):
+    def __init__(self, values: dict[int, float], energy_price: float = 0.0):
         self.values = dict(values)
+        self.energy_price = float(energy_price)
+        self.energy_mech_j = 0.0  # the robot's motor energy over the episode so far [J]
+        self.energy_elec_j = 0.0
         self.entered = {c: 0 for c in ITEM_CLASSES}
         self.binned: dict[int, tuple[int, int]] = {}
         self.missed: set[int] = set()
         self.dropped: set[int] = set()
         self.picks: list[PickRecord] = []
         self.thrown_off: set[int] = set()  # items struck or flung off the belt
-        self.throws: list[tuple[object, str]] = []  # (sim.cell.thrown.Throw, robot activity)
+        # (sim.cell.monitors.thrown.Throw, what the robot was doing)
+        self.throws: list[tuple[object, str]] = []
         self.mujoco_warnings = 0  # MuJoCo warnings raised during the episode
-        self.warning_kinds: dict[str, int] = {}  # the same per kind (sim.cell.mj_warnings)
+        # the same per kind (sim.cell.monitors.mj_warnings)
+        self.warning_kinds: dict[str, int] = {}
 
     def on_entered(self, item_id: int, true_class: int) -> None:
         """An item was dropped onto the belt."""
@@ -111,7 +131,7 @@ class EpisodeMetrics:
             self.dropped.add(int(item_id))
 
     def on_thrown(self, throw, doing: str = "") -> None:
-        """An item was thrown off the belt (`sim.cell.thrown.Throw`); `doing` says what the
+        """An item was thrown off the belt (`sim.cell.monitors.thrown.Throw`); `doing` says what the
         robot was doing at the time."""
         if throw.item_id not in self.thrown_off:
             self.thrown_off.add(int(throw.item_id))
@@ -122,6 +142,11 @@ class EpisodeMetrics:
         for kind, n in by_kind.items():
             self.warning_kinds[kind] = self.warning_kinds.get(kind, 0) + int(n)
             self.mujoco_warnings += int(n)
+
+    def on_energy(self, mechanical_j: float, electrical_j: float) -> None:
+        """The robot's motor energy since the episode started [J] (totals, not increments)."""
+        self.energy_mech_j = float(mechanical_j)
+        self.energy_elec_j = float(electrical_j)
 
     def on_pick(self, record: PickRecord) -> None:
         """A pick attempt finished (successfully or not)."""
@@ -167,7 +192,16 @@ class EpisodeMetrics:
             "entered_aluminium": self.entered[ALUMINIUM],
             "mujoco_warnings": self.mujoco_warnings,
             "thrown_off": len(self.thrown_off),
+            "energy_mech_j": self.energy_mech_j,
+            "energy_elec_j": self.energy_elec_j,
+            "energy_cost_eur": self.energy_cost,
+            "net_profit_eur": self.profit - self.energy_cost,
         }
+
+    @property
+    def energy_cost(self) -> float:
+        """The electrical energy's cost at the configured price [EUR]."""
+        return self.energy_elec_j / JOULES_PER_KWH * self.energy_price
 
     def accounting_failures(self) -> list[str]:
         """The accounting identities of the module docstring that do not hold (empty: all do).

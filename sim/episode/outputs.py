@@ -55,6 +55,11 @@ EPISODE_COLUMNS = (
     "real_time_factor",
     "mujoco_warnings",
     "thrown_off",
+    "energy_mech_j",
+    "energy_elec_j",
+    "energy_price_eur_per_kwh",
+    "energy_cost_eur",
+    "net_profit_eur",
 )
 PICK_COLUMNS = (
     "t_start_s",
@@ -65,6 +70,9 @@ PICK_COLUMNS = (
     "bin",
     "success",
     "cycle_s",
+    "travel_m",
+    "energy_mech_j",
+    "energy_elec_j",
 )
 WALL_COLUMNS = ("wall_s", "real_time_factor")
 
@@ -81,6 +89,12 @@ _DECIMALS = {
     "t_start_s": 4,
     "t_end_s": 4,
     "cycle_s": 4,
+    "travel_m": 4,
+    "energy_mech_j": 2,
+    "energy_elec_j": 2,
+    "energy_price_eur_per_kwh": 4,
+    "energy_cost_eur": 6,
+    "net_profit_eur": 4,
 }
 
 

@@ -105,6 +105,7 @@ def run_episode(
         "wall_s": wall,
         "variant": variant,
         "perception": config.perception,
+        "energy_price_eur_per_kwh": config.energy_price_eur_per_kwh,
         "real_time_factor": sim_s / wall if wall > 0 else 0.0,
     }
     timings = dict(episode.timings)

@@ -8,7 +8,7 @@ the oracle, both riding modes, random seeds and durations); `soak_episode` runs 
   and that every item of the flow entered the belt and left it before the time cap;
 - no MuJoCo warning (`data.warning`, all kinds) during the episode;
 - a finite state (positions, velocities, controls) at every decision and at the end;
-- no item thrown off the belt (`sim.cell.thrown`).
+- no item thrown off the belt (`sim.cell.monitors.thrown`).
 
 `benchmarks/soak.py` runs many of them in worker processes (`make soak`); `tests/test_soak.py`
 runs a few.

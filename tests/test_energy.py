@@ -1,0 +1,145 @@
+"""The motors' energy (sim.cell.monitors.energy): the work-energy balance of MuJoCo's own
+energy closes on the meter's signed work; holding still costs copper loss only; per-pick and
+per-episode figures in the CSVs add up; the planners' energy price (planner.decision.energy_cost).
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from planner.decision.energy_cost import EnergyPrice
+from planner.errors import PlannerInputError
+from sim.cell.monitors.energy import DriveModel, EnergyMeter
+from sim.cell.robot import motor_qpos, set_motor_targets
+from sim.episode import config
+from sim.episode.runner import run_episode
+from sim.errors import InvalidInput
+from tests.utils import scene_at_home
+
+PERIOD_S = 0.6
+"""A motor-space move out and back: raised cosine, at rest at 0, PERIOD_S / 2 and PERIOD_S."""
+AMPLITUDE_RAD = np.array([0.5, 0.3, 0.4])
+
+
+def _hold(model, data, q, steps):
+    for _ in range(steps):
+        set_motor_targets(model, data, q, 0.0)
+        mujoco.mj_step(model, data)
+
+
+@pytest.fixture
+def settled():
+    model, data = scene_at_home()
+    model.opt.enableflags |= mujoco.mjtEnableBit.mjENBL_ENERGY
+    q0 = motor_qpos(model, data).copy()
+    _hold(model, data, q0, 300)
+    return model, data, q0
+
+
+def _move(model, data, q0, meter, until_s):
+    """Play the raised-cosine move until `until_s`; the other forces' work on the way (passive
+    and constraint, at each step's mean joint speed) [J]."""
+    dt = model.opt.timestep
+    other = 0.0
+    for k in range(round(until_s / dt)):
+        t = (k + 1) * dt
+        phase = 2 * np.pi * t / PERIOD_S
+        q = q0 + AMPLITUDE_RAD * (1 - np.cos(phase)) / 2
+        qd = AMPLITUDE_RAD * np.pi / PERIOD_S * np.sin(phase)
+        set_motor_targets(model, data, q, 0.0, qd)
+        before = data.qvel.copy()
+        mujoco.mj_step(model, data)
+        mean = 0.5 * (before + data.qvel)
+        other += float((data.qfrc_passive + data.qfrc_constraint) @ mean) * dt
+        meter.add(dt)
+    return other
+
+
+@pytest.mark.parametrize("until_s", [PERIOD_S / 2, PERIOD_S])
+def test_motor_work_closes_the_energy_balance(settled, until_s):
+    """Motor work + passive + constraint work = change of kinetic + potential energy (MuJoCo's
+    `data.energy`), within 1 % of the motors' absolute work: the meter reads the right forces
+    with the right speeds. Half way the arms stand still, raised: the balance holds there too."""
+    model, data, q0 = settled
+    mujoco.mj_forward(model, data)
+    energy0 = float(data.energy.sum())
+    meter = EnergyMeter(model, data)
+    other = _move(model, data, q0, meter, until_s)
+    mujoco.mj_forward(model, data)
+    change = float(data.energy.sum()) - energy0
+    assert meter.mechanical_j > 3.0  # the move does real work
+    assert meter.signed_j + other == pytest.approx(change, abs=0.01 * meter.mechanical_j)
+    assert abs(meter.signed_j) <= meter.mechanical_j
+    # Driving power over the efficiency, and copper loss on top: more than the work done.
+    assert meter.electrical_j > max(meter.signed_j, 0.0) / DriveModel().efficiency
+
+
+def test_holding_still_costs_copper_loss_only(settled):
+    model, data, q0 = settled
+    meter = EnergyMeter(model, data)
+    dt, steps = model.opt.timestep, 500
+    for _ in range(steps):
+        set_motor_targets(model, data, q0, 0.0)
+        mujoco.mj_step(model, data)
+        meter.add(dt)
+    tau = data.actuator_force[[model.actuator(n).id for n in ("motor_1", "motor_2", "motor_3")]]
+    assert np.abs(tau).max() > 1.0  # the arms are held against gravity
+    copper = float(np.sum((tau / DriveModel().arm_motor_constant) ** 2)) * dt * steps
+    assert meter.mechanical_j < 1e-3
+    assert meter.electrical_j == pytest.approx(copper, rel=0.02)
+
+
+def test_drive_model_is_validated():
+    with pytest.raises(InvalidInput, match="efficiency"):
+        DriveModel(efficiency=1.5)
+    with pytest.raises(InvalidInput, match="arm_motor_constant"):
+        DriveModel(arm_motor_constant=0.0)
+
+
+@pytest.fixture(scope="module")
+def priced_runs(cell):
+    """A short truth episode at no price and at a stress price (1e4 EUR/kWh: a pick then costs
+    about as much as an item is worth)."""
+    base = dict(items=10, duration_s=8.0, perception="truth", planner="fifo", seed=5)
+    return [
+        run_episode(config.load(None, **base, energy_price_eur_per_kwh=price), cell=cell)
+        for price in (0.0, 1e4)
+    ]
+
+
+def test_pick_energies_add_up_to_at_most_the_episode(priced_runs):
+    row, picks = priced_runs[0].episode_row, priced_runs[0].pick_rows
+    assert picks and row["energy_elec_j"] > 0.0
+    assert all(p["energy_elec_j"] > p["energy_mech_j"] * 0.5 > 0.0 for p in picks)
+    assert all(0.1 < p["travel_m"] < 4.0 for p in picks)
+    # Idle time between picks is counted in the episode, not in any pick.
+    assert sum(p["energy_elec_j"] for p in picks) <= row["energy_elec_j"]
+    assert sum(p["energy_mech_j"] for p in picks) <= row["energy_mech_j"] + 1e-6
+    # 50 - 1000 J per pick: a delta robot's pick at 100 m/s^2, not milli- or kilojoules off.
+    assert 50.0 < np.median([p["energy_elec_j"] for p in picks]) < 1000.0
+    assert row["energy_cost_eur"] == 0.0 and row["net_profit_eur"] == row["profit_eur"]
+
+
+def test_a_stress_price_is_charged_and_changes_the_picks(priced_runs):
+    free, priced = (r.episode_row for r in priced_runs)
+    cost = priced["energy_elec_j"] / 3.6e6 * 1e4
+    assert priced["energy_cost_eur"] == pytest.approx(cost, rel=1e-9)
+    assert priced["net_profit_eur"] == pytest.approx(priced["profit_eur"] - cost)
+    # Items that cost more than they earn are left: fewer picks, less energy per item entered.
+    assert priced["picked"] < free["picked"]
+    assert priced["energy_elec_j"] < free["energy_elec_j"]
+
+
+def test_energy_price_is_validated():
+    with pytest.raises(InvalidInput, match="energy_price_eur_per_kwh"):
+        config.load(None, energy_price_eur_per_kwh=-1.0)
+    with pytest.raises(PlannerInputError, match="price_eur_per_kwh"):
+        EnergyPrice(price_eur_per_kwh=float("nan"))
+
+
+def test_energy_cost_is_linear_in_distance():
+    price = EnergyPrice(price_eur_per_kwh=0.3, fixed_j=100.0, per_metre_j=200.0)
+    assert price.cost_eur(1.0) == pytest.approx(300.0 / 3.6e6 * 0.3)
+    assert np.all(EnergyPrice().cost_eur(np.array([0.5, 2.0])) == 0.0)
