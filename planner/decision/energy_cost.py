@@ -11,7 +11,7 @@ an item that costs more to pick than it earns is left on the belt. A look-ahead 
 each of its picks from where the robot stands at the decision (the first pick's distance), an
 approximation for the later picks, which start from a bin.
 
-At a tariff (0.1-0.5 EUR/kWh) a pick costs about 1e-5 EUR against 0.22-0.27 EUR of value:
+At a tariff (0.1-0.5 EUR/kWh) a pick costs 1e-5 to 4e-5 EUR against 0.22-0.27 EUR of value:
 energy changes no decision; `docs/results.md` has the trade-off at a tariff and at a stress
 price.
 """
@@ -27,10 +27,13 @@ from planner.errors import PlannerInputError
 
 JOULES_PER_KWH = 3.6e6
 
-PICK_ENERGY_FIXED_J = 95.0
+PICK_ENERGY_FIXED_J = 18.8
 """Electrical energy of a pick at zero distance (seal, lift, release, holding) [J]."""
-PICK_ENERGY_PER_METRE_J = 100.0
-"""Electrical energy per metre of the thesis's distance [J/m]."""
+PICK_ENERGY_PER_METRE_J = 158.6
+"""Electrical energy per metre of the thesis's distance [J/m]. Fitted with the above on the 500
+picks of `python -m sim.experiments.energy_tradeoff fit` (median 255 J electrical, 165 J
+mechanical, d median 1.56 m); R^2 0.40: the rest is the lift's height, axis 4's turn and the
+move's timing, which the thesis's distance does not see."""
 
 
 @dataclass(frozen=True)
