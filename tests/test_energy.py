@@ -100,12 +100,12 @@ def test_drive_model_is_validated():
 
 @pytest.fixture(scope="module")
 def priced_runs(cell):
-    """A short truth episode at no price and at a stress price (1e4 EUR/kWh: a pick then costs
-    about as much as an item is worth)."""
+    """A short truth episode at no price and at a stress price (5000 EUR/kWh: a pick over 1 m then costs
+    about what an item is worth)."""
     base = dict(items=10, duration_s=8.0, perception="truth", planner="fifo", seed=5)
     return [
         run_episode(config.load(None, **base, energy_price_eur_per_kwh=price), cell=cell)
-        for price in (0.0, 1e4)
+        for price in (0.0, 5000.0)
     ]
 
 
@@ -124,11 +124,11 @@ def test_pick_energies_add_up_to_at_most_the_episode(priced_runs):
 
 def test_a_stress_price_is_charged_and_changes_the_picks(priced_runs):
     free, priced = (r.episode_row for r in priced_runs)
-    cost = priced["energy_elec_j"] / 3.6e6 * 1e4
+    cost = priced["energy_elec_j"] / 3.6e6 * 5000.0
     assert priced["energy_cost_eur"] == pytest.approx(cost, rel=1e-9)
     assert priced["net_profit_eur"] == pytest.approx(priced["profit_eur"] - cost)
-    # Items that cost more than they earn are left: fewer picks, less energy per item entered.
-    assert priced["picked"] < free["picked"]
+    # Items that cost more than they earn are left (not all): fewer picks, less energy.
+    assert 0 < priced["picked"] < free["picked"]
     assert priced["energy_elec_j"] < free["energy_elec_j"]
 
 
