@@ -100,8 +100,8 @@ def test_drive_model_is_validated():
 
 @pytest.fixture(scope="module")
 def priced_runs(cell):
-    """A short truth episode at no price and at a stress price (5000 EUR/kWh: a pick over 1 m then costs
-    about what an item is worth)."""
+    """A short truth episode at no price and at a stress price (5000 EUR/kWh: a pick over
+    1 m then costs about what an item is worth)."""
     base = dict(items=10, duration_s=8.0, perception="truth", planner="fifo", seed=5)
     return [
         run_episode(config.load(None, **base, energy_price_eur_per_kwh=price), cell=cell)
