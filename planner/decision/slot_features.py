@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from planner.decision.candidates import Candidate, candidates, choice_of
+from planner.decision.candidates import Candidate, choice_of, evaluate, exit_time
 from planner.decision.interface import Choice, DecisionContext, RobotState, TrackedItem
 
 FEATURES = (
@@ -38,8 +38,25 @@ HIGH = np.array([1.0, 2.0, 0.5, 1.0, 1.0, 1.0, 10.0, MAX_TIME_S, MAX_TIME_S], dt
 def slot_candidates(
     items: list[TrackedItem], robot: RobotState, context: DecisionContext, k_slots: int
 ) -> list[Candidate]:
-    """The `k_slots` most urgent feasible candidates (fewer when fewer are feasible)."""
-    return candidates(items, robot, context)[:k_slots]
+    """The `k_slots` most urgent feasible candidates (fewer when fewer are feasible): the first
+    `k_slots` of `candidates(items, robot, context)`, found by timing the items in order of
+    their exit from the window (which does not depend on the robot) until `k_slots` are
+    feasible, instead of timing every item in view."""
+    t = robot.time
+    urgent = sorted(
+        ((exit_time(context, t, it.x, it.y), it.item_id, it) for it in items),
+        key=lambda entry: entry[:2],
+    )
+    out = []
+    for _, _, item in urgent:
+        if context.expected_value(item) <= 0.0:
+            continue
+        cand = evaluate(context, robot.tcp, t, item)
+        if cand is not None and cand.expected_value > 0.0:
+            out.append(cand)
+            if len(out) == k_slots:
+                break
+    return out
 
 
 def observe(cands: list[Candidate], now: float, k_slots: int) -> tuple[np.ndarray, np.ndarray]:

@@ -10,8 +10,6 @@ or wait `idle_step_s`. The episode ends when every item has been picked or has l
 
 from __future__ import annotations
 
-import copy
-
 import gymnasium as gym
 import numpy as np
 
@@ -27,8 +25,9 @@ from sim.errors import InvalidInput
 def _moved(item: TrackedItem, x: float) -> TrackedItem:
     """`item` carried by the belt to `x` [m]: a copy of the validated item (its probabilities
     and bin were checked once), so that a decision costs no re-validation."""
-    moved = copy.copy(item)
-    object.__setattr__(moved, "x", float(x))
+    moved = object.__new__(TrackedItem)
+    moved.__dict__.update(item.__dict__)
+    moved.__dict__["x"] = float(x)
     return moved
 
 
