@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from planner.decision.interface import CycleTimeEstimator, DecisionContext, RobotState, TrackedItem
-from planner.decision.qlearning import QLearningConfig
+from planner.decision.managers.qlearning import QLearningConfig
 from planner.decision.registry import PLANNERS, make_planner
 from planner.errors import PlannerInputError
 from planner.motion.cycle_model import CycleTimeModel

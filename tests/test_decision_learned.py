@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from planner.decision.evaluation import short_belt
-from planner.decision.fifo import FifoPlanner
 from planner.decision.kinematic_belt import simulate
-from planner.decision.learned import POLICY_FILE, TERMS, LearnedPlanner, SlotPolicy
+from planner.decision.managers.fifo import FifoPlanner
+from planner.decision.managers.learned import POLICY_FILE, TERMS, LearnedPlanner, SlotPolicy
 from planner.errors import PlannerInputError
 from sim.episode.decision_view import cell_context
 from sim.experiments.policy_training import TRAIN_SEED_BASE, TrainingConfig, fifo_start, train

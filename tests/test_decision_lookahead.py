@@ -11,7 +11,7 @@ import pytest
 from planner.decision.evaluation import short_belt
 from planner.decision.interface import RobotState, TrackedItem
 from planner.decision.kinematic_belt import oracle_bound, simulate
-from planner.decision.lookahead import SECONDS_PER_EVALUATION, LookaheadConfig
+from planner.decision.managers.lookahead import SECONDS_PER_EVALUATION, LookaheadConfig
 from planner.decision.registry import make_planner
 from planner.errors import PlannerInputError
 from sim.episode.decision_view import cell_context

@@ -11,7 +11,7 @@ import pytest
 from planner.decision.batch_grid import GRID_COLUMNS, column_centre, grid_column
 from planner.decision.interface import RobotState, TrackedItem
 from planner.decision.kinematic_belt import random_belt, simulate
-from planner.decision.qlearning import (
+from planner.decision.managers.qlearning import (
     QLearningConfig,
     QLearningPlanner,
     assign_cells,

@@ -11,7 +11,7 @@ import pytest
 from planner.decision.batch_grid import batch_index, grid_column
 from planner.decision.candidates import candidates
 from planner.decision.interface import RobotState, TrackedItem
-from planner.decision.rollout import (
+from planner.decision.managers.rollout import (
     RolloutConfig,
     RolloutPlanner,
     q_values,

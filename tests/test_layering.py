@@ -185,7 +185,7 @@ def test_no_package_module_reads_the_tests_folder():
         ("perception.hmm.model", "planner.motion.limits"),
         ("sim.cell.bins", "sim.episode.metrics"),  # a lower room imports a higher one
         ("sim.episode.loop", "sim.cli.run"),  # a library module imports a CLI module
-        ("planner.motion.intercept", "planner.decision.fifo"),
+        ("planner.motion.intercept", "planner.decision.managers.fifo"),
     ],
 )
 def test_the_checker_flags_a_wrong_import(importer, target):

@@ -18,7 +18,7 @@ import pytest
 
 from planner.decision.candidates import Candidate
 from planner.decision.interface import DEFAULT_BINS, DecisionContext, TrackedItem
-from planner.decision.rollout_episodes import episode_q, weight
+from planner.decision.managers.rollout_episodes import episode_q, weight
 from planner.motion.reach_window import ReachWindow
 
 PICK_S = 0.5

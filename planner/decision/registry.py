@@ -24,13 +24,13 @@ from planner.errors import PlannerInputError
 
 # Imported only when built, so that the command line's --help stays light.
 _BUILT_IN = {
-    "qlearning": "planner.decision.qlearning:QLearningPlanner",
-    "rollout": "planner.decision.rollout:RolloutPlanner",
-    "lookahead": "planner.decision.lookahead:LookaheadPlanner",
-    "learned": "planner.decision.learned:LearnedPlanner",
-    "proximity": "planner.decision.proximity:ProximityPlanner",
-    "fifo": "planner.decision.fifo:FifoPlanner",
-    "greedy": "planner.decision.greedy:GreedyPlanner",
+    "qlearning": "planner.decision.managers.qlearning:QLearningPlanner",
+    "rollout": "planner.decision.managers.rollout:RolloutPlanner",
+    "lookahead": "planner.decision.managers.lookahead:LookaheadPlanner",
+    "learned": "planner.decision.managers.learned:LearnedPlanner",
+    "proximity": "planner.decision.managers.proximity:ProximityPlanner",
+    "fifo": "planner.decision.managers.fifo:FifoPlanner",
+    "greedy": "planner.decision.managers.greedy:GreedyPlanner",
     "oracle": "planner.decision.oracle:OraclePlanner",
 }
 PLANNERS = tuple(_BUILT_IN)
@@ -102,9 +102,9 @@ def check_planner(spec: str) -> None:
 
 # The managers built from a config dataclass: name -> "module:ConfigClass".
 _CONFIGS = {
-    "qlearning": "planner.decision.qlearning:QLearningConfig",
-    "rollout": "planner.decision.rollout:RolloutConfig",
-    "lookahead": "planner.decision.lookahead:LookaheadConfig",
+    "qlearning": "planner.decision.managers.qlearning:QLearningConfig",
+    "rollout": "planner.decision.managers.rollout:RolloutConfig",
+    "lookahead": "planner.decision.managers.lookahead:LookaheadConfig",
 }
 
 

@@ -27,7 +27,7 @@ def main(args: argparse.Namespace) -> int:
     """Train and write the policy."""
     from dataclasses import fields
 
-    from planner.decision.learned import POLICY_FILE
+    from planner.decision.managers.learned import POLICY_FILE
     from sim.episode.outputs import check_output_file, write_atomic
     from sim.errors import InvalidInput
     from sim.experiments.policy_training import TrainingConfig, train

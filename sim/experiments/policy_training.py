@@ -1,6 +1,6 @@
 """Training the `learned` pick-order policy on `sortsim/PickOrder-v0` (cross-entropy method).
 
-The policy (`planner.decision.learned.SlotPolicy`) is a linear scorer of the K most urgent
+The policy (`planner.decision.managers.learned.SlotPolicy`) is a linear scorer of the K most urgent
 candidates. Its parameters are searched by the cross-entropy method: each iteration draws a
 population of parameter vectors from a Gaussian, scores each by its mean profit over the same
 training belts, and refits the Gaussian to the best fifth. The search starts at FIFO (all weight
@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from planner.decision.learned import TERMS, SlotPolicy
+from planner.decision.managers.learned import TERMS, SlotPolicy
 from sim.envs.pick_order import PickOrderEnv
 
 TRAIN_SEED_BASE = 1_000_000

@@ -2,8 +2,8 @@
 
 Until this module was split out it ran under the name `qlearning`; the thesis's Q-learning as
 written (random actions, 50 episodes, eq. 3.5 on the 20 x 27 grid) is now
-`planner.decision.qlearning`. This planner keeps the thesis's grid, batches and reward (eq. 3.3)
-but chooses by rollouts: nothing is drawn at random and nothing is learned.
+`planner.decision.managers.qlearning`. This planner keeps the thesis's grid, batches and reward
+(eq. 3.3) but chooses by rollouts: nothing is drawn at random and nothing is learned.
 
 - Grid and batches (`planner.decision.batch_grid`): rows one observation period apart, fixed to
   the belt, row 0 the first item seen; batches of 20 rows; the current batch is the most
@@ -16,12 +16,13 @@ but chooses by rollouts: nothing is drawn at random and nothing is learned.
   (after a pick the robot is at that item's bin). A taken item's reward is zeroed.
 - Only items the cup can meet now, inside the reachable window, by the cycle-time model, are
   candidates; an item still upstream of the window waits for a later decision.
-- Rollouts in time (default, `episode_starts` > 0; `planner.decision.rollout_episodes`): one
-  greedy episode per candidate first pick (the `episode_starts` of highest reward), the robot
-  released over that item's bin on the cycle-time model's clock, then taking the item of
-  highest reward it can still meet, for up to `episode_steps` moves; the score of the first
-  pick is the discounted sum w + gamma w' + ... along its episode. Items the belt carries away
-  during an episode are lost to it, so a first pick is worth what it leaves the robot time for.
+- Rollouts in time (default, `episode_starts` > 0;
+  `planner.decision.managers.rollout_episodes`): one greedy episode per candidate first pick
+  (the `episode_starts` of highest reward), the robot released over that item's bin on the
+  cycle-time model's clock, then taking the item of highest reward it can still meet, for up to
+  `episode_steps` moves; the score of the first pick is the discounted sum w + gamma w' + ...
+  along its episode. Items the belt carries away during an episode are lost to it, so a first
+  pick is worth what it leaves the robot time for.
 - Reward path (`episode_starts = 0`): the path taking the item of highest reward until the
   thesis's stopping rule (the rewards left sum to less than the most precious reward at the
   start), with q = w + gamma max q of the items left repeated along it until it stops changing
@@ -46,7 +47,7 @@ from planner.decision.batch_grid import (
 )
 from planner.decision.candidates import Candidate, candidates, choice_of
 from planner.decision.interface import MATERIALS, Choice, DecisionContext, RobotState, TrackedItem
-from planner.decision.rollout_episodes import episode_q
+from planner.decision.managers.rollout_episodes import episode_q
 from planner.errors import PlannerInputError
 
 
@@ -62,7 +63,8 @@ class RolloutConfig:
         objective: 'v/d' (eq. 3.3), 'd=1' (value only) or 'v=1' (distance only), section 4.1.3.
         tolerance: Largest q change that counts as converged.
         episode_starts: First picks (those of highest reward) whose episodes in time are run
-            (`planner.decision.rollout_episodes`); 0 chooses by the q of the reward path alone.
+            (`planner.decision.managers.rollout_episodes`); 0 chooses by the q of the reward
+            path alone.
         episode_steps: Most moves of each such episode after its first pick.
     """
 

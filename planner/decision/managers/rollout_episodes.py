@@ -1,5 +1,5 @@
-"""Episodes in time for the rollout planner (`planner.decision.rollout`): the score of each first
-move from the robot's state now.
+"""Episodes in time for the rollout planner (`planner.decision.managers.rollout`): the score of
+each first move from the robot's state now.
 
 Ours, after the thesis's 3.4.2, which keeps its picking "in real time", so that "the robot will
 eventually lose items due to the movement of the conveyor belt". Each candidate first pick
@@ -14,7 +14,8 @@ The thesis's stopping rule (stop when the remaining rewards sum to less than the
 one) is not applied here: in time, the belt ends an episode by carrying items away, and the rule
 would cut the episode after a precious first pick and not after a cheap one (with a paper and an
 aluminium item, value only, it made the robot take the paper first and lose nothing but the
-aluminium's extra value). It still ends the reward path of `planner.decision.rollout.reward_path`.
+aluminium's extra value). It still ends the reward path of
+`planner.decision.managers.rollout.reward_path`.
 
 Items are handled as plain tuples (id, x at t0, y, expected value, bin class) in this inner
 loop; the meeting and place times are the same calls `planner.decision.candidates` makes.
