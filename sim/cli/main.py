@@ -52,6 +52,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _OneLineParser(
         prog="sortsim", description="Physics digital twin of a robotic recycling sorting cell."
     )
+    from sim import __version__
+
+    parser.add_argument("--version", action="version", version=f"sortsim {__version__}")
     sub = parser.add_subparsers(
         dest="command", required=True, metavar="COMMAND", parser_class=_OneLineParser
     )

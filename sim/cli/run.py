@@ -183,7 +183,11 @@ def main(args: argparse.Namespace) -> int:
         progress.done()
     outputs.write_episodes(out / "episodes.csv", [result.episode_row])
     outputs.write_picks(out / "picks.csv", result.pick_rows)
+    from sim.episode import manifest
+
+    manifest.write(out, manifest.build("run", config.to_dict(), [config.seed]))
     print(summary(result))
-    written = [out / "episodes.csv", out / "picks.csv"] + ([args.video] if args.video else [])
+    written = [out / "episodes.csv", out / "picks.csv", out / manifest.MANIFEST_FILE]
+    written += [args.video] if args.video else []
     print("wrote " + ", ".join(str(p) for p in written))
     return 0

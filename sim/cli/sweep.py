@@ -65,6 +65,10 @@ def main(args: argparse.Namespace) -> int:
         CameraCalibration.load(DEFAULT_CALIBRATION)
         check_backend()
 
+    from sim.episode import manifest
+
+    manifest.write(args.out, manifest.build("sweep", sweep_manifest_config(config), seeds(config)))
+
     def say(line: str) -> None:
         print(line, file=sys.stderr, flush=True)
 
@@ -78,3 +82,28 @@ def main(args: argparse.Namespace) -> int:
     for path in thesis_report.save_figures(config.table, rows, args.out):
         print(f"figure: {path}")
     return 0
+
+
+def seeds(config) -> list[int]:
+    """The seeds of a sweep's episodes."""
+    return [spec.config.seed for spec in config.episodes]
+
+
+def sweep_manifest_config(config) -> dict:
+    """A sweep's resolved configuration for its manifest: name, table, identity and each grid
+    point's full episode config (seed aside), in the sweep's order."""
+    points, seen = [], set()
+    for spec in config.episodes:
+        resolved = spec.config.to_dict()
+        resolved.pop("seed")
+        key = (spec.variant, repr(sorted(resolved.items())))
+        if key not in seen:
+            seen.add(key)
+            points.append({"variant": spec.variant, "config": resolved})
+    return {
+        "name": config.name,
+        "table": config.table,
+        "identity": config.identity,
+        "file": config.path,
+        "grid": points,
+    }

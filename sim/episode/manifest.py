@@ -1,0 +1,109 @@
+"""`manifest.json`: what produced a run or sweep folder, for any tool that reads it later.
+
+In the manner of a trial folder of an experiment tracker: beside `episodes.csv` (and
+`picks.csv`), one JSON object with the fully resolved configuration (every key, defaults
+included), the seeds, the package version, the git commit of the source tree when it is a
+checkout (and whether it had uncommitted changes), the MuJoCo, Python and NumPy versions, the
+machine (CPU model, cores, OS) and the command line. It is written atomically before the first
+episode runs, so a folder with results always says how they were made; the CSVs stay
+byte-identical for a seed and config (the manifest's time stamp and machine are not in them).
+"""
+
+from __future__ import annotations
+
+import datetime
+import json
+import os
+import platform
+import subprocess
+import sys
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+from sim.episode.outputs import write_atomic
+from sim.paths import REPO_ROOT
+
+MANIFEST_FILE = "manifest.json"
+FORMAT = 1
+"""Version of the manifest's layout (raised when a key changes meaning)."""
+
+
+def package_version() -> str:
+    """The installed sortsim's version ('unknown' when it is not installed)."""
+    try:
+        return metadata.version("sortsim")
+    except metadata.PackageNotFoundError:
+        return "unknown"
+
+
+def git_state(root: Path = REPO_ROOT) -> dict[str, Any] | None:
+    """{'commit': sha, 'dirty': bool} of the source tree, None when it is not a git checkout
+    or git is not available."""
+    if not (root / ".git").exists():
+        return None
+    try:
+        commit = subprocess.run(
+            ["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True, timeout=10
+        )
+        status = subprocess.run(
+            ["git", "status", "--porcelain", "--untracked-files=no"],
+            cwd=root,
+            capture_output=True,
+            text=True,
+            timeout=10,
+        )
+    except (OSError, subprocess.SubprocessError):
+        return None
+    if commit.returncode != 0:
+        return None
+    return {"commit": commit.stdout.strip(), "dirty": bool(status.stdout.strip())}
+
+
+def cpu_model() -> str:
+    """The CPU's model name (from /proc/cpuinfo on Linux, else the platform's answer)."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def build(kind: str, config: Any, seeds: list[int], argv: list[str] | None = None) -> dict:
+    """The manifest of a `kind` ('run' or 'sweep') folder.
+
+    Args:
+        kind: 'run' or 'sweep'.
+        config: The resolved configuration, JSON-ready (dicts, lists, numbers, strings).
+        seeds: The seeds the folder's episodes use.
+        argv: The command line (sys.argv when None).
+    """
+    import mujoco
+    import numpy
+
+    return {
+        "format": FORMAT,
+        "kind": kind,
+        "created_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+        "sortsim_version": package_version(),
+        "git": git_state(),
+        "mujoco_version": mujoco.__version__,
+        "numpy_version": numpy.__version__,
+        "python_version": platform.python_version(),
+        "machine": {
+            "cpu": cpu_model(),
+            "cores": os.cpu_count(),
+            "os": platform.platform(),
+        },
+        "command": list(sys.argv if argv is None else argv),
+        "seeds": sorted({int(s) for s in seeds}),
+        "config": config,
+    }
+
+
+def write(out_dir: Path, manifest: dict) -> Path:
+    """Write `manifest.json` in `out_dir` atomically."""
+    text = json.dumps(manifest, indent=2, sort_keys=False) + "\n"
+    return write_atomic(Path(out_dir) / MANIFEST_FILE, text)
