@@ -1,4 +1,4 @@
-"""`sortsim run` headless: the files (CSVs, manifest, video), the summary, a video that decodes, refusals."""
+"""`sortsim run` headless: the files (CSVs, manifest, video), the summary, refusals."""
 
 from __future__ import annotations
 
