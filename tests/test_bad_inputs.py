@@ -124,6 +124,10 @@ RUN_CASES = [
     ("duration-inf", ["--duration", "inf"], "duration_s", {}),
     ("duration-huge", ["--duration", "1e9"], "duration_s", {}),
     ("unknown-option", ["--colour", "red"], "unrecognized", {}),
+    ("energy-price-negative", ["--energy-price", "-1"], "energy_price_eur_per_kwh", {}),
+    ("energy-price-nan", ["--energy-price", "nan"], "energy_price_eur_per_kwh", {}),
+    ("energy-price-huge", ["--energy-price", "1e12"], "energy_price_eur_per_kwh", {}),
+    ("energy-price-text", ["--energy-price", "cheap"], "--energy-price", {}),
     ("out-is-a-file", ["--out", "{sentinel}/earlier.csv"], "--out", {}),
     ("out-under-a-file", ["--out", "{sentinel}/earlier.csv/deeper"], "--out", {}),
     ("out-unwritable", ["--out", "{unwritable}/out"], "--out", {}),
@@ -729,6 +733,50 @@ def test_bench_refuses(capfd, sentinel, args, word):
     before = snapshot(sentinel)
     assert word in refused(capfd, ["bench", *args])
     assert snapshot(sentinel) == before
+
+
+REPORT_HEADER = "seed,planner,speed_factor,n_items,picked,profit_eur\n"
+REPORT_CASES = [
+    ("missing-folder", ["{tmp}/absent"], {}, "DIR"),
+    ("no-episodes", ["{tmp}/run"], {"run/picks.csv": "t_start_s\n"}, "DIR"),
+    ("header-only", ["{tmp}/run"], {"run/episodes.csv": REPORT_HEADER}, "DIR"),
+    ("not-utf8", ["{tmp}/run"], {"run/episodes.csv": b"\xff\xfe\x00garbage"}, "episodes.csv"),
+    ("ragged", ["{tmp}/run"], {"run/episodes.csv": REPORT_HEADER + "0,fifo\n"}, "episodes.csv"),
+    (
+        "speed-text",
+        ["{tmp}/run"],
+        {"run/episodes.csv": REPORT_HEADER + "0,fifo,fast,80,70,12.0\n"},
+        "speed_factor",
+    ),
+    (
+        "items-missing",
+        ["{tmp}/run"],
+        {"run/episodes.csv": "seed,planner,speed_factor\n0,fifo,1.0\n"},
+        "n_items",
+    ),
+    (
+        "out-is-a-file",
+        ["{tmp}/run", "--out", "{sentinel}/earlier.csv"],
+        {"run/episodes.csv": REPORT_HEADER + "0,fifo,1.0,80,70,12.0\n"},
+        "--out",
+    ),
+    ("no-folder", [], {}, "DIR"),
+]
+
+
+@pytest.mark.parametrize(
+    ("args", "files", "word"), [c[1:] for c in REPORT_CASES], ids=[c[0] for c in REPORT_CASES]
+)
+def test_report_refuses(capfd, tmp_path, sentinel, args, files, word):
+    for name, content in files.items():
+        path = tmp_path / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(content if isinstance(content, bytes) else content.encode())
+    before = snapshot(sentinel)
+    line = refused(capfd, fill(["report", *args], {"tmp": tmp_path, "sentinel": sentinel}))
+    assert word in line
+    assert snapshot(sentinel) == before
+    assert not (tmp_path / "run" / "report").exists()
 
 
 def test_unknown_command_is_refused(capfd):

@@ -31,6 +31,7 @@ COMMANDS = {
     "hmm-eval": "Train the per-stripe HMMs and print the thesis's table 4.1.",
     "bench": "Print the performance figures (real-time factors, latencies, cycle time).",
     "train": "Train the learned pick-order policy on sortsim/PickOrder-v0 (seeded).",
+    "report": "Means, 95 % intervals, figures and an HTML page of run or sweep folders.",
 }
 
 REFUSED = (RefusedInput, NotAvailable)

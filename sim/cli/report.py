@@ -1,0 +1,28 @@
+"""`sortsim report`: means, 95 % intervals, figures and one HTML page of run or sweep folders
+(`sim.experiments.report`)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of `sortsim report`."""
+    parser.add_argument("dirs", nargs="+", type=Path, metavar="DIR", help="run or sweep folders")
+    parser.add_argument(
+        "--out", type=Path, default=None, help="where to write the report (default: DIR/report)"
+    )
+
+
+def main(args: argparse.Namespace) -> int:
+    """Write the report and list its files."""
+    from sim.episode.outputs import check_output_dir
+    from sim.experiments.report import read_folders, write_report
+
+    out = args.out if args.out is not None else args.dirs[0] / "report"
+    check_output_dir(out, "--out")
+    read_folders(args.dirs)  # refuse a folder without episodes before writing anything
+    for path in write_report(args.dirs, out):
+        print(f"wrote {path}")
+    return 0
