@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import importlib
+import logging
 import os
 import signal
 import sys
@@ -31,7 +32,7 @@ COMMANDS = {
     "hmm-eval": "Train the per-stripe HMMs and print the thesis's table 4.1.",
     "bench": "Print the performance figures (real-time factors, latencies, cycle time).",
     "train": "Train the learned pick-order policy on sortsim/PickOrder-v0 (seeded).",
-    "report": "Means, 95 % intervals, figures and an HTML page of run or sweep folders.",
+    "report": "Means with 95-percent intervals, figures and an HTML page of run or sweep folders.",
 }
 
 REFUSED = (RefusedInput, NotAvailable)
@@ -59,10 +60,35 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(
         dest="command", required=True, metavar="COMMAND", parser_class=_OneLineParser
     )
+    common = _common_options()
     for name, summary in COMMANDS.items():
-        p = sub.add_parser(name, help=summary, description=summary)
+        p = sub.add_parser(name, help=summary, description=summary, parents=[common])
         _module(name).add_arguments(p)
     return parser
+
+
+def _common_options() -> argparse.ArgumentParser:
+    """--verbose / --quiet, taken by every subcommand (the standard `logging` levels)."""
+    common = argparse.ArgumentParser(add_help=False)
+    loudness = common.add_mutually_exclusive_group()
+    loudness.add_argument("-v", "--verbose", action="store_true", help="debug messages too")
+    loudness.add_argument(
+        "-q", "--quiet", action="store_true", help="warnings and errors only (no progress)"
+    )
+    return common
+
+
+def configure_logging(verbose: bool, quiet: bool) -> None:
+    """Messages of the `sim`, `planner` and `perception` loggers on stderr: DEBUG with
+    --verbose, WARNING and above with --quiet, else INFO (progress included)."""
+    level = logging.DEBUG if verbose else logging.WARNING if quiet else logging.INFO
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter("%(levelname)s %(name)s: %(message)s"))
+    for name in ("sim", "planner", "perception"):
+        logger = logging.getLogger(name)
+        logger.handlers[:] = [handler]
+        logger.setLevel(level)
+        logger.propagate = False
 
 
 class Stopped(BaseException):
@@ -101,6 +127,7 @@ def _say(command: str, text: object) -> None:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the console script; returns the process exit code."""
     args = build_parser().parse_args(argv)
+    configure_logging(args.verbose, args.quiet)
     from sim.cell.rendering import prepare_environment
 
     prepare_environment()

@@ -56,7 +56,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="EUR_PER_KWH",
         help="price of the motors' electrical energy; > 0: every planner nets it (default 0)",
     )
-    parser.add_argument("--quiet", action="store_true", help="no progress line")
 
 
 class Progress:

@@ -13,7 +13,7 @@ saved as PNG files in `<out>`.
 from __future__ import annotations
 
 import argparse
-import sys
+import logging
 from pathlib import Path
 
 MAX_WORKERS = 256
@@ -69,10 +69,8 @@ def main(args: argparse.Namespace) -> int:
 
     manifest.write(args.out, manifest.build("sweep", sweep_manifest_config(config), seeds(config)))
 
-    def say(line: str) -> None:
-        print(line, file=sys.stderr, flush=True)
-
-    rows = sweep.run_sweep(config, args.out, args.workers, args.ray, progress=say)
+    log = logging.getLogger("sim.experiments.sweep")
+    rows = sweep.run_sweep(config, args.out, args.workers, args.ray, progress=log.info)
     print(f"{config.name}: {len(rows)} episodes in {args.out / 'episodes.csv'}")
     from sim.experiments import thesis_report
 

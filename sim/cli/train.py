@@ -20,7 +20,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--out", type=Path, default=None, help="policy JSON (default: the shipped policy file)"
     )
-    parser.add_argument("--quiet", action="store_true", help="no progress lines")
 
 
 def main(args: argparse.Namespace) -> int:

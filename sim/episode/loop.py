@@ -14,6 +14,7 @@ been dropped and left the belt (picked, missed, dropped) and the robot is idle.
 
 from __future__ import annotations
 
+import logging
 import math
 import time
 from dataclasses import replace
@@ -39,6 +40,8 @@ from sim.episode.sensing import CAMERA_SIZE, CameraPerception, TruthPerception
 from sim.episode.tracking import Tracker
 from sim.flow.config import X_INFEED, FlowConfig
 from sim.flow.generator import generate_flow
+
+log = logging.getLogger(__name__)
 
 DECIDE_PERIOD_S = 0.02
 """How often an idle robot asks the decision manager again [s]."""
@@ -368,14 +371,23 @@ class Episode:
         pool, data = self.cell.pool, self.data
         cup = self.robot.suction
         held = cup.held_slot
-        self.metrics.on_warnings(self.mj_warnings.update())
+        self.metrics.on_warnings(self.mj_warnings.update())  # a MujocoWarning names them
         # Items the cup let go of over a bin fall into it: not thrown, never judged as such.
         for event in cup.events[self._cup_events_seen :]:
             if event.kind == "released":
                 self.throw_watch.note_released(event.item_id)
         self._cup_events_seen = len(cup.events)
         for throw in self.throw_watch.update(data, held):
-            self.metrics.on_thrown(throw, self.robot.activity())
+            doing = self.robot.activity()
+            self.metrics.on_thrown(throw, doing)
+            log.warning(
+                "seed %d, t %.2f s: item %d thrown off the belt (%s) while the robot was at %s",
+                self.config.seed,
+                throw.time,
+                throw.item_id,
+                throw.reason,
+                doing,
+            )
         for slot in pool.active_slots():
             if slot == held:
                 continue

@@ -23,6 +23,7 @@ Two sources with one interface, `observe(t) -> list[Detection]`:
 from __future__ import annotations
 
 import hashlib
+import logging
 import os
 import time
 from pathlib import Path
@@ -39,6 +40,8 @@ from sim.episode.tracking import Detection
 from sim.flow.config import BELT_HALF_WIDTH, X_CAMERA
 from sim.flow.generator import Flow
 from sim.paths import REPO_ROOT
+
+log = logging.getLogger(__name__)
 
 ON_BELT_TOL_M = 0.02
 """An item whose centre is higher than its resting height plus this is not on the belt [m]."""
@@ -152,8 +155,9 @@ class CameraPerception:
             row = self.pipeline.observe(frame, self.speed, t, depth)
             codes = row.codes
             pixels = [np.asarray(c.pixels, dtype=float).reshape(-1, 2) for c in row.cells]
-        except PerceptionError:
+        except PerceptionError as exc:
             self.unobserved += 1
+            log.debug("t %.2f s: camera frame unusable, its row read as empty (%s)", t, exc)
             codes = np.full(stripes, EMPTY_CODE)
             pixels = [np.zeros((0, 2))] * stripes
         # Belt coordinate b of each item pixel: the belt travel until it crosses the camera line.

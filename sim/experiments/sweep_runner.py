@@ -226,7 +226,8 @@ def run_sweep(
             elapsed = time.perf_counter() - start
             progress(
                 f"[{count[0]}/{total}] {spec.key}  accuracy {float(row['accuracy']):.3f}  "
-                f"profit {float(row['profit_eur']):.2f} EUR  ({elapsed:.0f} s)"
+                f"profit {float(row['profit_eur']):.2f} EUR  ({elapsed:.0f} s, "
+                f"{eta_text(elapsed, count[0] - done_before, total - count[0])})"
             )
 
     if todo:
@@ -235,6 +236,21 @@ def run_sweep(
         else:
             _local(todo, workers, on_row)
     return _sorted_rewrite(sweep, csv_path)
+
+
+def eta_text(elapsed_s: float, done: int, left: int) -> str:
+    """'ETA 3 min 20 s': the time the `left` episodes will take at the pace of the `done` ones
+    of this run (episodes of unequal cost make it rough; it settles as the sweep goes)."""
+    if left <= 0:
+        return "done"
+    if done <= 0:
+        return "ETA unknown"
+    seconds = round(elapsed_s / done * left)
+    minutes, seconds = divmod(seconds, 60)
+    hours, minutes = divmod(minutes, 60)
+    if hours:
+        return f"ETA {hours} h {minutes} min"
+    return f"ETA {minutes} min {seconds} s" if minutes else f"ETA {seconds} s"
 
 
 def _sorted_rewrite(sweep: SweepConfig, csv_path: Path) -> list[dict]:
