@@ -1,11 +1,14 @@
 """The episode's video: the cell from a free camera over the belt with overlays, as H.264 MP4.
 
 Frames are rendered off-screen with one reused `mujoco.Renderer` at a small size (default
-640x360) at a fixed rate of simulated time, then annotated with OpenCV: each tracked item's
-predicted class next to it (where the cell believes it is), the chosen next pick boxed, the
-pick/miss counters and the profit. The MP4 is written by imageio-ffmpeg to a temporary file and
-renamed into place when the episode ends, so a killed run leaves no half-written video; the
-temporary follows `sim.paths.temporary_path`, so the next run removes a killed run's leftover.
+640x360) at a fixed rate of simulated time, from a view over the whole belt (the camera box to
+the discharge), the robot and all three bins, the robot's cage and the camera box drawn
+see-through; then annotated with OpenCV: each tracked item's predicted class next to it (where the
+cell believes it is; labels never overlap, a crowded item keeps its dot only), the chosen next
+pick boxed, the pick/miss counters, the profit and each bin's purity so far. The MP4 is written
+by imageio-ffmpeg to a temporary file and renamed into place when the episode ends, so a killed
+run leaves no half-written video; the temporary follows `sim.paths.temporary_path`, so the next
+run removes a killed run's leftover.
 `check_encoder` proves, before an episode runs, that the H.264 encoder works here.
 """
 
@@ -27,11 +30,18 @@ from sim.cell.rendering import check_backend
 from sim.errors import InvalidInput
 from sim.paths import temporary_path
 
-# The view: the belt from the camera box (x = -1.48) to the robot and its bins.
-LOOKAT = (-0.55, 0.0, 0.0)
-DISTANCE = 2.5
-AZIMUTH = 115.0
-ELEVATION = -25.0
+# The view: from above the paper bin's side, the whole belt from the camera box (x = -1.48) to
+# the discharge, the robot and all three bins.
+LOOKAT = (-0.35, 0.0, 0.15)
+DISTANCE = 3.3
+AZIMUTH = 135.0
+ELEVATION = -48.0
+GHOSTED_PREFIXES = ("cage_", "camera_box_")
+"""Geoms drawn see-through in the video (the robot's cage and the camera's box would hide the
+belt and the robot), by name prefix in the MJCF."""
+GHOST_ALPHA = 0.12
+LABEL_OFFSETS = ((4, -4), (4, 12), (-34, -4), (-34, 12), (4, -18), (-34, -18), (4, 26))
+"""Where a label is tried around its item's dot [px], in turn, until it overlaps no other."""
 # BGR-free: frames are RGB; one colour per predicted class (paper, plastic, aluminium).
 CLASS_COLOURS = {2: (230, 170, 60), 3: (80, 200, 255), 4: (235, 235, 235)}
 CLASS_SHORT = {2: "PAP", 3: "PL", 4: "AL"}
@@ -61,6 +71,21 @@ def view_camera() -> mujoco.MjvCamera:
     return cam
 
 
+def ghosted_geoms(model: mujoco.MjModel) -> frozenset[int]:
+    """Ids of the geoms the video draws see-through (`GHOSTED_PREFIXES`)."""
+    return frozenset(
+        i for i in range(model.ngeom) if model.geom(i).name.startswith(GHOSTED_PREFIXES)
+    )
+
+
+def ghost(scene: mujoco.MjvScene, geom_ids: frozenset[int], alpha: float = GHOST_ALPHA) -> None:
+    """Make the scene's copies of `geom_ids` see-through (after `update_scene`)."""
+    for k in range(scene.ngeom):
+        g = scene.geoms[k]
+        if g.objtype == mujoco.mjtObj.mjOBJ_GEOM and g.objid in geom_ids:
+            g.rgba[3] = alpha
+
+
 def project(scene: mujoco.MjvScene, points: np.ndarray, size) -> np.ndarray:
     """Pixel coordinates (N, 2) of world `points` (N, 3) in the scene's rendered view."""
     width, height = size
@@ -78,10 +103,38 @@ def project(scene: mujoco.MjvScene, points: np.ndarray, size) -> np.ndarray:
     return uv
 
 
+def _overlaps(box, boxes) -> bool:
+    x0, y0, x1, y1 = box
+    return any(x0 < b[2] and b[0] < x1 and y0 < b[3] and b[1] < y1 for b in boxes)
+
+
+def place_label(p, size, taken: list) -> tuple[int, int] | None:
+    """Bottom-left corner of a label of `size` (w, h) [px] near the dot at `p`, at the first of
+    `LABEL_OFFSETS` where it overlaps no box in `taken` (which it joins); None: no room."""
+    w, h = size
+    for dx, dy in LABEL_OFFSETS:
+        x, y = p[0] + dx, p[1] + dy
+        box = (x - 1, y - h - 1, x + w + 1, y + 2)
+        if not _overlaps(box, taken):
+            taken.append(box)
+            return x, y
+    return None
+
+
 def annotate(frame: np.ndarray, uv: np.ndarray, overlay: Overlay) -> np.ndarray:
-    """Draw the overlay on an RGB frame (in place) and return it."""
+    """Draw the overlay on an RGB frame (in place) and return it.
+
+    Every item gets its dot; labels are placed so that none overlaps another or the counters'
+    panel (`place_label`), the next pick's first: where items crowd, some dots go unlabelled
+    rather than have their labels pile up."""
     font = cv2.FONT_HERSHEY_SIMPLEX
-    for (track_id, *_, cls, prob), (u, v) in zip(overlay.items, uv, strict=True):
+    taken = []
+    if overlay.counters:
+        h = 8 + 16 * len(overlay.counters)
+        w = 12 + max(cv2.getTextSize(t, font, 0.42, 1)[0][0] for t in overlay.counters)
+        taken.append((0, 0, w, h))
+    order = sorted(zip(overlay.items, uv, strict=True), key=lambda e: e[0][0] != overlay.next_pick)
+    for (track_id, *_, cls, prob), (u, v) in order:
         if not (np.isfinite(u) and np.isfinite(v)):
             continue
         p = (int(round(u)), int(round(v)))
@@ -90,7 +143,10 @@ def annotate(frame: np.ndarray, uv: np.ndarray, overlay: Overlay) -> np.ndarray:
         label = (
             f"{CLASS_SHORT.get(cls, '?')} {prob:.0%}" if prob < 0.995 else CLASS_SHORT.get(cls, "?")
         )
-        cv2.putText(frame, label, (p[0] + 4, p[1] - 4), font, 0.33, colour, 1, cv2.LINE_AA)
+        (w, h), _ = cv2.getTextSize(label, font, 0.33, 1)
+        corner = place_label(p, (w, h), taken)
+        if corner is not None:
+            cv2.putText(frame, label, corner, font, 0.33, colour, 1, cv2.LINE_AA)
         if track_id == overlay.next_pick:
             cv2.rectangle(frame, (p[0] - 10, p[1] - 10), (p[0] + 10, p[1] + 10), (255, 60, 60), 2)
             cv2.putText(
@@ -163,6 +219,7 @@ class VideoRecorder:
         self.cam = view_camera()
         check_backend()
         self.renderer = mujoco.Renderer(model, height=self.size[1], width=self.size[0])
+        self._ghosts = ghosted_geoms(model)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self._tmp = temporary_path(self.path, ".mp4")
         self._writer = imageio.get_writer(
@@ -189,6 +246,7 @@ class VideoRecorder:
     def capture(self, data: mujoco.MjData, overlay: Overlay) -> None:
         """Render the current state, draw `overlay` and append the frame."""
         self.renderer.update_scene(data, camera=self.cam)
+        ghost(self.renderer.scene, self._ghosts)
         frame = self.renderer.render().copy()
         pts = np.array([it[1:4] for it in overlay.items], dtype=float).reshape(-1, 3)
         annotate(frame, project(self.renderer.scene, pts, self.size), overlay)
@@ -241,6 +299,18 @@ def overlay_of(episode, t: float) -> Overlay:
         f"{episode.config.perception}",
         f"entered {m.n_entered}  picked {m.n_picked}  missed {len(m.missed)}",
         f"profit {m.profit:.2f} EUR",
+        "purity " + purity_text(m.binned),
     ]
     pick = None if episode.current_pick is None else episode.current_pick.track_id
     return Overlay(items=items, next_pick=pick, counters=counters)
+
+
+def purity_text(binned: dict[int, tuple[int, int]]) -> str:
+    """'PAP 1.00  PL 0.95  AL -': each bin's share of items of its own class so far ('-' for
+    an empty bin), from {item: (true class, bin class)}."""
+    parts = []
+    for cls, short in CLASS_SHORT.items():
+        in_bin = [t for t, b in binned.values() if b == cls]
+        share = f"{sum(t == cls for t in in_bin) / len(in_bin):.2f}" if in_bin else "-"
+        parts.append(f"{short} {share}")
+    return "  ".join(parts)
