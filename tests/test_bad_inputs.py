@@ -417,7 +417,9 @@ def test_a_refusal_in_a_worker_stops_a_two_worker_sweep_in_one_line(tmp_path, se
     assert proc.returncode == 2, proc.stderr
     assert lines == ["sortsim sweep: refuser: allowed no episode: this planner refuses them all"]
     assert "Traceback" not in proc.stderr
-    assert elapsed < 20, elapsed  # no hang: typically 5-7 s, most of it starting the workers
+    # No hang (the 60 s timeout above would end one): typically 5-7 s, most of it starting the
+    # workers; up to 26 s measured on a 2-core machine busy with a sweep.
+    assert elapsed < 45, elapsed
     after = snapshot(sentinel)
     assert {k: v for k, v in after.items() if k in before} == before  # sweep.json may be added
 

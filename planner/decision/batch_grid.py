@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 
 from planner.decision.interface import TrackedItem
+from planner.errors import PlannerInputError
 
 OBJECTIVES = ("v/d", "d=1", "v=1")
 """The thesis's objectives (section 4.1.3): value over distance, value only, distance only."""
@@ -62,3 +63,26 @@ def grid_column(y: float, half_width: float = BELT_HALF_WIDTH) -> int:
 def column_centre(column: int, half_width: float = BELT_HALF_WIDTH) -> float:
     """y [m] of the centre of grid column 2..26."""
     return -half_width + (column - 1.5) * (2 * half_width / BELT_COLUMNS)
+
+
+def _number(value) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def check_learning_parameters(
+    gamma, iterations, batch_rows, row_period_s, objective, tolerance
+) -> None:
+    """Refuse (`PlannerInputError`, naming the field) the thesis's learning parameters out of
+    range: gamma in [0, 1), iterations and batch rows integers >= 1, a row period > 0 [s], one
+    of `OBJECTIVES`, a tolerance >= 0. Shared by the Q-learning and the rollout planner."""
+    if not (_number(gamma) and 0.0 <= gamma < 1.0):
+        raise PlannerInputError("gamma", "a number in [0, 1)", gamma)
+    for name, value in (("iterations", iterations), ("batch_rows", batch_rows)):
+        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+            raise PlannerInputError(name, "an integer >= 1", value)
+    if not (_number(row_period_s) and row_period_s > 0.0):
+        raise PlannerInputError("row_period_s", "a period > 0 [s]", row_period_s)
+    if objective not in OBJECTIVES:
+        raise PlannerInputError("objective", " | ".join(OBJECTIVES), objective)
+    if not (_number(tolerance) and tolerance >= 0.0):
+        raise PlannerInputError("tolerance", "a number >= 0", tolerance)

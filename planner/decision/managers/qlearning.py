@@ -63,9 +63,9 @@ from planner.decision.batch_grid import (
     BELT_COLUMNS,
     GRID_COLUMNS,
     MIN_DISTANCE,
-    OBJECTIVES,
     batch_index,
     belt_coordinate,
+    check_learning_parameters,
     column_centre,
     grid_column,
     grid_row,
@@ -100,26 +100,20 @@ class QLearningConfig:
     q_init: float = 0.01
 
     def __post_init__(self):
-        if not (_number(self.gamma) and 0.0 <= self.gamma < 1.0):
-            raise PlannerInputError("gamma", "a number in [0, 1)", self.gamma)
-        for name in ("iterations", "batch_rows"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise PlannerInputError(name, "an integer >= 1", value)
+        check_learning_parameters(
+            self.gamma,
+            self.iterations,
+            self.batch_rows,
+            self.row_period_s,
+            self.objective,
+            self.tolerance,
+        )
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             raise PlannerInputError("seed", "an integer >= 0", self.seed)
-        if not (_number(self.row_period_s) and self.row_period_s > 0.0):
-            raise PlannerInputError("row_period_s", "a period > 0 [s]", self.row_period_s)
-        if self.objective not in OBJECTIVES:
-            raise PlannerInputError("objective", " | ".join(OBJECTIVES), self.objective)
-        for name in ("tolerance", "q_init"):
-            value = getattr(self, name)
-            if not (_number(value) and value >= 0.0):
-                raise PlannerInputError(name, "a number >= 0", value)
-
-
-def _number(value) -> bool:
-    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+        q = self.q_init
+        finite = isinstance(q, int | float) and not isinstance(q, bool) and math.isfinite(q)
+        if not (finite and q >= 0.0):
+            raise PlannerInputError("q_init", "a number >= 0", q)
 
 
 @dataclass(frozen=True)

@@ -33,16 +33,15 @@ written (random actions, 50 episodes, eq. 3.5 on the 20 x 27 grid) is now
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from planner.decision.batch_grid import (
     MIN_DISTANCE,
-    OBJECTIVES,
     batch_index,
     belt_coordinate,
+    check_learning_parameters,
     grid_column,
 )
 from planner.decision.candidates import Candidate, candidates, choice_of
@@ -78,22 +77,18 @@ class RolloutConfig:
     episode_steps: int = 16
 
     def __post_init__(self):
-        if not (isinstance(self.gamma, int | float) and 0.0 <= self.gamma < 1.0):
-            raise PlannerInputError("gamma", "a number in [0, 1)", self.gamma)
+        check_learning_parameters(
+            self.gamma,
+            self.iterations,
+            self.batch_rows,
+            self.row_period_s,
+            self.objective,
+            self.tolerance,
+        )
         for name in ("episode_starts", "episode_steps"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 0:
                 raise PlannerInputError(name, "an integer >= 0", value)
-        for name in ("iterations", "batch_rows"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise PlannerInputError(name, "an integer >= 1", value)
-        if not (math.isfinite(self.row_period_s) and self.row_period_s > 0.0):
-            raise PlannerInputError("row_period_s", "a period > 0 [s]", self.row_period_s)
-        if self.objective not in OBJECTIVES:
-            raise PlannerInputError("objective", " | ".join(OBJECTIVES), self.objective)
-        if not (math.isfinite(self.tolerance) and self.tolerance >= 0.0):
-            raise PlannerInputError("tolerance", "a number >= 0", self.tolerance)
 
 
 def reward_path(rewards: np.ndarray, next_state: np.ndarray) -> tuple[list[int], list[float]]:
