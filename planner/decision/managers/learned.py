@@ -31,18 +31,8 @@ from planner.errors import PlannerInputError
 
 POLICY_FILE = Path(__file__).with_name("data") / "learned_policy.json"
 """The shipped weights."""
-TERMS = (
-    "x_m",
-    "y_m",
-    "p_paper",
-    "p_plastic",
-    "p_aluminium",
-    "expected_value_eur",
-    "time_left_s",
-    "time_to_reach_s",
-    "value_per_reach_s",
-    "slack_s",
-)
+DERIVED_TERMS = ("value_per_reach_s", "slack_s")
+TERMS = (*FEATURES[1:], *DERIVED_TERMS)
 """What the score is linear in: the slot features (but `present`), expected value over the time
 to reach it (+0.3 s), and the slack (time left minus time to reach) [s]."""
 
