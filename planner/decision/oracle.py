@@ -179,8 +179,12 @@ class SequenceSearch:
         bin_classes: list[int],
         robot: RobotState,
         context: DecisionContext,
+        time_price: float = 0.0,
     ):
         n = len(items)
+        if not (math.isfinite(time_price) and time_price >= 0.0):
+            raise PlannerInputError("time_price", "a price >= 0 [EUR/s]", time_price)
+        self.time_price = float(time_price)
         if not (len(values) == len(bin_classes) == n):
             raise PlannerInputError("values, bin_classes", "one per item", (len(values), n))
         self.items, self.values, self.context = items, [float(v) for v in values], context
@@ -208,6 +212,9 @@ class SequenceSearch:
         self.evaluations = 0
         self._timed: dict[tuple[int, int, float], float | None] = {}
         self.best_profit, self.best_end, self.best_seq = 0.0, math.inf, ()
+        # The order's score: its profit less the robot's time at `time_price` [EUR/s]. At a
+        # price the empty order is no candidate (the robot is never better off idle).
+        self.best_score = 0.0 if self.time_price == 0.0 else -math.inf
 
     def bound(self, mask: int, where: int, t: float) -> float:
         """Upper bound on what the items not in `mask` can still earn, the robot free at t [s]
@@ -257,12 +264,22 @@ class SequenceSearch:
         self._timed[key] = end
         return end
 
+    def score(self, profit: float, end: float) -> float:
+        """An order's score: its profit less its time from the start at `time_price` [EUR]."""
+        if self.time_price == 0.0:
+            return profit
+        return profit - self.time_price * (end - self.t0)
+
     def offer(self, seq: tuple[int, ...], profit: float, end: float) -> None:
-        """Keep `seq` if it earns more than the best so far (or as much, ending earlier)."""
-        if profit > self.best_profit + 1e-12 or (
-            abs(profit - self.best_profit) <= 1e-12 and end < self.best_end
+        """Keep `seq` if it scores more than the best so far (or as much, ending earlier)."""
+        if not seq and self.time_price > 0.0:
+            return
+        score = self.score(profit, end)
+        if score > self.best_score + 1e-12 or (
+            abs(score - self.best_score) <= 1e-12 and end < self.best_end
         ):
             self.best_profit, self.best_end, self.best_seq = profit, end, seq
+            self.best_score = score
 
     def seed_first_picks(self, ends: dict[int, float | None]) -> None:
         """Take the release times [s] of first picks already timed (None: cannot be met), e.g.
@@ -295,11 +312,17 @@ class SequenceSearch:
         """Finish `seq` (the robot free at t [s] at `where`, as in `pick_end`) first in, first
         out: the item that leaves first among those that can still be met, and so on; offer
         the result. No pick is timed once `evaluations` has reached `limit`."""
+        self.complete_in_order(seq, where, t, lambda j: (self.exits[j], j), limit)
+
+    def complete_in_order(
+        self, seq: tuple[int, ...], where: int, t: float, key, limit: int | None = None
+    ) -> None:
+        """Finish `seq` as `complete_in_exit_order`, trying the items left in the order of
+        `key(j)` (smallest first)."""
         done = set(seq)
         profit = sum(self.values[j] for j in seq)
         order = sorted(
-            (j for j in range(len(self.items)) if j not in done and self.values[j] > 0),
-            key=lambda j: (self.exits[j], j),
+            (j for j in range(len(self.items)) if j not in done and self.values[j] > 0), key=key
         )
         for j in order:
             if limit is not None and self.evaluations >= limit:
@@ -339,8 +362,9 @@ class SequenceSearch:
             ):
                 raise _Stop
             self.offer(seq, profit, t)
-            ub = profit + self.bound(mask, where, t)
-            if ub <= self.best_profit + 1e-12:
+            # Later picks end later: the time already spent is a lower bound on the order's.
+            ub = self.score(profit, t) + self.bound(mask, where, t)
+            if ub <= self.best_score + 1e-12:
                 return
             row = pick_lb[where]
             order = sorted(
@@ -348,7 +372,7 @@ class SequenceSearch:
                 key=lambda j: (-values[j] / max(row[j] + place_lb[j], 1e-6), exits[j], j),
             )
             for j in order:
-                if ub <= self.best_profit + 1e-12:
+                if ub <= self.best_score + 1e-12:
                     return
                 if (j, where, t) not in self._timed and (
                     max_evaluations is not None and self.evaluations >= max_evaluations
