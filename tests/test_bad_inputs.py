@@ -123,6 +123,11 @@ RUN_CASES = [
     ("duration-nan", ["--duration", "nan"], "duration_s", {}),
     ("duration-inf", ["--duration", "inf"], "duration_s", {}),
     ("duration-huge", ["--duration", "1e9"], "duration_s", {}),
+    ("min-confidence-negative", ["--min-confidence", "-0.1"], "min_class_confidence", {}),
+    ("min-confidence-over-one", ["--min-confidence", "1.5"], "min_class_confidence", {}),
+    ("min-confidence-nan", ["--min-confidence", "nan"], "min_class_confidence", {}),
+    ("min-confidence-inf", ["--min-confidence", "inf"], "min_class_confidence", {}),
+    ("min-confidence-text", ["--min-confidence", "high"], "--min-confidence", {}),
     ("unknown-option", ["--colour", "red"], "unrecognized", {}),
     ("energy-price-negative", ["--energy-price", "-1"], "energy_price_eur_per_kwh", {}),
     ("energy-price-nan", ["--energy-price", "nan"], "energy_price_eur_per_kwh", {}),
@@ -252,6 +257,18 @@ RUN_CASES = [
         "robot.place_pause_s",
         {"c.toml": "[robot]\nplace_pause_s = 60\n"},
     ),  # noqa: E501
+    (
+        "config-min-confidence-over-one",
+        ["--config", "{tmp}/c.toml"],
+        "min_class_confidence",
+        {"c.toml": "min_class_confidence = 1.2\n"},
+    ),
+    (
+        "config-min-confidence-text",
+        ["--config", "{tmp}/c.toml"],
+        "min_class_confidence",
+        {"c.toml": 'min_class_confidence = "high"\n'},
+    ),
     (
         "config-too-dense",
         ["--config", "{tmp}/c.toml"],

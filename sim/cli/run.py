@@ -56,6 +56,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="EUR_PER_KWH",
         help="price of the motors' electrical energy; > 0: every planner nets it (default 0)",
     )
+    parser.add_argument(
+        "--min-confidence",
+        type=float,
+        default=None,
+        metavar="P",
+        help="leave on the belt an item whose most probable class has a posterior below P, "
+        "0..1 (default 0: every item may be picked)",
+    )
 
 
 class Progress:
@@ -85,6 +93,15 @@ class Progress:
             self.stream.flush()
 
 
+def _by_class(row: dict, what: str) -> str:
+    """'paper 0.9500, plastic -, ...' of the `what`_<class> columns ('-': undefined)."""
+    parts = []
+    for name in ("paper", "plastic", "aluminium"):
+        value = row[f"{what}_{name}"]
+        parts.append(f"{name} " + ("-" if value is None else f"{value:.4f}"))
+    return ", ".join(parts)
+
+
 def summary(result) -> str:
     """The one-screen summary of an episode."""
     r, c = result.episode_row, result.config
@@ -105,6 +122,12 @@ def summary(result) -> str:
         f"accuracy SP/SI         {r['accuracy']:>9.4f}",
         f"profit                 {r['profit_eur']:>9.2f} EUR",
         f"mean cycle             {r['mean_cycle_s']:>9.3f} s",
+        "purity per bin         " + _by_class(r, "purity"),
+        "recovery per class     " + _by_class(r, "recovery"),
+        f"never detected         {r['never_detected']:>6}",
+        f"empty picks            {r['empty_picks']:>6}   (the cup never sealed)",
+        f"left unsure            {r['left_unsure']:>6}   "
+        f"(class probability below {c.min_class_confidence:g})",
         f"simulated              {r['sim_s']:>9.1f} s in {r['wall_s']:.1f} s wall "
         f"({r['real_time_factor']:.1f}x real time)",
     ]
@@ -169,6 +192,7 @@ def main(args: argparse.Namespace) -> int:
         perception=args.perception,
         duration_s=args.duration,
         energy_price_eur_per_kwh=args.energy_price,
+        min_class_confidence=args.min_confidence,
     )
     out = Path(args.out)
     preflight(config, out, args.video)

@@ -16,6 +16,8 @@ TOML layout (every key optional; defaults are the headline episode)::
     observation_period_s = 0.5  # one grid row per period [s]
     item_riding = "settled"     # settled | contact (see sim/cell/riding.py)
     energy_price_eur_per_kwh = 0.0  # > 0: every planner nets each pick's motor energy cost
+    min_class_confidence = 0.0  # 0..1: an item whose most probable class is less probable is
+                                # left on the belt (sim/episode/confidence.py); 0: none is
     [values]                    # EUR per item (thesis table 3.3)
     paper = 0.22
     plastic = 0.25
@@ -172,6 +174,7 @@ class EpisodeConfig:
     observation_period_s: float = 0.5
     item_riding: str = "settled"
     energy_price_eur_per_kwh: float = 0.0
+    min_class_confidence: float = 0.0
     values: Values = field(default_factory=Values)
     qlearning: QLearning = field(default_factory=QLearning)
     video: Video = field(default_factory=Video)
@@ -206,6 +209,9 @@ class EpisodeConfig:
         e = self.energy_price_eur_per_kwh
         ok = _number(e) and 0.0 <= e <= MAX_ENERGY_PRICE
         _check(ok, "energy_price_eur_per_kwh", f"0..{MAX_ENERGY_PRICE:g} EUR/kWh", e, w)
+        c = self.min_class_confidence
+        ok = _number(c) and 0.0 <= c <= 1.0
+        _check(ok, "min_class_confidence", "a probability in [0, 1]", c, w)
         for name, cls in _SECTIONS.items():
             _check(isinstance(getattr(self, name), cls), name, f"a [{name}] table", None, w)
         self._check_flow()

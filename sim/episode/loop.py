@@ -33,6 +33,8 @@ from sim.cell.monitors.mj_warnings import WarningCounter
 from sim.cell.monitors.thrown import ThrowWatch
 from sim.cell.riding import ItemRiding
 from sim.cell.video import overlay_of
+from sim.episode.attribution import attributed_item
+from sim.episode.confidence import is_unsure, sure_items
 from sim.episode.config import EpisodeConfig
 from sim.episode.metrics import EpisodeMetrics, PickRecord
 from sim.episode.pick_control import PRESS_DEPTH_M, PickController, PickOutcome
@@ -345,6 +347,7 @@ class Episode:
                 travel_m=travel,
                 energy_mech_j=mech - mech0,
                 energy_elec_j=elec - elec0,
+                sealed=outcome.sealed,
             )
         )
         self.next_decision = self.data.time
@@ -360,10 +363,29 @@ class Episode:
     def _observe(self, t: float) -> None:
         t0 = time.perf_counter()
         mujoco.mj_kinematics(self.model, self.data)
-        self.tracker.update(self.perception.observe(t))
+        created = self.tracker.update(self.perception.observe(t))
         dt = time.perf_counter() - t0
         self.timings["perception"] += dt
         self.latencies["perception"].append(dt)
+        self._attribute(created, t)
+
+    def _attribute(self, created: list, t: float) -> None:
+        """Book the true items the new tracks are of (the metrics' `never_detected`;
+        `sim.episode.attribution`: bookkeeping the robot never sees)."""
+        if not created:
+            return
+        items_xy = {}
+        if any(track.true_id is None for track in created):
+            pool, held = self.cell.pool, self.robot.suction.held_slot
+            for slot in pool.active_slots():
+                if slot != held:
+                    x, y = self.data.xpos[pool.body_ids[slot]][:2]
+                    items_xy[int(pool.item_ids[slot])] = (float(x), float(y))
+        gate = self.tracker.match_radius
+        for track in created:
+            item_id = attributed_item(track, t, self.speed, items_xy, gate)
+            if item_id is not None:
+                self.metrics.on_detected(item_id)
 
     def _check_items(self, t: float) -> None:
         """Every `CHECK_PERIOD_S`: MuJoCo's new warnings, items thrown off the belt
@@ -395,10 +417,10 @@ class Episode:
             if pos[0] > self.x_discard and pos[2] > BELOW_BELT_Z:  # passed the robot: discarded
                 item_id = pool.park(data, int(slot))
                 self.metrics.on_missed(item_id)
-                self.tracker.remove_true(item_id)
+                self._book_unsure(self.tracker.remove_true(item_id))
         for item_id in pool.park_missed(data):  # past the belt's end (e.g. pushed along)
             self.metrics.on_missed(item_id)
-            self.tracker.remove_true(item_id)
+            self._book_unsure(self.tracker.remove_true(item_id))
         for landing in self.bins.update(data, held):
             if landing.bin is None or landing.item_id not in self.throw_watch.released:
                 # Only what the cup carried and let go of over a bin is picked; an item that
@@ -408,16 +430,24 @@ class Episode:
                 bin_class = BIN_CLASSES.index(landing.bin) + 2
                 self.metrics.on_binned(landing.item_id, landing.true_class, bin_class)
             self.tracker.remove_true(landing.item_id)
-        self.tracker.prune(t, self.x_discard)
+        self._book_unsure(self.tracker.prune(t, self.x_discard))
         self.riding.update(data, held)
 
     def _tracked_items(self, t: float) -> list[TrackedItem]:
+        """The tracked items every decision manager chooses among: the confidence rule
+        (`sim.episode.confidence`) applied here, once for all of them."""
         items = []
         for tr in self.tracker.tracks():
             if self.failures.get(tr.true_id, 0) >= MAX_FAILURES:
                 continue  # truth mode: an item the cup failed on twice is given up
             items.append(TrackedItem(tr.track_id, tr.x_at(t, self.speed), tr.y, tuple(tr.probs)))
-        return items
+        return sure_items(items, self.config.min_class_confidence)
+
+    def _book_unsure(self, gone: list) -> None:
+        """Count the tracks among `gone` (went past the robot unpicked, or still tracked at the
+        end) that the confidence rule kept from the decision manager (`left_unsure`)."""
+        threshold = self.config.min_class_confidence
+        self.metrics.on_left_unsure(sum(1 for tr in gone if is_unsure(tr.probs, threshold)))
 
     def _finished(self) -> bool:
         if self.robot.busy:  # a pick under way is always finished
@@ -445,6 +475,7 @@ class Episode:
             return
         self._closed_out = True
         self.metrics.on_warnings(self.mj_warnings.update())
+        self._book_unsure(self.tracker.tracks())  # still tracked when the episode ended
         for slot in self.cell.pool.active_slots():
             self.metrics.on_missed(int(self.cell.pool.park(self.data, int(slot))))
 

@@ -27,6 +27,26 @@ Definitions (thesis 4.1.4 and docs/episode.md):
 - `energy_cost_eur` = electrical energy [kWh] x the configured price; `net_profit_eur` =
   profit_eur - energy_cost_eur.
 
+Sorting quality (what a plant judges a sorter by):
+
+- `purity_<class>` (per bin): items of that class in that bin / all items in that bin (picked
+  items only: what the cup carried there). An empty bin has no purity: the cell is left empty
+  in episodes.csv (None in the row), never 0 or NaN.
+- `recovery_<class>` (per class): items of that class in its own bin / items of that class that
+  entered. Left empty when no item of the class entered.
+- `never_detected`: items that entered and left the belt (picked, missed or dropped) although
+  no track was ever attributed to them (`on_detected`). In truth mode a track carries its item's
+  id; in camera mode a new track is attributed to the nearest true item within the tracker's
+  match radius (`sim.episode.attribution`: the evaluation's bookkeeping, never the robot's
+  knowledge). An undetected item can still be picked: the cup may seal on it next to its target.
+- `empty_picks`: pick attempts whose cup never sealed, so carried no item (`PickRecord.sealed`).
+- `left_unsure`: tracks the confidence rule (`min_class_confidence`,
+  `sim.episode.confidence`) kept from the decision manager until they went past the robot
+  unpicked (past its reach, or their item missed) or were still tracked when the episode
+  ended: their most probable class was less probable than the threshold. It counts tracks, the
+  cell's belief of items (in camera mode a phantom or a split item counts too). 0 in truth mode
+  (certain classes) and at the default threshold 0.
+
 Accounting identities, true of every finished episode (`accounting_failures` checks them):
 
 - entered = picked + missed + dropped, the three sets disjoint (every item ends in exactly
@@ -35,7 +55,13 @@ Accounting identities, true of every finished episode (`accounting_failures` che
 - wrong_bin <= picked <= attempts - failed_picks (only an item the cup carried and released
   over a bin can be in one);
 - thrown_off is a subset of picked | missed | dropped (a thrown item is booked where it ends);
-- accuracy = picked / entered.
+- accuracy = picked / entered;
+- 0 <= purity_c <= 1, defined exactly when bin c holds an item; 0 <= recovery_c <= 1, defined
+  exactly when an item of class c entered; sum over bins of purity_c x (items in bin c) =
+  sum over classes of recovery_c x entered_c = picked - wrong_bin (the items in their own bin);
+- empty_picks <= failed_picks (an attempt whose cup never sealed carried nothing to a bin: no
+  empty pick is a success);
+- every item a track was attributed to entered, so never_detected <= entered.
 """
 
 from __future__ import annotations
@@ -69,6 +95,7 @@ class PickRecord:
     travel_m: float = 0.0
     energy_mech_j: float = 0.0
     energy_elec_j: float = 0.0
+    sealed: bool = True  # False: the cup never sealed, it carried no item (not in picks.csv)
 
     def row(self) -> dict[str, object]:
         """The picks.csv row of this attempt."""
@@ -101,6 +128,9 @@ class EpisodeMetrics:
         self.energy_mech_j = 0.0  # the robot's motor energy over the episode so far [J]
         self.energy_elec_j = 0.0
         self.entered = {c: 0 for c in ITEM_CLASSES}
+        self.entered_ids: set[int] = set()
+        self.detected: set[int] = set()  # items some track was attributed to
+        self.left_unsure = 0  # tracks the confidence rule kept from the decision manager
         self.binned: dict[int, tuple[int, int]] = {}
         self.missed: set[int] = set()
         self.dropped: set[int] = set()
@@ -115,6 +145,15 @@ class EpisodeMetrics:
     def on_entered(self, item_id: int, true_class: int) -> None:
         """An item was dropped onto the belt."""
         self.entered[int(true_class)] += 1
+        self.entered_ids.add(int(item_id))
+
+    def on_detected(self, item_id: int) -> None:
+        """A new track was attributed to the item `item_id` (`sim.episode.attribution`)."""
+        self.detected.add(int(item_id))
+
+    def on_left_unsure(self, n_tracks: int = 1) -> None:
+        """`n_tracks` tracks left the tracker while the confidence rule kept them back."""
+        self.left_unsure += int(n_tracks)
 
     def on_binned(self, item_id: int, true_class: int, bin_class: int) -> None:
         """An item landed in the bin of `bin_class` (counted once)."""
@@ -169,6 +208,36 @@ class EpisodeMetrics:
         """Items of true class `class_id` placed into a bin."""
         return sum(1 for t, _ in self.binned.values() if t == class_id)
 
+    def in_bin(self, bin_class: int) -> int:
+        """Items placed into the bin of `bin_class`, whatever their class."""
+        return sum(1 for _, b in self.binned.values() if b == bin_class)
+
+    def in_own_bin(self, class_id: int) -> int:
+        """Items of true class `class_id` placed into their own class's bin."""
+        return sum(1 for t, b in self.binned.values() if t == b == class_id)
+
+    def purity(self, bin_class: int) -> float | None:
+        """Share of the items in the bin of `bin_class` that are of that class; None: empty."""
+        n = self.in_bin(bin_class)
+        return self.in_own_bin(bin_class) / n if n else None
+
+    def recovery(self, class_id: int) -> float | None:
+        """Share of the items of `class_id` that entered and ended in their own bin; None when
+        none entered."""
+        n = self.entered[class_id]
+        return self.in_own_bin(class_id) / n if n else None
+
+    @property
+    def n_never_detected(self) -> int:
+        """Items that left the belt (picked, missed, dropped) without a track attributed."""
+        left = set(self.binned) | self.missed | self.dropped
+        return len(left - self.detected)
+
+    @property
+    def n_empty_picks(self) -> int:
+        """Pick attempts whose cup never sealed."""
+        return sum(1 for p in self.picks if not p.sealed)
+
     def row(self) -> dict[str, object]:
         """The episode's counters as episodes.csv columns (config and timing added by caller)."""
         n_in = self.n_entered
@@ -196,7 +265,20 @@ class EpisodeMetrics:
             "energy_elec_j": self.energy_elec_j,
             "energy_cost_eur": self.energy_cost,
             "net_profit_eur": self.profit - self.energy_cost,
+            **self.quality_row(),
         }
+
+    def quality_row(self) -> dict[str, object]:
+        """The sorting-quality columns (purity and recovery are None where undefined)."""
+        row: dict[str, object] = {}
+        for c in ITEM_CLASSES:
+            row[f"purity_{class_name(c)}"] = self.purity(c)
+        for c in ITEM_CLASSES:
+            row[f"recovery_{class_name(c)}"] = self.recovery(c)
+        row["never_detected"] = self.n_never_detected
+        row["empty_picks"] = self.n_empty_picks
+        row["left_unsure"] = self.left_unsure
+        return row
 
     @property
     def energy_cost(self) -> float:
@@ -236,6 +318,38 @@ class EpisodeMetrics:
         n_in = row["entered"]
         if n_in and abs(row["accuracy"] - row["picked"] / n_in) > 1e-12:
             fails.append("accuracy != picked / entered")
+        return fails + self._quality_failures(row)
+
+    def _quality_failures(self, row: dict[str, object]) -> list[str]:
+        """The sorting-quality identities of the module docstring that do not hold."""
+        fails = []
+        own = row["picked"] - row["wrong_bin"]
+        by_bin = by_class = 0.0
+        for c in ITEM_CLASSES:
+            name = class_name(c)
+            purity, recovery = row[f"purity_{name}"], row[f"recovery_{name}"]
+            if (purity is None) != (self.in_bin(c) == 0):
+                fails.append(f"purity_{name} {purity} but {self.in_bin(c)} items in the bin")
+            elif purity is not None and not 0.0 <= purity <= 1.0:
+                fails.append(f"purity_{name} {purity} outside [0, 1]")
+            if (recovery is None) != (self.entered[c] == 0):
+                fails.append(f"recovery_{name} {recovery} but {self.entered[c]} entered")
+            elif recovery is not None and not 0.0 <= recovery <= 1.0:
+                fails.append(f"recovery_{name} {recovery} outside [0, 1]")
+            by_bin += (purity or 0.0) * self.in_bin(c)
+            by_class += (recovery or 0.0) * self.entered[c]
+        for what, total in (("purity", by_bin), ("recovery", by_class)):
+            if abs(total - own) > 1e-9:
+                fails.append(f"{what}-weighted items {total:g} != picked - wrong_bin {own}")
+        if any(p.success for p in self.picks if not p.sealed):
+            fails.append("a pick whose cup never sealed counted as a success")
+        if not row["empty_picks"] <= row["failed_picks"]:
+            fails.append(f"empty_picks {row['empty_picks']} > failed_picks {row['failed_picks']}")
+        unknown = self.detected - self.entered_ids
+        if unknown:
+            fails.append(f"detected but never entered: {sorted(unknown)}")
+        if not 0 <= row["never_detected"] <= row["entered"]:
+            fails.append(f"never_detected {row['never_detected']} outside 0..{row['entered']}")
         return fails
 
     def pick_rows(self) -> list[dict[str, object]]:

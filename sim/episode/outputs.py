@@ -5,7 +5,8 @@ columns, plus a few more at the end). Every write goes to a temporary file in th
 and is renamed over the target (`os.replace`), so a killed run leaves either the old file or
 the new one, never half a CSV. Floats are printed with a fixed number of decimals per column,
 so the same seed and config give byte-identical files; only the wall-clock columns
-(`WALL_COLUMNS`) depend on the machine.
+(`WALL_COLUMNS`) depend on the machine. A value that is undefined (None in a row: the purity of
+an empty bin, the recovery of a class no item of which entered) is an empty cell.
 
 Outputs are checked before any work (`check_output_dir`, `check_output_file`): a folder that
 cannot be created or written, a file path naming a folder, are refused in one line before the
@@ -60,6 +61,16 @@ EPISODE_COLUMNS = (
     "energy_price_eur_per_kwh",
     "energy_cost_eur",
     "net_profit_eur",
+    "purity_paper",
+    "purity_plastic",
+    "purity_aluminium",
+    "recovery_paper",
+    "recovery_plastic",
+    "recovery_aluminium",
+    "never_detected",
+    "empty_picks",
+    "min_class_confidence",
+    "left_unsure",
 )
 PICK_COLUMNS = (
     "t_start_s",
@@ -95,6 +106,13 @@ _DECIMALS = {
     "energy_price_eur_per_kwh": 4,
     "energy_cost_eur": 6,
     "net_profit_eur": 4,
+    "purity_paper": 4,
+    "purity_plastic": 4,
+    "purity_aluminium": 4,
+    "recovery_paper": 4,
+    "recovery_plastic": 4,
+    "recovery_aluminium": 4,
+    "min_class_confidence": 4,
 }
 
 

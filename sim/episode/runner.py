@@ -106,6 +106,7 @@ def run_episode(
         "variant": variant,
         "perception": config.perception,
         "energy_price_eur_per_kwh": config.energy_price_eur_per_kwh,
+        "min_class_confidence": config.min_class_confidence,
         "real_time_factor": sim_s / wall if wall > 0 else 0.0,
     }
     timings = dict(episode.timings)

@@ -135,10 +135,11 @@ class Tracker:
         """Forget a track (picked, or gone past the robot)."""
         return self._tracks.pop(track_id, None)
 
-    def remove_true(self, true_id: int) -> None:
-        """Forget the track of simulator item `true_id` (truth mode; no-op otherwise)."""
-        for key in [k for k, tr in self._tracks.items() if tr.true_id == true_id]:
-            del self._tracks[key]
+    def remove_true(self, true_id: int) -> list[Track]:
+        """Forget and return the tracks of simulator item `true_id` (truth mode; none
+        otherwise)."""
+        gone = [k for k, tr in self._tracks.items() if tr.true_id == true_id]
+        return [self._tracks.pop(k) for k in gone]
 
     def prune(self, t: float, x_max: float) -> list[Track]:
         """Remove and return the tracks whose position at `t` [s] is beyond `x_max` [m]."""

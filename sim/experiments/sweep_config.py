@@ -25,7 +25,9 @@ loads, so a bad value stops the sweep before its first episode, naming the key, 
 grid point. The grid's size (the product of the axes' lengths) is checked before the grid is
 built: at most `MAX_EPISODES`. A sweep's `identity` is a hash of every grid point's resolved
 config, seeds aside, so the runner can tell this sweep's results from another's (adding seeds
-keeps the identity: the sweep resumes and grows).
+keeps the identity: the sweep resumes and grows). Keys added to the episode config later
+(`LATER_KEYS`) enter the identity only when set away from their default, so a sweep started
+before they existed still resumes.
 """
 
 from __future__ import annotations
@@ -215,10 +217,18 @@ def _grid_point(
         raise InvalidInput(exc.field, exc.allowed, exc.got, f"{where} at ({coords})") from None
 
 
+LATER_KEYS = {"min_class_confidence": 0.0}
+"""Episode-config keys (with their defaults) added after sweeps were first identified."""
+
+
 def _resolved(variant: str, config: EpisodeConfig) -> str:
-    """One grid point's resolved config, seed aside, as canonical JSON (for the identity)."""
+    """One grid point's resolved config, seed aside, as canonical JSON (for the identity); a
+    later key at its default is left out (`LATER_KEYS`)."""
     settings = config.to_dict()
     settings.pop("seed")
+    for key, default in LATER_KEYS.items():
+        if settings.get(key) == default:
+            settings.pop(key)
     return json.dumps({"variant": variant, **settings}, sort_keys=True)
 
 
