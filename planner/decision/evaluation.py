@@ -39,7 +39,7 @@ from planner.motion.belt_speeds import SPEED_FACTORS
 
 ContextFor = Callable[[float, tuple[float, float, float]], DecisionContext]
 
-PLANNERS = ("qlearning", "rollout", "lookahead", "proximity", "fifo", "greedy")
+PLANNERS = ("qlearning", "rollout", "lookahead", "learned", "proximity", "fifo", "greedy")
 """The planners scored against the bound (the oracle planner reaches it on belts it sees whole)."""
 TUNING_SEEDS = range(1000, 1200)
 """Belts the planners' parameters were chosen on."""
