@@ -11,6 +11,7 @@ upstream from it; the rows are handed to the learner in batches of `batch_rows` 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 from planner.decision.interface import TrackedItem
 from planner.errors import PlannerInputError
@@ -86,3 +87,35 @@ def check_learning_parameters(
         raise PlannerInputError("objective", " | ".join(OBJECTIVES), objective)
     if not (_number(tolerance) and tolerance >= 0.0):
         raise PlannerInputError("tolerance", "a number >= 0", tolerance)
+
+
+@dataclass(frozen=True)
+class LearningParameters:
+    """The thesis's learning parameters (sections 3.4, 3.4.1 and 4.2), validated; the
+    Q-learning and the rollout planner's configs extend it.
+
+    Attributes:
+        gamma: Discount factor of eq. 3.5, in [0, 1).
+        iterations: Maximum number of episodes (>= 1).
+        batch_rows: Grid rows per batch (>= 1).
+        row_period_s: Belt travel time of one grid row [s] (the observation period).
+        objective: 'v/d' (eq. 3.3), 'd=1' (value only) or 'v=1' (distance only), section 4.1.3.
+        tolerance: Largest q change over an episode that counts as converged (>= 0).
+    """
+
+    gamma: float = 0.9
+    iterations: int = 50
+    batch_rows: int = 20
+    row_period_s: float = 0.5
+    objective: str = "v/d"
+    tolerance: float = 1e-12
+
+    def __post_init__(self):
+        check_learning_parameters(
+            self.gamma,
+            self.iterations,
+            self.batch_rows,
+            self.row_period_s,
+            self.objective,
+            self.tolerance,
+        )

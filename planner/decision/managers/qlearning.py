@@ -63,9 +63,9 @@ from planner.decision.batch_grid import (
     BELT_COLUMNS,
     GRID_COLUMNS,
     MIN_DISTANCE,
+    LearningParameters,
     batch_index,
     belt_coordinate,
-    check_learning_parameters,
     column_centre,
     grid_column,
     grid_row,
@@ -76,38 +76,20 @@ from planner.errors import PlannerInputError
 
 
 @dataclass(frozen=True)
-class QLearningConfig:
-    """Parameters of the thesis's learner (defaults: sections 3.4, 3.4.1 and 4.2).
+class QLearningConfig(LearningParameters):
+    """Parameters of the thesis's learner (defaults: sections 3.4, 3.4.1 and 4.2): the
+    learning parameters (`LearningParameters`) and
 
     Attributes:
-        gamma: Discount factor of eq. 3.5, in [0, 1).
-        iterations: Maximum number of episodes (>= 1).
-        batch_rows: Grid rows per batch (>= 1).
-        row_period_s: Belt travel time of one grid row [s] (the observation period).
-        objective: 'v/d' (eq. 3.3), 'd=1' (value only) or 'v=1' (distance only), section 4.1.3.
-        tolerance: Largest q change over an episode that counts as converged (>= 0).
         seed: Seed of the random initial q and of the random actions (>= 0).
         q_init: Initial q drawn uniformly in [0, q_init x the largest reward) (>= 0).
     """
 
-    gamma: float = 0.9
-    iterations: int = 50
-    batch_rows: int = 20
-    row_period_s: float = 0.5
-    objective: str = "v/d"
-    tolerance: float = 1e-12
     seed: int = 0
     q_init: float = 0.01
 
     def __post_init__(self):
-        check_learning_parameters(
-            self.gamma,
-            self.iterations,
-            self.batch_rows,
-            self.row_period_s,
-            self.objective,
-            self.tolerance,
-        )
+        super().__post_init__()
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             raise PlannerInputError("seed", "an integer >= 0", self.seed)
         q = self.q_init

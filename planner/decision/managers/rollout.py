@@ -39,9 +39,9 @@ import numpy as np
 
 from planner.decision.batch_grid import (
     MIN_DISTANCE,
+    LearningParameters,
     batch_index,
     belt_coordinate,
-    check_learning_parameters,
     grid_column,
 )
 from planner.decision.candidates import Candidate, candidates, choice_of
@@ -51,40 +51,22 @@ from planner.errors import PlannerInputError
 
 
 @dataclass(frozen=True)
-class RolloutConfig:
-    """Parameters of the rollout planner (gamma, iterations, batches: the thesis's, 3.4.1, 4.2).
+class RolloutConfig(LearningParameters):
+    """Parameters of the rollout planner: the thesis's learning parameters
+    (`LearningParameters`: gamma, iterations, batches, 3.4.1, 4.2) and
 
     Attributes:
-        gamma: Discount factor of eq. 3.5, in [0, 1).
-        iterations: Maximum number of episodes (>= 1).
-        batch_rows: Grid rows per batch (>= 1).
-        row_period_s: Belt travel time of one grid row [s] (the observation period).
-        objective: 'v/d' (eq. 3.3), 'd=1' (value only) or 'v=1' (distance only), section 4.1.3.
-        tolerance: Largest q change that counts as converged.
         episode_starts: First picks (those of highest reward) whose episodes in time are run
             (`planner.decision.managers.rollout_episodes`); 0 chooses by the q of the reward
             path alone.
         episode_steps: Most moves of each such episode after its first pick.
     """
 
-    gamma: float = 0.9
-    iterations: int = 50
-    batch_rows: int = 20
-    row_period_s: float = 0.5
-    objective: str = "v/d"
-    tolerance: float = 1e-12
     episode_starts: int = 8
     episode_steps: int = 16
 
     def __post_init__(self):
-        check_learning_parameters(
-            self.gamma,
-            self.iterations,
-            self.batch_rows,
-            self.row_period_s,
-            self.objective,
-            self.tolerance,
-        )
+        super().__post_init__()
         for name in ("episode_starts", "episode_steps"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 0:
