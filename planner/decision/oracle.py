@@ -335,6 +335,36 @@ class SequenceSearch:
             seq, profit, t, where = (*seq, j), profit + self.values[j], end, 1 + self.bin_index[j]
         self.offer(seq, profit, t)
 
+    def complete_greedily(
+        self, seq: tuple[int, ...], where: int, t: float, steps: int, limit: int | None = None
+    ) -> None:
+        """Extend `seq` (the robot free at t [s] at `where`, as in `pick_end`) by up to `steps`
+        picks, each the one that adds most to the score from where the robot is (its value less
+        its time from now at `time_price`), offering every order on the way. No pick is timed
+        once `evaluations` has reached `limit`."""
+        done = set(seq)
+        profit = sum(self.values[j] for j in seq)
+        for _ in range(steps):
+            best = None
+            for j in range(len(self.items)):
+                if j in done or self.values[j] <= 0 or self.exits[j] <= t:
+                    continue
+                if limit is not None and self.evaluations >= limit:
+                    if (j, where, t) not in self._timed:
+                        continue
+                end = self.pick_end(j, where, t)
+                if end is None:
+                    continue
+                gain = self.values[j] - self.time_price * (end - t)
+                if best is None or gain > best[0]:
+                    best = (gain, j, end)
+            if best is None:
+                break
+            _, j, t = best
+            done.add(j)
+            seq, profit, where = (*seq, j), profit + self.values[j], 1 + self.bin_index[j]
+            self.offer(seq, profit, t)
+
     def run(
         self,
         max_nodes: int | None = None,

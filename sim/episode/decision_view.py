@@ -13,9 +13,8 @@ import mujoco
 
 from perception.codes import THESIS_VALUES_EUR
 from planner.decision.interface import DecisionContext
-from planner.motion.cycle_model import CycleTimeModel
 from planner.motion.kinematics import reachable_mask
-from planner.motion.limits import limits_for_payload
+from planner.motion.limits import VACUUM_RELEASE_S, VACUUM_SEAL_S, limits_for_payload
 from planner.motion.reach_window import ReachWindow
 
 PICK_Z = 0.02  # TCP height at contact, as the episode runner uses [m]
@@ -28,6 +27,7 @@ def cell_parts():
     from sim.cell.conveyor import rail_top_z
     from sim.cell.mjcf import load_scene
     from sim.cell.robot import geometry_from_model
+    from sim.episode.cycle_timing import cell_cycle_model
     from sim.episode.pick_control import PRESS_DEPTH_M, clear_height
     from sim.flow.catalogue import load_catalogue
 
@@ -42,11 +42,13 @@ def cell_parts():
     )
     # The lift the episode runner makes: a held item's bottom up to the clear height.
     lift = clear_height(load_catalogue(), rail_top_z(model)) + PRESS_DEPTH_M
-    model_t = CycleTimeModel(limits=limits_for_payload(PAYLOAD_KG), pick_z=PICK_Z, lift_height=lift)
+    model_t = cell_cycle_model(
+        limits_for_payload(PAYLOAD_KG), PICK_Z, lift, VACUUM_SEAL_S, VACUUM_RELEASE_S
+    )
     return window, bins, model_t
 
 
 def cell_context(belt_speed: float, values=THESIS_VALUES_EUR) -> DecisionContext:
-    """Decision context of the cell at `belt_speed` [m/s] with the ruckig-fitted cycle model."""
+    """Decision context of the cell at `belt_speed` [m/s] with its calibrated cycle model."""
     window, bins, model_t = cell_parts()
     return DecisionContext(belt_speed, model_t, window, bins, tuple(values))

@@ -25,7 +25,6 @@ import numpy as np
 from planner.decision.energy_cost import EnergyPrice
 from planner.decision.interface import Choice, DecisionContext, RobotState, TrackedItem
 from planner.decision.registry import make_planner
-from planner.motion.cycle_model import CycleTimeModel
 from sim.cell.bins import BIN_CLASSES, Bins
 from sim.cell.cell import PICK_Z_NOMINAL, Cell
 from sim.cell.monitors.energy import EnergyMeter
@@ -36,6 +35,7 @@ from sim.cell.video import overlay_of
 from sim.episode.attribution import attributed_item
 from sim.episode.confidence import is_unsure, sure_items
 from sim.episode.config import EpisodeConfig
+from sim.episode.cycle_timing import cell_cycle_model
 from sim.episode.metrics import EpisodeMetrics, PickRecord
 from sim.episode.pick_control import PRESS_DEPTH_M, PickController, PickOutcome
 from sim.episode.sensing import CAMERA_SIZE, CameraPerception, TruthPerception
@@ -149,7 +149,7 @@ class Episode:
         self._cup_events_seen = 0
         self.context = DecisionContext(
             belt_speed=self.speed,
-            cycle_model=CycleTimeModel(
+            cycle_model=cell_cycle_model(
                 limits=cell.limits,
                 pick_z=PICK_Z_NOMINAL,
                 # The lift the robot makes: the held item's bottom to the clear height.

@@ -66,6 +66,26 @@ def clear_height(catalogue: Catalogue, rail_top: float) -> float:
 
 
 @dataclass(frozen=True)
+class StartedPick:
+    """A pick as planned when it started (what the planners' cycle-time model predicts).
+
+    Attributes:
+        start_xyz: TCP at rest where the pick started [m].
+        item_xy: The item's position when the pick was planned [m].
+        bin_class: Material class of the destination bin (2..4).
+        contact_time: Start to the cup's contact with the item (waiting included) [s].
+        cycle_time: Start until the cup may move on after the release (the chain, then
+            `RELEASE_CLEAR_S`) [s].
+    """
+
+    start_xyz: tuple[float, float, float]
+    item_xy: tuple[float, float]
+    bin_class: int
+    contact_time: float
+    cycle_time: float
+
+
+@dataclass(frozen=True)
 class PickOutcome:
     """What one pick attempt did.
 
@@ -116,6 +136,8 @@ class PickController:
         self.neighbour_refusals = 0  # picks refused: a neighbour in the cup's way down
         self.clear_z = clear_height(cell.catalogue, rail_top_z(cell.model))
         self._pick: _PickInProgress | None = None
+        self._request: tuple[float, float, int] | None = None
+        self.started: list[StartedPick] = []  # every pick started, as planned
 
     def slot_near(self, x: float, y: float) -> int | None:
         """Pool slot of the item on the belt nearest (x, y) now, within `NEAR_M`, or None."""
@@ -222,6 +244,7 @@ class PickController:
         down straight from above it. The pick is refused, with the reason, when the lip would
         touch a neighbour on the last way down, or another item lies on this one.
         """
+        self._request = (float(x), float(y), int(bin_class))
         target = self.slot_near(x, y)
         top, yaw = self.item_near(x, y)
         # Turn axis 4 on the way so the item's long axis ends along the bins' long side (x).
@@ -317,6 +340,16 @@ class PickController:
             target: Flow id of the item aimed at, when known (for `activity`).
         """
         plan = intercept.plan
+        x, y, bin_class = self._request if self._request is not None else (np.nan, np.nan, 0)
+        self.started.append(
+            StartedPick(
+                start_xyz=tuple(float(c) for c in self.rest),
+                item_xy=(x, y),
+                bin_class=bin_class,
+                contact_time=float(plan.contact_time),
+                cycle_time=float(plan.chain.duration) + RELEASE_CLEAR_S,
+            )
+        )
         self._pick = _PickInProgress(
             chain=plan.chain,
             target=int(target),
