@@ -241,5 +241,6 @@ class LookaheadPlanner:
             cands[search.best_seq[0]],
             f"first of {len(search.best_seq)} picks, {search.best_profit:.2f} EUR, greedy "
             f"rollouts over {len(cands)} most urgent and soonest met items at "
-            f"{time_price:.2f} EUR/s ({search.evaluations} picks timed)",
+            f"{time_price:.2f} EUR/s ({search.evaluations} picks timed"
+            f"{', budget spent' if search.evaluations >= budget else ''})",
         )
