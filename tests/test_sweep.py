@@ -61,6 +61,34 @@ def test_one_row_per_episode_in_grid_order(swept):
     assert all(r["n_items"] == "3" and r["variant"] == "base" for r in rows)
 
 
+def test_picks_of_every_episode_with_its_key_columns(swept):
+    """The sweep's picks.csv holds each episode's picks as `sortsim run` writes them, each row
+    keyed by its episode (as many as the episode's `attempts`)."""
+    _, out, _ = swept
+    episodes = outputs.read_rows(out / "episodes.csv")
+    picks = outputs.read_rows(out / sweep.PICKS_FILE)
+    assert tuple(picks[0]) == outputs.SWEEP_PICK_COLUMNS
+    for row in episodes:
+        mine = [p for p in picks if sweep.row_key(p) == sweep.row_key(row)]
+        assert len(mine) == int(row["attempts"]) > 0
+        assert sum(int(p["success"]) for p in mine) == int(row["picked"])
+
+
+def test_picks_of_an_episode_killed_before_its_row_are_dropped(swept, tmp_path):
+    """Killed between the two writes: the next start removes the picks whose episode has no row
+    in episodes.csv, so that the rerun episode's picks are not counted twice."""
+    path, out, _ = swept
+    copy = tmp_path / "out"
+    copy.mkdir()
+    for name in ("episodes.csv", sweep.PICKS_FILE, sweep.IDENTITY_FILE):
+        (copy / name).write_bytes((out / name).read_bytes())
+    rows = outputs.read_rows(copy / "episodes.csv")
+    outputs.write_episodes(copy / "episodes.csv", rows[:1])
+    sweep._start(sweep_config.load(path), copy)
+    keys = {sweep.row_key(p) for p in outputs.read_rows(copy / sweep.PICKS_FILE)}
+    assert keys == {sweep.row_key(rows[0])}
+
+
 def test_prints_the_thesis_table_and_saves_the_figures(swept):
     _, out, proc = swept
     assert "Table 4.5" in proc.stdout and "(0.842)" in proc.stdout  # thesis's 84.15 %
@@ -79,7 +107,7 @@ def test_resume_runs_only_the_missing_episodes(swept, monkeypatch):
 
     def fake_run(spec):
         ran.append(spec.key)
-        return {**rows[1]}
+        return {**rows[1]}, []
 
     monkeypatch.setattr(sweep, "run_spec", fake_run)
     again = sweep.run_sweep(config, out, workers=1)
@@ -120,7 +148,7 @@ def test_results_of_another_sweep_are_refused_not_merged(tmp_path, monkeypatch):
     def fake_run(spec):
         c = spec.config
         return {"seed": c.seed, "planner": c.planner, "speed_factor": c.speed_factor,
-                "n_items": c.items, "accuracy": 1.0, "profit_eur": 0.0}  # fmt: skip
+                "n_items": c.items, "accuracy": 1.0, "profit_eur": 0.0}, []  # fmt: skip
 
     monkeypatch.setattr(sweep, "run_spec", fake_run)
     path = tmp_path / "grid.toml"

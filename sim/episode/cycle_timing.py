@@ -6,9 +6,9 @@ drop point). The cell's pick controller (`sim.episode.pick_control`) plans more 
 held item's bottom lifted to the clear height over the rails and the tallest standing item
 (about 0.14 m), the drop point raised for tall items, axis 4 turned to lay the item along the
 bin, the approach raised over a neighbour, and `RELEASE_CLEAR_S` of stillness after each
-release. With the bare-pick calibration the planners saw the physics' robot about a third faster
-than it is (0.17 s a pick too short, a third of the pick: the "kinematic belt faster than
-physics" of docs/results.md), so in physics every plan over several picks counted on items that were gone
+release. With the bare-pick calibration the planners saw the physics' robot a third faster
+than it is (0.17 s a pick too short: the "kinematic belt faster than physics" of
+docs/results.md), so in physics every plan over several picks counted on items that were gone
 by then.
 
 `CELL_PICK_COEF` and `CELL_PLACE_COEF` are the same closed form fitted to the plans the

@@ -259,6 +259,23 @@ def write_picks(path: Path, rows: Iterable[Mapping[str, object]]) -> Path:
     return write_atomic(path, to_csv_text(PICK_COLUMNS, rows))
 
 
+SWEEP_PICK_COLUMNS = ("variant", "planner", "speed_factor", "n_items", "seed", *PICK_COLUMNS)
+"""A sweep's picks.csv: each pick with the key columns of its episode."""
+
+
+def write_sweep_picks(path: Path, rows: Iterable[Mapping[str, object]]) -> Path:
+    """Write a sweep's `picks.csv` atomically."""
+    return write_atomic(path, to_csv_text(SWEEP_PICK_COLUMNS, rows))
+
+
+def append_sweep_picks(path: Path, rows: Iterable[Mapping[str, object]]) -> Path:
+    """Append one episode's picks to a sweep's `picks.csv` (rewritten atomically; the rows
+    already there are kept as text)."""
+    old = read_rows(path)
+    new = [{c: format_value(c, r.get(c)) for c in SWEEP_PICK_COLUMNS} for r in rows]
+    return write_atomic(path, to_csv_text(SWEEP_PICK_COLUMNS, [*old, *new]))
+
+
 def append_episode(path: Path, row: Mapping[str, object]) -> Path:
     """Append one finished episode to `episodes.csv` (the file is rewritten atomically).
 

@@ -31,7 +31,11 @@ from sim.paths import remove_stale_temporaries
 IDENTITY_FILE = "sweep.json"
 """The file beside `episodes.csv` that names the sweep its rows belong to."""
 
-RowCallback = Callable[[EpisodeSpec, dict], None]
+RowCallback = Callable[[EpisodeSpec, dict, list[dict]], None]
+PICKS_FILE = "picks.csv"
+"""Every pick attempt of the sweep's episodes, each with its episode's key columns."""
+PICK_KEY_COLUMNS = ("variant", "planner", "speed_factor", "n_items", "seed")
+"""The columns that name a pick's episode in the sweep's picks.csv."""
 
 
 def row_key(row: dict) -> str:
@@ -116,30 +120,38 @@ def _start(sweep: SweepConfig, out: Path) -> None:
     if _recorded_identity(out) != sweep.identity:
         text = {"sweep": sweep.name, "identity": sweep.identity, "config": sweep.path}
         outputs.write_atomic(out / IDENTITY_FILE, json.dumps(text, indent=2) + "\n")
+    picks_path = out / PICKS_FILE
+    if picks_path.exists():  # drop the picks of an episode killed before its row was written
+        done = set(_row_keys(out / "episodes.csv"))
+        rows = outputs.read_rows(picks_path)
+        kept = [r for r in rows if row_key(r) in done]
+        if len(kept) != len(rows):
+            outputs.write_sweep_picks(picks_path, kept)
 
 
-def run_spec(spec: EpisodeSpec) -> dict:
-    """Run one episode of a sweep in this process (the compiled model is cached per process)."""
+def run_spec(spec: EpisodeSpec) -> tuple[dict, list[dict]]:
+    """Run one episode of a sweep in this process (the compiled model is cached per process);
+    returns its episodes.csv row and picks.csv rows."""
     from sim.episode.runner import run_episode
 
     result = run_episode(spec.config, variant=spec.variant)
-    return result.episode_row
+    return result.episode_row, result.pick_rows
 
 
 def _local(specs: list[EpisodeSpec], workers: int, on_row: RowCallback) -> None:
     if workers <= 1:
         for spec in specs:
-            on_row(spec, run_spec(spec))
+            on_row(spec, *run_spec(spec))
         return
     # spawn: a fresh interpreter per worker, no inherited rendering contexts or threads.
     context = multiprocessing.get_context("spawn")
     with context.Pool(processes=min(workers, len(specs)), maxtasksperchild=None) as pool:
         by_key = {spec.key: spec for spec in specs}
-        for key, row in pool.imap_unordered(_keyed, specs, chunksize=1):
-            on_row(by_key[key], row)
+        for key, (row, picks) in pool.imap_unordered(_keyed, specs, chunksize=1):
+            on_row(by_key[key], row, picks)
 
 
-def _keyed(spec: EpisodeSpec) -> tuple[str, dict]:
+def _keyed(spec: EpisodeSpec) -> tuple[str, tuple[dict, list[dict]]]:
     return spec.key, run_spec(spec)
 
 
@@ -167,19 +179,21 @@ def _ray(specs: list[EpisodeSpec], address: str, workers: int, on_row: RowCallba
 
             self.cell = Cell()
 
-        def run(self, spec: EpisodeSpec) -> tuple[str, dict]:
+        def run(self, spec: EpisodeSpec) -> tuple[str, tuple[dict, list[dict]]]:
             from sim.episode.runner import run_episode
 
             result = run_episode(spec.config, variant=spec.variant, cell=self.cell)
-            return spec.key, result.episode_row
+            return spec.key, (result.episode_row, result.pick_rows)
 
     ray.init(address=None if address in ("", "local") else address, ignore_reinit_error=True)
     n = max(1, min(workers, len(specs)))
     pool = ActorPool([EpisodeActor.remote() for _ in range(n)])
     by_key = {spec.key: spec for spec in specs}
     try:
-        for key, row in pool.map_unordered(lambda actor, spec: actor.run.remote(spec), specs):
-            on_row(by_key[key], row)
+        for key, (row, picks) in pool.map_unordered(
+            lambda actor, spec: actor.run.remote(spec), specs
+        ):
+            on_row(by_key[key], row, picks)
     except Exception as exc:  # Ray wraps an actor's exception: a refusal keeps its one line
         cause = getattr(exc, "cause", None)
         if isinstance(cause, RefusedInput):
@@ -211,6 +225,7 @@ def run_sweep(
     check_out_dir(sweep, Path(out_dir))
     _start(sweep, Path(out_dir))
     csv_path = Path(out_dir) / "episodes.csv"
+    picks_path = Path(out_dir) / PICKS_FILE
     todo = pending(sweep, csv_path)
     total, start = len(sweep.episodes), time.perf_counter()
     done_before = total - len(todo)
@@ -218,8 +233,12 @@ def run_sweep(
         progress(f"{sweep.name}: {len(todo)} of {total} episodes to run ({done_before} done)")
     count = [done_before]
 
-    def on_row(spec: EpisodeSpec, row: dict) -> None:
+    def on_row(spec: EpisodeSpec, row: dict, picks: list[dict]) -> None:
         row = {**row, "variant": spec.variant}
+        # The picks first: a sweep killed between the two writes leaves picks of an episode
+        # without its row, which the next start removes (`_start`); never a row without picks.
+        key = {c: row.get(c) for c in PICK_KEY_COLUMNS}
+        outputs.append_sweep_picks(picks_path, [{**key, **p} for p in picks])
         outputs.append_episode(csv_path, row)
         count[0] += 1
         if progress:
