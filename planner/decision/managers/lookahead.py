@@ -20,7 +20,7 @@ the rollouts, as the default does: about a third of it). It plays the first pick
 order found; the rest is replanned at the next decision with the items seen since.
 
 Saturated belts. The tables' dense datasets in physics keep more items in reach than the robot
-can take (300-400 items: it picks 55-75 % of them); there the robot's time, not the items'
+can take (300-400 items: it picks 63-84 % of them); there the robot's time, not the items'
 deadlines, limits the profit, and the values of the three materials differ little (0.22-0.27
 EUR), so what counts is picks per second. With more feasible items than `SATURATED` horizons
 (`horizon_of`) the planner prices the robot's time (`time_price_quantile` of the candidates'
