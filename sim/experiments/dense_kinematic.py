@@ -24,8 +24,7 @@ PLANNERS = ("lookahead", "rollout", "proximity", "qlearning", "learned", "fifo")
 
 def flow_belt(seed: int, items: int, duration_s: float, speed_factor: float):
     """The kinematic belt carrying the flow of an episode with these settings."""
-    from perception.codes import N_STATES
-    from planner.decision.kinematic_belt import Belt, BeltItem
+    from planner.decision.kinematic_belt import Belt, BeltItem, one_hot
     from planner.motion.belt_speeds import SPEED_X1_MPS
     from sim.flow.catalogue import load_catalogue
     from sim.flow.config import X_INFEED, FlowConfig
@@ -37,10 +36,8 @@ def flow_belt(seed: int, items: int, duration_s: float, speed_factor: float):
     belt_items = []
     for i in range(len(flow)):
         cls = int(flow.class_id[i])
-        probs = [0.0] * N_STATES
-        probs[cls - 1] = 1.0
         x0 = X_INFEED - speed * float(flow.t_spawn[i])
-        belt_items.append(BeltItem(i, x0, float(flow.y[i]), cls, tuple(probs)))
+        belt_items.append(BeltItem(i, x0, float(flow.y[i]), cls, one_hot(cls)))
     return Belt(tuple(belt_items), speed)
 
 
