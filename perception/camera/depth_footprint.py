@@ -9,7 +9,9 @@ it straight down onto the belt gives the item's true footprint (an orthographic 
 
 `FootprintMapper` does that for the pixels that can see the grid's region: colour labels from
 `ColourRules` on the raw frame, 3-D points from depth, splatted onto a metric top-down grid
-whose small holes (grid cells no pixel fell in) are closed morphologically.
+whose small holes (grid cells no pixel fell in) are closed morphologically. The points' heights
+above the belt come along on the same grid (`footprint_and_height`): two items that touch on
+the belt are told apart by the step in height between them (`perception.items.split`).
 """
 
 from __future__ import annotations
@@ -97,6 +99,17 @@ class FootprintMapper:
         Raises:
             PerceptionError: The depth map does not match the frame or holds no valid depth.
         """
+        return self.footprint_and_height(frame, depth, rules)[0]
+
+    def footprint_and_height(
+        self, frame: np.ndarray, depth: np.ndarray, rules: ColourRules
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Colour labels (as `footprint`) and the height above the belt (rows, cols) float32 [m]
+        of the item surface seen over each top-down pixel (0 where no item lies).
+
+        Raises:
+            PerceptionError: The depth map does not match the frame or holds no valid depth.
+        """
         if depth is None or depth.shape != frame.shape[:2]:
             shape = None if depth is None else depth.shape
             raise PerceptionError(f"depth map shape {shape}, expected {frame.shape[:2]}")
@@ -125,7 +138,8 @@ class FootprintMapper:
         # The belt's height as this camera measures it (a pose error shifts it by a millimetre
         # or so); item pixels stand above it.
         own_z = height.ravel()
-        floor = float(np.median(own_z[belt])) + self.min_height_m
+        belt_z = float(np.median(own_z[belt]))
+        floor = belt_z + self.min_height_m
         # A pixel on an item's rim blends the item's colour with the belt behind it and may
         # carry the belt's depth: it is placed at the highest surface seen around it, on its
         # own ray, which puts it on the item's top edge. Pixels with a depth on the item keep
@@ -141,10 +155,13 @@ class FootprintMapper:
         inside = (i >= 0) & (i < raster.shape[0]) & (j >= 0) & (j < raster.shape[1])
         top = np.full(raster.shape, BELT, dtype=np.int8)
         top[i[inside], j[inside]] = labels[item[inside]]
-        # Close the pinholes between splatted pixels; they take a neighbour's colour.
+        height_above = np.zeros(raster.shape, dtype=np.float32)
+        height_above[i[inside], j[inside]] = top_z[item[inside]] - belt_z
+        # Close the pinholes between splatted pixels; they take a neighbour's colour and height.
         covered = (top != BELT).astype(np.uint8)
         holes = (cv2.morphologyEx(covered, cv2.MORPH_CLOSE, kernel) > 0) & (covered == 0)
         if np.any(holes):
             spread = cv2.dilate((top + 1).astype(np.uint8), kernel).astype(np.int8) - 1
             top[holes] = spread[holes]
-        return top
+            height_above[holes] = cv2.dilate(height_above, kernel)[holes]
+        return top, height_above

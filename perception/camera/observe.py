@@ -133,12 +133,15 @@ class CellObservation:
         colour: Dominant colour name, or None for an empty cell.
         pixels: (N, 2) belt-plane coordinates [m] of the cell's item pixels (at the row's
             observation time).
+        heights: (N,) height above the belt [m] of the item surface over each of those pixels,
+            or None when the frame came without a depth map.
     """
 
     code: int
     fraction: float
     colour: str | None
     pixels: np.ndarray
+    heights: np.ndarray | None = None
 
 
 def code_cells(

@@ -150,7 +150,8 @@ class CameraPipeline:
         With a depth map (registered to the frame, [m] along the optical axis) the items'
         footprints are found in 3-D (`FootprintMapper`); without, the frame is rectified onto
         the belt plane and tall items look larger than they lie. Item pixel coordinates are
-        belt-plane positions at the row's time t_k = k T.
+        belt-plane positions at the row's time t_k = k T; with depth, each cell also carries its
+        item pixels' heights above the belt [m].
 
         Raises:
             PerceptionError: The frame cannot be used (shape, all black, markers not seen).
@@ -159,8 +160,8 @@ class CameraPipeline:
         if depth is None:
             return self.code_row(self.rectify(frame), belt_speed, t)
         self.check(frame)
-        labels = self.mapper.footprint(frame, depth, self.rules)
-        return self._code(labels, belt_speed, t)
+        labels, height = self.mapper.footprint_and_height(frame, depth, self.rules)
+        return self._code(labels, belt_speed, t, height)
 
     def code_row(self, top: np.ndarray, belt_speed: float, t: float) -> RowObservation:
         """The row of codes of a top-down image (`rectify`) taken at time `t` [s]."""
@@ -186,7 +187,9 @@ class CameraPipeline:
     def _band_rows(self, belt_speed: float, t: float) -> tuple[int, int]:
         return self.raster.rows_of(*self.grid.band(belt_speed, t))
 
-    def _code(self, labels: np.ndarray, belt_speed: float, t: float) -> RowObservation:
+    def _code(
+        self, labels: np.ndarray, belt_speed: float, t: float, height: np.ndarray | None = None
+    ) -> RowObservation:
         raster = self.raster
         row_slice = self._band_rows(belt_speed, t)
         edges = self.grid.stripe_edges()
@@ -197,6 +200,7 @@ class CameraPipeline:
         for code, fraction, colour, rows, cols in code_cells(labels, row_slice, col_slices):
             xy = raster.pixel_to_world(rows, cols)
             xy[:, 0] -= back
-            cells.append(CellObservation(code, fraction, colour, xy))
+            heights = None if height is None else height[rows, cols]
+            cells.append(CellObservation(code, fraction, colour, xy, heights))
         codes = np.array([c.code for c in cells], dtype=np.int64)
         return RowObservation(k, float(t), codes, tuple(cells))
