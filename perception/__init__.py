@@ -26,6 +26,8 @@ _EXPORTS = {
     "items_kmeans": "items.from_grid",
     "items_components": "items.from_grid",
     "item_blobs": "items.blobs",
+    "split_region": "items.split",
+    "SplitSettings": "items.split",
     "PerceptionError": "errors",
     "PerceptionInputError": "errors",
 }

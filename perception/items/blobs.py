@@ -3,10 +3,12 @@
 The stripe HMMs (`perception.hmm.online`) say what material each grid cell holds; the camera's
 footprints say where the items are, far finer than a 0.16 m cell. On-line, the cell splits the
 two jobs: item pixels (belt coordinates) of a sliding window of rows are rasterised and cut
-into 8-connected blobs, one per item (items fall apart on the belt, so blobs rarely touch);
-each blob's class probabilities are the HMM posteriors of the cells it covers, weighted by how
-many of its pixels each cell holds. Segmenting by decoded class instead splits an item whose
-cells decode to different materials into two phantom items of two classes.
+into 8-connected regions; items lie as little as 5 mm apart, so a region may hold several
+touching items, and with `split` settings each region is cut into items by the footprint's
+shape and the pixels' heights (`perception.items.split`). Each blob's class probabilities are
+the HMM posteriors of the cells it covers, weighted by how many of its pixels each cell holds.
+Segmenting by decoded class instead splits an item whose cells decode to different materials
+into two phantom items of two classes.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import numpy as np
 from scipy import ndimage
 
 from perception.codes import VOID
+from perception.items.split import SplitSettings, split_region
 
 
 @dataclass(frozen=True)
@@ -30,6 +33,8 @@ class Blob:
             camera saw the item).
         last_row: Newest window row holding a pixel of the blob.
         pixels: Number of item pixels.
+        members: Indices of its pixels in the window's order (row by row, stripe by stripe,
+            each cell's pixels in their given order).
     """
 
     b: float
@@ -37,6 +42,7 @@ class Blob:
     probs: np.ndarray
     last_row: int
     pixels: int
+    members: np.ndarray | None = None
 
 
 def item_blobs(
@@ -45,6 +51,9 @@ def item_blobs(
     posteriors: np.ndarray,
     raster_m: float = 0.006,
     min_pixels: int = 40,
+    pixel_height: list[list[np.ndarray]] | None = None,
+    split: SplitSettings | None = None,
+    complete_row: int | None = None,
 ) -> list[Blob]:
     """Blobs of the item pixels of a window of rows.
 
@@ -54,6 +63,14 @@ def item_blobs(
         posteriors: (rows, stripes, 4) class posteriors of the window's cells.
         raster_m: Raster pitch the pixels are binned on before labelling [m].
         min_pixels: Blobs with fewer pixels are noise and dropped.
+        pixel_height: Optional [row][stripe] arrays of the pixels' heights above the belt [m]
+            (from a depth map); with `split`, steps in height separate touching items.
+        split: How a region of touching items is cut apart (`split_region`); None keeps each
+            8-connected region whole.
+        complete_row: When given, only the regions whose newest row is this one are returned,
+            all their pieces at once, and only they are split (in a sliding window whose rows
+            move up one per observation: the regions the newest row did not add to, each
+            complete once).
 
     Returns:
         The blobs, in no particular order.
@@ -71,26 +88,59 @@ def item_blobs(
     y = np.concatenate([p[3] for p in parts])
     row = np.concatenate([np.full(len(p[2]), p[0]) for p in parts])
     stripe = np.concatenate([np.full(len(p[2]), p[1]) for p in parts])
-    ib = np.floor((b - b.min()) / raster_m).astype(np.int64)
-    iy = np.floor((y - y.min()) / raster_m).astype(np.int64)
+    # The raster is fixed on the belt (not on the window's pixels), so a region keeps its
+    # cells and its connections from one observation to the next: once complete, a region
+    # never grows again (a new row lies a row's length past its pixels).
+    ib = np.floor(b / raster_m).astype(np.int64)
+    iy = np.floor(y / raster_m).astype(np.int64)
+    ib -= ib.min()
+    iy -= iy.min()
     occupied = np.zeros((ib.max() + 1, iy.max() + 1), dtype=bool)
     occupied[ib, iy] = True
     labels, count = ndimage.label(occupied, structure=np.ones((3, 3)))
     label_of_pixel = labels[ib, iy]
+    newest = np.zeros(count + 1, dtype=np.int64)
+    np.maximum.at(newest, label_of_pixel, row)
+    wanted = np.arange(1, count + 1)
+    if complete_row is not None:
+        wanted = wanted[newest[1:] == complete_row]
+    wanted = wanted[np.bincount(label_of_pixel, minlength=count + 1)[wanted] >= min_pixels]
+    height = None
+    if split is not None and pixel_height is not None:
+        height = np.concatenate([np.asarray(pixel_height[p[0]][p[1]], float) for p in parts])
     blobs = []
-    for label in range(1, count + 1):
-        mine = label_of_pixel == label
-        n = int(mine.sum())
-        if n < min_pixels:
-            continue
-        cells, weights = np.unique(
-            np.stack([row[mine], stripe[mine]], axis=1), axis=0, return_counts=True
-        )
-        probs = (posteriors[cells[:, 0], cells[:, 1]] * weights[:, None]).sum(axis=0)
-        probs[VOID - 1] = 0.0
-        total = probs.sum()
-        probs = probs / total if total > 0 else np.array([0.0, 1 / 3, 1 / 3, 1 / 3])
-        blobs.append(
-            Blob(float(b[mine].mean()), float(y[mine].mean()), probs, int(row[mine].max()), n)
-        )
+    for label in wanted:
+        region = np.flatnonzero(label_of_pixel == label)
+        if split is None:
+            pieces = [region]
+        else:
+            piece, n = split_region(
+                b[region], y[region], None if height is None else height[region], split
+            )
+            order = np.argsort(piece, kind="stable")
+            pieces = np.split(region[order], np.cumsum(np.bincount(piece, minlength=n))[:-1])
+        for mine in pieces:
+            if len(mine) < min_pixels:
+                continue
+            blobs.append(_blob(mine, b, y, row, stripe, posteriors))
     return blobs
+
+
+def _blob(
+    mine: np.ndarray,
+    b: np.ndarray,
+    y: np.ndarray,
+    row: np.ndarray,
+    stripe: np.ndarray,
+    posteriors: np.ndarray,
+) -> Blob:
+    """The blob of the pixels `mine`, classed by the posteriors of the cells they fall in."""
+    cells, weights = np.unique(
+        np.stack([row[mine], stripe[mine]], axis=1), axis=0, return_counts=True
+    )
+    probs = (posteriors[cells[:, 0], cells[:, 1]] * weights[:, None]).sum(axis=0)
+    probs[VOID - 1] = 0.0
+    total = probs.sum()
+    probs = probs / total if total > 0 else np.array([0.0, 1 / 3, 1 / 3, 1 / 3])
+    centroid_b, centroid_y = float(b[mine].mean()), float(y[mine].mean())
+    return Blob(centroid_b, centroid_y, probs, int(row[mine].max()), len(mine), mine)

@@ -12,12 +12,14 @@ Two sources with one interface, `observe(t) -> list[Detection]`:
   class grid (`perception.items.from_grid`). The thesis runs k-means on batches of 20 rows;
   online that would report an item 10 s after it passed the camera, 1.85 m downstream at x1
   and so already past the robot 1.48 m away. Here items are the blobs of item pixels of a
-  sliding window of rows (`perception.items.blobs`), reported the period after their last row,
-  at the centroid of their pixels (the 5-stripe grid alone would place an item up to 8 cm off,
-  more than the cup's lip tolerates), with the filtered HMM posteriors of the cells they cover
-  as class probabilities. (Connected regions of one decoded class, the components alternative
-  of `items_from_grid`, split an item whose cells decode to two materials into two phantom
-  items.) A frame the pipeline cannot use is counted and its row read as empty.
+  sliding window of rows (`perception.items.blobs`; touching items are cut apart by their
+  footprints' shape and the steps in height between them, `perception.items.split`), reported
+  the period after their last row, at the centroid of their pixels (the 5-stripe grid alone
+  would place an item up to 8 cm off, more than the cup's lip tolerates), with the filtered HMM
+  posteriors of the cells they cover as class probabilities. (Connected regions of one decoded
+  class, the components alternative of `items_from_grid`, split an item whose cells decode to
+  two materials into two phantom items.) A frame the pipeline cannot use is counted and its
+  row read as empty.
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ from perception.codes import EMPTY_CODE, N_STATES, VOID
 from perception.errors import PerceptionError
 from perception.hmm.online import OnlineStripeHmms
 from perception.items.blobs import item_blobs
+from perception.items.split import SplitSettings
 from sim.cell.item_pool import ItemPool
 from sim.episode.tracking import Detection
 from sim.flow.config import BELT_HALF_WIDTH, X_CAMERA
@@ -58,6 +61,11 @@ _HMM_INPUTS = (
 )
 CAMERA_SIZE = (640, 360)
 WINDOW_ROWS = 12
+COMPLETE_ROW = WINDOW_ROWS - 2
+"""Window row whose item regions are reported: complete, the newest row did not add to them."""
+ITEM_SPLIT = SplitSettings()
+"""How touching items are cut apart (tuned on flows of seeds 100-109,
+`sim.experiments.segmentation_eval`)."""
 
 
 def one_hot(class_id: int) -> tuple[float, ...]:
@@ -142,6 +150,7 @@ class CameraPerception:
         self.posteriors = np.zeros((WINDOW_ROWS, stripes, N_STATES))
         self.pixels = [[np.zeros(0)] * stripes for _ in range(WINDOW_ROWS)]
         self.pixel_y = [[np.zeros(0)] * stripes for _ in range(WINDOW_ROWS)]
+        self.pixel_height = [[np.zeros(0)] * stripes for _ in range(WINDOW_ROWS)]
         self.rows = self.unobserved = 0
         self.render_s = self.pipeline_s = self.hmm_s = 0.0
 
@@ -155,14 +164,17 @@ class CameraPerception:
             row = self.pipeline.observe(frame, self.speed, t, depth)
             codes = row.codes
             pixels = [np.asarray(c.pixels, dtype=float).reshape(-1, 2) for c in row.cells]
+            heights = [np.asarray(c.heights, dtype=float) for c in row.cells]
         except PerceptionError as exc:
             self.unobserved += 1
             log.debug("t %.2f s: camera frame unusable, its row read as empty (%s)", t, exc)
             codes = np.full(stripes, EMPTY_CODE)
             pixels = [np.zeros((0, 2))] * stripes
+            heights = [np.zeros(0)] * stripes
         # Belt coordinate b of each item pixel: the belt travel until it crosses the camera line.
         self.pixels = self.pixels[1:] + [[self.speed * t + X_CAMERA - p[:, 0] for p in pixels]]
         self.pixel_y = self.pixel_y[1:] + [[p[:, 1] for p in pixels]]
+        self.pixel_height = self.pixel_height[1:] + [heights]
         t2 = time.perf_counter()
         est = self.hmm.step(codes)
         self.classes = np.roll(self.classes, -1, axis=0)
@@ -182,9 +194,16 @@ class CameraPerception:
         smoothed = self.hmm.smoothed_window()[-WINDOW_ROWS:]
         posteriors = self.posteriors.copy()
         posteriors[WINDOW_ROWS - len(smoothed) :] = smoothed
-        for blob in item_blobs(self.pixels, self.pixel_y, posteriors):
-            if blob.last_row != WINDOW_ROWS - 2:
-                continue  # still growing (touches the newest row) or reported already
+        # Regions that still touch the newest row are still growing; older ones were reported.
+        blobs = item_blobs(
+            self.pixels,
+            self.pixel_y,
+            posteriors,
+            pixel_height=self.pixel_height,
+            split=ITEM_SPLIT,
+            complete_row=COMPLETE_ROW,
+        )
+        for blob in blobs:
             x = X_CAMERA + self.speed * t - blob.b
             out.append(Detection(t, x, blob.y, tuple(float(p) for p in blob.probs)))
         return out

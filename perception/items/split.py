@@ -1,0 +1,167 @@
+"""Touching items cut apart: the footprint's distance transform, walled by steps in depth.
+
+Items on the belt lie as little as 5 mm apart, and an item's footprint pixels, binned on a
+raster, can touch a neighbour's. One connected region of item pixels is cut into items on a
+fine raster (`SplitSettings.raster_m`, finer than the gap between items) in three steps:
+
+1. Walls from depth: a raster cell with a neighbour more than `step_m` higher is the foot of a
+   step in height, where a lower item meets a taller one (a can beside a tray, a bottle beside
+   a sheet) or where a round item's flank falls to the belt. Walls are left out of the
+   footprint's core, so items of different heights fall apart even where they touch.
+2. Flooding the distance transform from the top (a watershed by immersion): the core's
+   distance to the belt or a wall peaks once inside each compact part. Thresholded at rising
+   levels, the core breaks up where it narrows: two parts that part at level L (their neck's
+   half-width) are two items when L is under `neck_ratio` of each one's peak half-width (two
+   discs that touch meet at a neck far thinner than either); a long sheet or a lying bottle
+   has a flat ridge that only breaks, into bumps of its own height, near its top, and stays
+   whole. Parts whose peak half-width is under `min_core_m` (slivers) are not items.
+3. Each item is its part at the level it parted at; every other pixel of the region (walls,
+   rims) goes to the nearest one.
+
+(`scipy.ndimage.watershed_ift` and `cv2.watershed` flood by the differences between
+neighbouring values, a gradient image's, not by the distance transform's levels, so the levels
+are flooded here by labelling each threshold.) The function is pure: pixels in, labels out, in
+metres.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from scipy import ndimage
+
+from perception.errors import PerceptionInputError
+
+_KERNEL = np.ones((3, 3), np.uint8)
+_EIGHT = np.ones((3, 3), dtype=bool)
+LEVELS_CELLS = (1, 2, 3, 4, 5, 6, 7, 8, 10, 12, 14, 17, 20, 24, 28, 33, 39, 46)
+"""Thresholds of the distance transform [raster cells] at which the core is labelled."""
+
+
+@dataclass(frozen=True)
+class SplitSettings:
+    """How a region of item pixels is cut into items.
+
+    Attributes:
+        raster_m: Pitch of the raster the pixels are binned on [m]; under the 5 mm gap the
+            flow keeps between items and over the footprint's 2.5 mm pixel pitch, so an item
+            covers its raster without holes.
+        step_m: A cell with a neighbour higher by more than this is a wall [m].
+        neck_ratio: Two parts are two items when the neck between them is narrower than this
+            fraction of each one's peak half-width.
+        min_core_m: A part whose peak half-width (walls left out) is under this is no item [m].
+    """
+
+    raster_m: float = 0.003
+    step_m: float = 0.010
+    neck_ratio: float = 0.6
+    min_core_m: float = 0.012
+
+    def __post_init__(self) -> None:
+        if not 0.0005 <= self.raster_m <= 0.02:
+            raise PerceptionInputError("raster_m", "0.0005..0.02 m", self.raster_m)
+        if not self.step_m > 0.0:
+            raise PerceptionInputError("step_m", "> 0 m", self.step_m)
+        if not 0.0 < self.neck_ratio <= 1.0:
+            raise PerceptionInputError("neck_ratio", "(0, 1]", self.neck_ratio)
+        if not self.min_core_m >= 0.0:
+            raise PerceptionInputError("min_core_m", ">= 0 m", self.min_core_m)
+
+
+def split_region(
+    b: np.ndarray,
+    y: np.ndarray,
+    height: np.ndarray | None = None,
+    settings: SplitSettings = SplitSettings(),
+) -> tuple[np.ndarray, int]:
+    """Cuts one region of item pixels into items.
+
+    Args:
+        b: (N,) belt coordinates of the pixels [m].
+        y: (N,) lateral positions [m].
+        height: (N,) heights above the belt [m] of the surface seen at each pixel, or None
+            (no depth: the footprint's shape alone decides).
+        settings: Raster pitch and thresholds.
+
+    Returns:
+        (piece, count): the piece 0..count-1 of each pixel, and the number of pieces.
+    """
+    b, y = np.asarray(b, float), np.asarray(y, float)
+    if b.size == 0:
+        return np.zeros(0, dtype=np.int64), 0
+    pitch = settings.raster_m
+    # The raster is fixed on the belt, so the same pixels are cut the same way in any window;
+    # one empty cell of margin all round, so that the distance transform sees the belt there.
+    ib = np.floor(b / pitch).astype(np.int64)
+    iy = np.floor(y / pitch).astype(np.int64)
+    ib -= ib.min() - 1
+    iy -= iy.min() - 1
+    shape = (int(ib.max()) + 2, int(iy.max()) + 2)
+    occupied = np.zeros(shape, dtype=bool)
+    occupied[ib, iy] = True
+    core = occupied
+    if height is not None:
+        top = np.zeros(shape, dtype=np.float32)
+        np.maximum.at(top, (ib, iy), np.asarray(height, np.float32))
+        core = occupied & (cv2.dilate(top, _KERNEL) - top <= settings.step_m)
+    dist = cv2.distanceTransform(core.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    markers = _item_markers(dist, settings.neck_ratio, settings.min_core_m / pitch)
+    if markers.max() <= 1:
+        return np.zeros(b.size, dtype=np.int64), 1
+    # Every cell goes to the nearest marker: the distance to the zero cells of `outside`
+    # labels each cell with the marker (a connected group of zero cells) it is nearest to.
+    outside = (markers == 0).astype(np.uint8)
+    _, nearest = cv2.distanceTransformWithLabels(
+        outside, cv2.DIST_L2, cv2.DIST_MASK_5, labelType=cv2.DIST_LABEL_CCOMP
+    )
+    marker_of = np.zeros(int(nearest.max()) + 1, dtype=np.int64)
+    marker_of[nearest[markers > 0]] = markers[markers > 0]
+    piece = marker_of[nearest[ib, iy]] - 1
+    return piece, int(markers.max())
+
+
+def _item_markers(dist: np.ndarray, neck_ratio: float, min_core_cells: float) -> np.ndarray:
+    """Markers 1..n of the items in a distance transform [cells] (0 elsewhere)."""
+    levels = [lv for lv in LEVELS_CELLS if lv <= max(neck_ratio * float(dist.max()), 1.0)]
+    labels, peaks, parents = [], [], []
+    for k, level in enumerate(levels):
+        lab, n = ndimage.label(dist >= level, structure=_EIGHT)
+        peak = np.zeros(n + 1)
+        np.maximum.at(peak, lab.ravel(), dist.ravel())
+        parent = np.zeros(n + 1, dtype=np.int64)
+        if k:  # a part of this level lies inside one part of the level below
+            parent[lab] = labels[-1]
+            parent[0] = 0
+        labels.append(lab)
+        peaks.append(peak)
+        parents.append(parent)
+    children = [
+        [np.flatnonzero(parents[k + 1] == c) for c in range(len(peaks[k]))]
+        for k in range(len(levels) - 1)
+    ]
+
+    def items(k: int, c: int) -> list[tuple[int, int]]:
+        """The item parts (level index, label) of part c of level k (an item itself)."""
+        if k + 1 == len(levels):
+            return [(k, c)]
+        wide = [
+            q
+            for q in children[k][c]
+            if q > 0
+            and peaks[k + 1][q] >= min_core_cells
+            and levels[k + 1] <= neck_ratio * peaks[k + 1][q]
+        ]
+        if len(wide) == 1:
+            below = items(k + 1, int(wide[0]))
+            return below if len(below) > 1 else [(k, c)]
+        if len(wide) > 1:
+            return [part for q in wide for part in items(k + 1, int(q))]
+        return [(k, c)]
+
+    roots = [c for c in range(1, len(peaks[0])) if peaks[0][c] >= min_core_cells]
+    markers = np.zeros(dist.shape, dtype=np.int64)
+    for n, (k, c) in enumerate((p for r in roots for p in items(0, r)), start=1):
+        markers[labels[k] == c] = n
+    return markers
