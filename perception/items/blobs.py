@@ -135,10 +135,10 @@ def _blob(
     posteriors: np.ndarray,
 ) -> Blob:
     """The blob of the pixels `mine`, classed by the posteriors of the cells they fall in."""
-    cells, weights = np.unique(
-        np.stack([row[mine], stripe[mine]], axis=1), axis=0, return_counts=True
-    )
-    probs = (posteriors[cells[:, 0], cells[:, 1]] * weights[:, None]).sum(axis=0)
+    rows, stripes = posteriors.shape[:2]
+    weights = np.bincount(row[mine] * stripes + stripe[mine], minlength=rows * stripes)
+    cells = np.flatnonzero(weights)
+    probs = (posteriors.reshape(rows * stripes, -1)[cells] * weights[cells, None]).sum(axis=0)
     probs[VOID - 1] = 0.0
     total = probs.sum()
     probs = probs / total if total > 0 else np.array([0.0, 1 / 3, 1 / 3, 1 / 3])

@@ -1,10 +1,14 @@
-"""Scores items found in a grid against the true items: centroid error, splits and merges.
+"""Scores found items against the true items: centroid error, splits and merges.
 
-Each found item is owned by the nearest true item of its class within `gate_m`; a true item
-owning several found items is split (each extra one counts), a true item owning none is missed,
-and a found item without an owner is spurious. A found item is a merge when its cells hold the
-centre cells of several true items of its class (each extra one counts). The centroid error of
-a true item is the distance to its nearest owned item, in mm.
+Items of a decoded class grid (`score_items`): each found item is owned by the nearest true
+item of its class within `gate_m`; a true item owning several found items is split (each extra
+one counts), a true item owning none is missed, and a found item without an owner is spurious.
+A found item is a merge when its cells hold the centre cells of several true items of its class
+(each extra one counts). The centroid error of a true item is the distance to its nearest owned
+item, in mm.
+
+Segments of item pixels (`score_segments`, the camera's blobs): found and true items are matched
+by the pixels they share, each true item is detected, split, merged or missed.
 """
 
 from __future__ import annotations
@@ -89,3 +93,97 @@ def pooled(scores: list[ItemScore]) -> ItemScore:
     """One score of several grids: errors pooled, counts summed."""
     errors = np.concatenate([s.errors_mm for s in scores]) if scores else np.zeros(0)
     return ItemScore(errors, *(int(sum(getattr(s, k) for s in scores)) for k in COUNTS))
+
+
+SEGMENT_KINDS = ("detected", "split", "merged", "missed")
+"""What became of a true item: found once on its own, cut into several, found together with a
+neighbour, not found."""
+
+
+@dataclass(frozen=True, eq=False)
+class SegmentScore:
+    """What became of each true item in a segmentation, and the centroid errors.
+
+    Attributes:
+        kinds: (n_true,) index into SEGMENT_KINDS of each true item.
+        errors_mm: Centroid errors [mm] of the detected true items.
+        n_found: Found items.
+        spurious: Found items mostly made of pixels of no true item.
+    """
+
+    kinds: np.ndarray
+    errors_mm: np.ndarray
+    n_found: int
+    spurious: int
+
+    @property
+    def n_true(self) -> int:
+        return int(self.kinds.size)
+
+    def count(self, kind: str) -> int:
+        """True items of `kind` (one of SEGMENT_KINDS)."""
+        return int(np.sum(self.kinds == SEGMENT_KINDS.index(kind)))
+
+    def share(self, kind: str) -> float:
+        """Share of the true items of `kind` (NaN without true items)."""
+        return self.count(kind) / self.n_true if self.n_true else float("nan")
+
+    @property
+    def median_mm(self) -> float:
+        """Median centroid error of the detected items [mm] (NaN when none)."""
+        return float(np.median(self.errors_mm)) if self.errors_mm.size else float("nan")
+
+
+def score_segments(
+    overlap: np.ndarray,
+    found_pixels: np.ndarray,
+    distance_m: np.ndarray,
+    merge_share: float = 0.3,
+) -> SegmentScore:
+    """Scores found items against true items by the pixels they share.
+
+    A true item's main found item is the one holding most of its pixels. The true item is
+    merged when its main found item also holds at least `merge_share` of another true item's
+    pixels; else split when two or more found items are each mostly its pixels; else detected,
+    with the distance from its main found item's centroid as the centroid error; missed when no
+    found item holds a pixel of it.
+
+    Args:
+        overlap: (n_found, n_true) pixels of each found item inside each true item's footprint.
+        found_pixels: (n_found,) pixels of each found item.
+        distance_m: (n_found, n_true) distance [m] from each found item's centroid to each
+            true item's centre.
+        merge_share: Share of a second true item's pixels that makes a found item a merge.
+    """
+    overlap = np.asarray(overlap, dtype=float)
+    found_pixels = np.asarray(found_pixels, dtype=float)
+    n_found, n_true = overlap.shape
+    seen = overlap.sum(axis=0)
+    mostly = overlap >= 0.5 * found_pixels[:, None]
+    kinds = np.full(n_true, SEGMENT_KINDS.index("missed"))
+    errors = []
+    for i in np.flatnonzero(seen > 0):
+        main = int(np.argmax(overlap[:, i]))
+        shares = overlap[main] / np.maximum(seen, 1.0)
+        shares[i] = 0.0
+        if np.any(shares >= merge_share):
+            kinds[i] = SEGMENT_KINDS.index("merged")
+        elif int(mostly[:, i].sum()) >= 2:
+            kinds[i] = SEGMENT_KINDS.index("split")
+        else:
+            kinds[i] = SEGMENT_KINDS.index("detected")
+            errors.append(1000.0 * float(distance_m[main, i]))
+    spurious = int(np.sum(~mostly.any(axis=1)))
+    return SegmentScore(kinds, np.array(errors, dtype=float), n_found, spurious)
+
+
+def pooled_segments(scores: list[SegmentScore]) -> SegmentScore:
+    """One score of several flows: kinds and errors pooled, counts summed."""
+    if not scores:
+        return SegmentScore(np.zeros(0, dtype=np.int64), np.zeros(0), 0, 0)
+    return SegmentScore(
+        np.concatenate([s.kinds for s in scores]),
+        np.concatenate([s.errors_mm for s in scores]),
+        sum(s.n_found for s in scores),
+        sum(s.spurious for s in scores),
+    )

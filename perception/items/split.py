@@ -103,8 +103,10 @@ def split_region(
     occupied[ib, iy] = True
     core = occupied
     if height is not None:
-        top = np.zeros(shape, dtype=np.float32)
-        np.maximum.at(top, (ib, iy), np.asarray(height, np.float32))
+        # Each cell's height is its highest pixel's (1-D, one dtype: numpy's fast path).
+        top = np.zeros(shape[0] * shape[1], dtype=np.float32)
+        np.maximum.at(top, ib * shape[1] + iy, np.asarray(height, np.float32))
+        top = top.reshape(shape)
         core = occupied & (cv2.dilate(top, _KERNEL) - top <= settings.step_m)
     dist = cv2.distanceTransform(core.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     markers = _item_markers(dist, settings.neck_ratio, settings.min_core_m / pitch)
@@ -128,7 +130,7 @@ def _item_markers(dist: np.ndarray, neck_ratio: float, min_core_cells: float) ->
     labels, peaks, parents = [], [], []
     for k, level in enumerate(levels):
         lab, n = ndimage.label(dist >= level, structure=_EIGHT)
-        peak = np.zeros(n + 1)
+        peak = np.zeros(n + 1, dtype=np.float32)
         np.maximum.at(peak, lab.ravel(), dist.ravel())
         parent = np.zeros(n + 1, dtype=np.int64)
         if k:  # a part of this level lies inside one part of the level below
