@@ -193,7 +193,7 @@ def test_a_can_beside_a_tray_in_the_rendered_frame_is_two_items():
     calibration = CameraCalibration.load(DEFAULT_CALIBRATION).scaled(size)
     pipeline = CameraPipeline(calibration, BeltGrid(), *marker_points(model, data))
     pipeline.locate(frame)
-    labels, height = pipeline.mapper.footprint_and_height(frame, depth, pipeline.rules)
+    labels, height, _ = pipeline.mapper.footprint_and_height(frame, depth, pipeline.rules)
     rows, cols = np.nonzero(labels != BELT)
     xy = pipeline.raster.pixel_to_world(rows, cols)
     b, y, h = -xy[:, 0], xy[:, 1], height[rows, cols].astype(float)

@@ -23,7 +23,9 @@ from perception.camera.observe import BELT, ColourRules
 from perception.camera.rectify import BeltView, TopDownRaster
 from perception.errors import PerceptionError, PerceptionInputError
 
-_BELT_MARGIN_M = 0.005
+_BELT_EDGE_M = 0.004
+"""Pixels seeing the belt's outer 4 mm are not items: the belt's edge meets the rails there,
+and its antialiased line would pass for a clear item. The flow keeps items 5 mm inside."""
 _ITEM_EDGE_STEP_M = 0.02
 _UNDISTORT_CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 30, 1e-9)
 
@@ -47,6 +49,8 @@ class FootprintMapper:
         min_height_m: Item pixels stand at least this high above the belt [m].
         rim_fraction: Pixels dimmer than this fraction of their item's brightest pixel are its
             antialiased rim (partly belt) or its shaded side, and left out.
+        smooth_px: Side of the median filter over the depth's heights [px] (a stereo camera's
+            depth is noisy); 1: none.
     """
 
     def __init__(
@@ -56,6 +60,7 @@ class FootprintMapper:
         max_height_m: float = 0.15,
         min_height_m: float = 0.0008,
         rim_fraction: float = 0.35,
+        smooth_px: int = 5,
     ):
         if not 0.0 <= rim_fraction < 1.0:
             raise PerceptionInputError("rim_fraction", "[0, 1)", rim_fraction)
@@ -63,6 +68,9 @@ class FootprintMapper:
             raise PerceptionInputError(
                 "min_height_m, max_height_m", "0 < min < max <= 1 m", (min_height_m, max_height_m)
             )
+        if smooth_px not in (1, 3, 5):
+            raise PerceptionInputError("smooth_px", "1, 3 or 5 (a median filter's side)", smooth_px)
+        self.smooth_px = smooth_px
         self.min_height_m = float(min_height_m)
         self.rim_fraction = float(rim_fraction)
         self.raster = raster
@@ -103,9 +111,10 @@ class FootprintMapper:
 
     def footprint_and_height(
         self, frame: np.ndarray, depth: np.ndarray, rules: ColourRules
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """Colour labels (as `footprint`) and the height above the belt (rows, cols) float32 [m]
-        of the item surface seen over each top-down pixel (0 where no item lies).
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Colour labels (as `footprint`), the height above the belt (rows, cols) float32 [m]
+        of the item surface seen over each top-down pixel (0 where no item lies) and its RGB
+        (rows, cols, 3) uint8 as the frame shows it (0 where no item lies).
 
         Raises:
             PerceptionError: The depth map does not match the frame or holds no valid depth.
@@ -119,44 +128,58 @@ class FootprintMapper:
         z[~valid] = 0.0
         shape = z.shape
         direction = self._direction
-        height = self._origin[2] + z * direction[:, 2].reshape(shape)
-        y = self._origin[1] + z * direction[:, 1].reshape(shape)
+        own_height = self._origin[2] + z * direction[:, 2].reshape(shape)
+        # A stereo camera's depth is noisy (a centimetre at this range) and has holes at
+        # edges: a hole takes the highest depth around it (edges are where items rise), then
+        # a median over a small window drops the noise and keeps the edges.
+        kernel = np.ones((3, 3), np.uint8)
+        filled = np.where(valid, own_height, -1.0).astype(np.float32)
+        for _ in range(2):
+            filled = np.where(filled > -0.5, filled, cv2.dilate(filled, kernel))
+        has_depth = filled > -0.5
+        height = cv2.medianBlur(filled, self.smooth_px) if self.smooth_px > 1 else filled
+        height = np.where(has_depth, height, 0.0).astype(np.float32)
+        y = self._origin[1] + (height - self._origin[2]) / direction[:, 2].reshape(
+            shape
+        ) * direction[:, 1].reshape(shape)
         # Only pixels that see the belt (or what lies on it) can be items: not its rails.
         raster = self.raster
-        y_lo = raster.y_min - _BELT_MARGIN_M
-        y_hi = raster.y_min + raster.shape[1] * raster.resolution_m + _BELT_MARGIN_M
+        y_lo = raster.y_min + _BELT_EDGE_M
+        y_hi = raster.y_min + raster.shape[1] * raster.resolution_m - _BELT_EDGE_M
         # Two items that touch in the image are told apart by the jump in height between them.
-        kernel = np.ones((3, 3), np.uint8)
         step = cv2.dilate(height, kernel) - cv2.erode(height, kernel)
-        labels = rules.classify(crop, valid & (y >= y_lo) & (y <= y_hi), step < _ITEM_EDGE_STEP_M)
+        where = has_depth & (y >= y_lo) & (y <= y_hi)
+        labels = rules.classify(crop, where, step < _ITEM_EDGE_STEP_M)
         labels[~_solid(crop, labels != BELT, self.rim_fraction)] = BELT
         labels = labels.ravel()
-        valid = valid.ravel()
-        belt = np.flatnonzero(valid & (labels == BELT))[::4]
+        has_depth = has_depth.ravel()
+        belt = np.flatnonzero(has_depth & (labels == BELT))[::4]
         if len(belt) < 100:
             raise PerceptionError("depth map: too few valid belt pixels")
         # The belt's height as this camera measures it (a pose error shifts it by a millimetre
         # or so); item pixels stand above it.
-        own_z = height.ravel()
-        belt_z = float(np.median(own_z[belt]))
+        flat = height.ravel()
+        belt_z = float(np.median(flat[belt]))
         floor = belt_z + self.min_height_m
         # A pixel on an item's rim blends the item's colour with the belt behind it and may
         # carry the belt's depth: it is placed at the highest surface seen around it, on its
-        # own ray, which puts it on the item's top edge. Pixels with a depth on the item keep
-        # their own height.
-        around = cv2.dilate(np.where(valid.reshape(shape), height, -1.0), kernel)
-        top_z = np.where(own_z > floor, own_z, around.ravel())
-        item = np.flatnonzero(valid & (labels != BELT) & (top_z > floor))
+        # own ray, which puts it on the item's top edge. An item pixel (by colour) measured at
+        # the belt's height is a thin sheet seen through the depth noise: it lies on the floor.
+        around = cv2.dilate(np.where(has_depth.reshape(shape), height, -1.0), kernel)
+        top_z = np.maximum(np.where(flat > floor, flat, around.ravel()), floor)
+        item = np.flatnonzero(has_depth & (labels != BELT))
         reach = (top_z[item] - self._origin[2]) / direction[item, 2]
         points = self._origin[None, :2] + reach[:, None] * direction[item, :2]
-        raster = self.raster
         i = np.floor((points[:, 0] - raster.x_min) / raster.resolution_m).astype(np.int64)
         j = np.floor((points[:, 1] - raster.y_min) / raster.resolution_m).astype(np.int64)
         inside = (i >= 0) & (i < raster.shape[0]) & (j >= 0) & (j < raster.shape[1])
+        i, j, item = i[inside], j[inside], item[inside]
         top = np.full(raster.shape, BELT, dtype=np.int8)
-        top[i[inside], j[inside]] = labels[item[inside]]
+        top[i, j] = labels[item]
         height_above = np.zeros(raster.shape, dtype=np.float32)
-        height_above[i[inside], j[inside]] = top_z[item[inside]] - belt_z
+        height_above[i, j] = top_z[item] - belt_z
+        colour = np.zeros((*raster.shape, 3), dtype=np.uint8)
+        colour[i, j] = crop.reshape(-1, 3)[item]
         # Close the pinholes between splatted pixels; they take a neighbour's colour and height.
         covered = (top != BELT).astype(np.uint8)
         holes = (cv2.morphologyEx(covered, cv2.MORPH_CLOSE, kernel) > 0) & (covered == 0)
@@ -164,4 +187,11 @@ class FootprintMapper:
             spread = cv2.dilate((top + 1).astype(np.uint8), kernel).astype(np.int8) - 1
             top[holes] = spread[holes]
             height_above[holes] = cv2.dilate(height_above, kernel)[holes]
-        return top, height_above
+            colour[holes] = cv2.dilate(colour, kernel)[holes]
+        # One-pixel lines are the belt's edges seen through antialiasing, not items (a sheet's
+        # pixels at the belt's height are kept, so the depth no longer rules them out).
+        lines = cv2.morphologyEx((top != BELT).astype(np.uint8), cv2.MORPH_OPEN, kernel) == 0
+        top[lines] = BELT
+        height_above[lines] = 0.0
+        colour[lines] = 0
+        return top, height_above, colour

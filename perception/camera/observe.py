@@ -135,6 +135,8 @@ class CellObservation:
             observation time).
         heights: (N,) height above the belt [m] of the item surface over each of those pixels,
             or None when the frame came without a depth map.
+        rgb: (N, 3) uint8 colour of each of those pixels as the frame shows it, or None when
+            the frame came without a depth map.
     """
 
     code: int
@@ -142,6 +144,7 @@ class CellObservation:
     colour: str | None
     pixels: np.ndarray
     heights: np.ndarray | None = None
+    rgb: np.ndarray | None = None
 
 
 def code_cells(

@@ -151,7 +151,7 @@ class CameraPipeline:
         footprints are found in 3-D (`FootprintMapper`); without, the frame is rectified onto
         the belt plane and tall items look larger than they lie. Item pixel coordinates are
         belt-plane positions at the row's time t_k = k T; with depth, each cell also carries its
-        item pixels' heights above the belt [m].
+        item pixels' heights above the belt [m] and colours (RGB).
 
         Raises:
             PerceptionError: The frame cannot be used (shape, all black, markers not seen).
@@ -160,8 +160,8 @@ class CameraPipeline:
         if depth is None:
             return self.code_row(self.rectify(frame), belt_speed, t)
         self.check(frame)
-        labels, height = self.mapper.footprint_and_height(frame, depth, self.rules)
-        return self._code(labels, belt_speed, t, height)
+        labels, height, colour = self.mapper.footprint_and_height(frame, depth, self.rules)
+        return self._code(labels, belt_speed, t, height, colour)
 
     def code_row(self, top: np.ndarray, belt_speed: float, t: float) -> RowObservation:
         """The row of codes of a top-down image (`rectify`) taken at time `t` [s]."""
@@ -188,7 +188,12 @@ class CameraPipeline:
         return self.raster.rows_of(*self.grid.band(belt_speed, t))
 
     def _code(
-        self, labels: np.ndarray, belt_speed: float, t: float, height: np.ndarray | None = None
+        self,
+        labels: np.ndarray,
+        belt_speed: float,
+        t: float,
+        height: np.ndarray | None = None,
+        colour: np.ndarray | None = None,
     ) -> RowObservation:
         raster = self.raster
         row_slice = self._band_rows(belt_speed, t)
@@ -197,10 +202,11 @@ class CameraPipeline:
         k = self.grid.row_of_time(t)
         back = belt_speed * (t - k * self.grid.period_s)
         cells = []
-        for code, fraction, colour, rows, cols in code_cells(labels, row_slice, col_slices):
+        for code, fraction, name, rows, cols in code_cells(labels, row_slice, col_slices):
             xy = raster.pixel_to_world(rows, cols)
             xy[:, 0] -= back
             heights = None if height is None else height[rows, cols]
-            cells.append(CellObservation(code, fraction, colour, xy, heights))
+            rgb = None if colour is None else colour[rows, cols]
+            cells.append(CellObservation(code, fraction, name, xy, heights, rgb))
         codes = np.array([c.code for c in cells], dtype=np.int64)
         return RowObservation(k, float(t), codes, tuple(cells))

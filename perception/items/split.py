@@ -52,12 +52,15 @@ class SplitSettings:
         neck_ratio: Two parts are two items when the neck between them is narrower than this
             fraction of each one's peak half-width.
         min_core_m: A part whose peak half-width (walls left out) is under this is no item [m].
+        height_median_cells: Side of the median filter over the cells' heights before walls
+            are found (1: none; 3 or 5).
     """
 
     raster_m: float = 0.003
     step_m: float = 0.010
     neck_ratio: float = 0.6
     min_core_m: float = 0.012
+    height_median_cells: int = 5
 
     def __post_init__(self) -> None:
         if not 0.0005 <= self.raster_m <= 0.02:
@@ -68,6 +71,8 @@ class SplitSettings:
             raise PerceptionInputError("neck_ratio", "(0, 1]", self.neck_ratio)
         if not self.min_core_m >= 0.0:
             raise PerceptionInputError("min_core_m", ">= 0 m", self.min_core_m)
+        if self.height_median_cells not in (1, 3, 5):
+            raise PerceptionInputError("height_median_cells", "1, 3 or 5", self.height_median_cells)
 
 
 def split_region(
@@ -107,6 +112,10 @@ def split_region(
         top = np.zeros(shape[0] * shape[1], dtype=np.float32)
         np.maximum.at(top, ib * shape[1] + iy, np.asarray(height, np.float32))
         top = top.reshape(shape)
+        if settings.height_median_cells > 1:
+            # Stereo depth is noisy: a median over a few cells keeps real steps and drops
+            # the noise's.
+            top = cv2.medianBlur(top, settings.height_median_cells)
         core = occupied & (cv2.dilate(top, _KERNEL) - top <= settings.step_m)
     dist = cv2.distanceTransform(core.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     markers = _item_markers(dist, settings.neck_ratio, settings.min_core_m / pitch)

@@ -44,6 +44,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         choices=["camera", "truth"],
         help="camera: rendered frames through the HMMs; truth: true codes",
     )
+    parser.add_argument(
+        "--classifier",
+        default=None,
+        choices=["fused", "features", "hmm"],
+        help="camera items' class: fused (features x stripe HMMs, default), features, hmm "
+        "(the thesis's path)",
+    )
     parser.add_argument("--video", default=None, help="write an MP4 of the episode")
     parser.add_argument("--out", type=Path, default=Path("runs/latest"), help="output folder")
     parser.add_argument(
@@ -193,6 +200,7 @@ def main(args: argparse.Namespace) -> int:
         duration_s=args.duration,
         energy_price_eur_per_kwh=args.energy_price,
         min_class_confidence=args.min_confidence,
+        classifier=args.classifier,
     )
     out = Path(args.out)
     preflight(config, out, args.video)

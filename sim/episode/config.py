@@ -18,6 +18,8 @@ TOML layout (every key optional; defaults are the headline episode)::
     energy_price_eur_per_kwh = 0.0  # > 0: every planner nets each pick's motor energy cost
     min_class_confidence = 0.0  # 0..1: an item whose most probable class is less probable is
                                 # left on the belt (sim/episode/confidence.py); 0: none is
+    classifier = "hmm"          # camera items' class: fused | features | hmm (the thesis's)
+    depth_noise = true          # the stereo camera's depth error (sim/cell/depth_noise.py)
     [values]                    # EUR per item (thesis table 3.3)
     paper = 0.22
     plastic = 0.25
@@ -57,6 +59,7 @@ BELT_SPEED_RANGE_MPS = SPEED_RANGE_MPS
 # x1.5 is the belt's top speed: 0.2775 m/s rounds to the conveyor's 0.277 m/s.
 _SPEED_TOLERANCE_MPS = SPEED_TOLERANCE_MPS + 1e-12  # the belt's own check, to the bit
 PERCEPTIONS = ("camera", "truth")
+CLASSIFIERS = ("fused", "features", "hmm")
 ITEM_RIDINGS = ("settled", "contact")
 OBJECTIVES = ("value_over_distance", "value_only", "distance_only")
 MAX_ITEMS = 20000
@@ -175,6 +178,8 @@ class EpisodeConfig:
     item_riding: str = "settled"
     energy_price_eur_per_kwh: float = 0.0
     min_class_confidence: float = 0.0
+    classifier: str = "hmm"
+    depth_noise: bool = True
     values: Values = field(default_factory=Values)
     qlearning: QLearning = field(default_factory=QLearning)
     video: Video = field(default_factory=Video)
@@ -212,6 +217,11 @@ class EpisodeConfig:
         c = self.min_class_confidence
         ok = _number(c) and 0.0 <= c <= 1.0
         _check(ok, "min_class_confidence", "a probability in [0, 1]", c, w)
+        k = self.classifier
+        _check(k in CLASSIFIERS, "classifier", " | ".join(CLASSIFIERS), k, w)
+        _check(
+            isinstance(self.depth_noise, bool), "depth_noise", "true | false", self.depth_noise, w
+        )
         for name, cls in _SECTIONS.items():
             _check(isinstance(getattr(self, name), cls), name, f"a [{name}] table", None, w)
         self._check_flow()

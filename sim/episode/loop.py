@@ -27,6 +27,7 @@ from planner.decision.interface import Choice, DecisionContext, RobotState, Trac
 from planner.decision.registry import make_planner
 from sim.cell.bins import BIN_CLASSES, Bins
 from sim.cell.cell import PICK_Z_NOMINAL, Cell
+from sim.cell.depth_noise import ZED_CLASS
 from sim.cell.monitors.energy import EnergyMeter
 from sim.cell.monitors.mj_warnings import WarningCounter
 from sim.cell.monitors.thrown import ThrowWatch
@@ -173,6 +174,9 @@ class Episode:
                 self.speed,
                 period,
                 camera=cell.belt_camera(CAMERA_SIZE),
+                classifier=config.classifier,
+                depth_noise=ZED_CLASS if config.depth_noise else None,
+                seed=config.seed,
             )
         # Scheduled events: the next drop, observation, item check and decision [s].
         self.next_spawn = 0

@@ -28,6 +28,7 @@ import hashlib
 import logging
 import os
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import mujoco
@@ -37,9 +38,14 @@ from perception.codes import EMPTY_CODE, N_STATES, VOID
 from perception.errors import PerceptionError
 from perception.hmm.online import OnlineStripeHmms
 from perception.items.blobs import item_blobs
+from perception.items.classifier import CLASSIFIER_MODES, combine
+from perception.items.features import item_features
 from perception.items.split import SplitSettings
+from sim.cell.depth_noise import ZED_CLASS, StereoDepthNoise
 from sim.cell.item_pool import ItemPool
+from sim.episode.item_classifier import trained_item_classifier
 from sim.episode.tracking import Detection
+from sim.errors import InvalidInput
 from sim.flow.config import BELT_HALF_WIDTH, X_CAMERA
 from sim.flow.generator import Flow
 from sim.paths import REPO_ROOT
@@ -69,6 +75,23 @@ x1.5, 100 items in 90 s; `sim.experiments.segmentation_eval`), one setting moved
 every item was found once for a neck ratio of 0.4-0.7 (0.3 merged 2 of 3000 items, 0.8 split
 2), a wall step of 5-30 mm (2 mm split 6), a smallest core of 6-20 mm (30 mm merged 18) and a
 raster of 3 or 4 mm; the defaults sit inside those ranges."""
+
+
+@dataclass(frozen=True, eq=False)
+class ReportedItem:
+    """An item the camera perception reported, with what its class was decided from.
+
+    Attributes:
+        detection: What the tracker got.
+        features: Its feature vector (`perception.items.features`), None without depth.
+        hmm_probs: (3,) the stripe HMMs' posterior over (paper, plastic, aluminium).
+        classifier_probs: (3,) the item classifier's, None in `hmm` mode.
+    """
+
+    detection: Detection
+    features: np.ndarray | None
+    hmm_probs: np.ndarray
+    classifier_probs: np.ndarray | None
 
 
 def one_hot(class_id: int) -> tuple[float, ...]:
@@ -137,11 +160,30 @@ class CameraPerception:
 
     name = "camera"
 
-    def __init__(self, model, data, catalogue, belt_speed: float, period_s: float, camera=None):
+    def __init__(
+        self,
+        model,
+        data,
+        catalogue,
+        belt_speed: float,
+        period_s: float,
+        camera=None,
+        classifier: str = "hmm",
+        depth_noise: StereoDepthNoise | None = ZED_CLASS,
+        seed: int = 0,
+    ):
         from perception.camera.grid import BeltGrid
         from sim.cell.camera import BeltCamera, camera_pipeline
 
+        if classifier not in CLASSIFIER_MODES:
+            raise InvalidInput("classifier", " | ".join(CLASSIFIER_MODES), classifier)
         self.data, self.speed, self.period = data, float(belt_speed), float(period_s)
+        self.mode = classifier
+        self.item_classifier = None if classifier == "hmm" else trained_item_classifier()
+        self.depth_noise = depth_noise
+        # The camera's own random stream (depth noise), apart from the flow's and the planner's.
+        self.rng = np.random.default_rng([int(seed), 0x5E4])
+        self.reported: list[ReportedItem] = []
         grid = BeltGrid(x_line=X_CAMERA, period_s=period_s)
         self.pipeline = camera_pipeline(model, data, CAMERA_SIZE, grid)
         self._own_camera = camera is None
@@ -154,6 +196,7 @@ class CameraPerception:
         self.pixels = [[np.zeros(0)] * stripes for _ in range(WINDOW_ROWS)]
         self.pixel_y = [[np.zeros(0)] * stripes for _ in range(WINDOW_ROWS)]
         self.pixel_height = [[np.zeros(0)] * stripes for _ in range(WINDOW_ROWS)]
+        self.pixel_rgb = [[np.zeros((0, 3), np.uint8)] * stripes for _ in range(WINDOW_ROWS)]
         self.rows = self.unobserved = 0
         self.render_s = self.pipeline_s = self.hmm_s = 0.0
 
@@ -161,6 +204,8 @@ class CameraPerception:
         """Take the frame of time `t` [s]; return the items whose last row was the previous."""
         t0 = time.perf_counter()
         frame, depth = self.camera.render_rgbd(self.data)
+        if self.depth_noise is not None:
+            depth = self.depth_noise.apply(depth, self.rng)
         t1 = time.perf_counter()
         stripes = self.classes.shape[1]
         try:
@@ -168,16 +213,19 @@ class CameraPerception:
             codes = row.codes
             pixels = [np.asarray(c.pixels, dtype=float).reshape(-1, 2) for c in row.cells]
             heights = [np.asarray(c.heights, dtype=float) for c in row.cells]
+            rgb = [np.asarray(c.rgb, dtype=np.uint8).reshape(-1, 3) for c in row.cells]
         except PerceptionError as exc:
             self.unobserved += 1
             log.debug("t %.2f s: camera frame unusable, its row read as empty (%s)", t, exc)
             codes = np.full(stripes, EMPTY_CODE)
             pixels = [np.zeros((0, 2))] * stripes
             heights = [np.zeros(0)] * stripes
+            rgb = [np.zeros((0, 3), np.uint8)] * stripes
         # Belt coordinate b of each item pixel: the belt travel until it crosses the camera line.
         self.pixels = self.pixels[1:] + [[self.speed * t + X_CAMERA - p[:, 0] for p in pixels]]
         self.pixel_y = self.pixel_y[1:] + [[p[:, 1] for p in pixels]]
         self.pixel_height = self.pixel_height[1:] + [heights]
+        self.pixel_rgb = self.pixel_rgb[1:] + [rgb]
         t2 = time.perf_counter()
         est = self.hmm.step(codes)
         self.classes = np.roll(self.classes, -1, axis=0)
@@ -206,10 +254,43 @@ class CameraPerception:
             split=ITEM_SPLIT,
             complete_row=COMPLETE_ROW,
         )
-        for blob in blobs:
+        self.reported = []
+        if not blobs:
+            return out
+        hmm_probs = np.array([blob.probs[1:] for blob in blobs])
+        features = None
+        if blobs[0].members is not None:
+            b, y, height, rgb = self._window_pixels()
+            features = np.array(
+                [item_features(b[m], y[m], height[m], rgb[m]) for m in (x.members for x in blobs)]
+            )
+        clf = self.item_classifier
+        clf_probs = None if clf is None else clf.probabilities(features)
+        probs = combine(self.mode, hmm_probs, clf_probs, None if clf is None else clf.train_prior)
+        for k, blob in enumerate(blobs):
             x = X_CAMERA + self.speed * t - blob.b
-            out.append(Detection(t, x, blob.y, tuple(float(p) for p in blob.probs)))
+            det = Detection(t, x, blob.y, (0.0, *(float(p) for p in probs[k])))
+            out.append(det)
+            self.reported.append(
+                ReportedItem(
+                    det,
+                    None if features is None else features[k],
+                    hmm_probs[k],
+                    None if clf_probs is None else clf_probs[k],
+                )
+            )
         return out
+
+    def _window_pixels(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The window's item pixels in `item_blobs`' order (row by row, stripe by stripe):
+        belt coordinates, lateral positions, heights [m] and colours."""
+        cells = [(r, j) for r, row in enumerate(self.pixels) for j, b in enumerate(row) if len(b)]
+        return (
+            np.concatenate([self.pixels[r][j] for r, j in cells]),
+            np.concatenate([self.pixel_y[r][j] for r, j in cells]),
+            np.concatenate([self.pixel_height[r][j] for r, j in cells]),
+            np.concatenate([self.pixel_rgb[r][j] for r, j in cells]),
+        )
 
     def close(self) -> None:
         """Free the camera's renderer (unless it was lent by the caller)."""

@@ -123,8 +123,9 @@ def record(
     replay = FlowReplay.start(config, catalogue)
     pool, data = replay.pool, replay.data
     perception = CameraPerception(
-        replay.model, data, catalogue, replay.speed, config.observation_period_s
-    )
+        replay.model, data, catalogue, replay.speed, config.observation_period_s,
+        classifier="hmm", seed=seed,
+    )  # fmt: skip
     rest = np.array([t.rest_height for t in catalogue.types])
     rows = []
     try:
@@ -301,6 +302,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--step-mm", type=float, default=1000 * ITEM_SPLIT.step_m)
     parser.add_argument("--neck-ratio", type=float, default=ITEM_SPLIT.neck_ratio)
     parser.add_argument("--min-core-mm", type=float, default=1000 * ITEM_SPLIT.min_core_m)
+    parser.add_argument("--median-cells", type=int, default=ITEM_SPLIT.height_median_cells)
     parser.add_argument("--per-seed", action="store_true", help="a line per seed as well")
     args = parser.parse_args(argv)
     settings = replace(
@@ -309,6 +311,7 @@ def main(argv: list[str] | None = None) -> int:
         step_m=args.step_mm / 1000,
         neck_ratio=args.neck_ratio,
         min_core_m=args.min_core_mm / 1000,
+        height_median_cells=args.median_cells,
     )
     catalogue = load_catalogue()
     methods = (("8-connected", None), ("split", settings))

@@ -1,0 +1,100 @@
+"""An item's material from its features, and its fusion with the stripe HMMs' prediction.
+
+`ItemClassifier` is a scikit-learn gradient-boosted tree ensemble over `item_features`, trained
+on labelled items of flows disjoint from every evaluation (`sim.experiments.item_features`).
+The stripe HMMs (the thesis's method) give each item a class posterior from the sequence of
+observation codes in its stripe: what came before and after it along the belt. Fused, the
+classifier's likelihood weights the HMM posterior as a prior:
+
+    p(class | features, HMM) ~ p(features | class) p(class | HMM)
+                             ~ [p_clf(class | features) / p_train(class)] p(class | HMM),
+
+where p_train is the class mix the classifier was trained on (dividing by it turns the
+classifier's posterior into a likelihood up to a constant). Three modes (`CLASSIFIER_MODES`):
+`hmm` (the thesis's path alone), `features` (the classifier alone), `fused`.
+
+Probabilities are over (paper, plastic, aluminium), class ids 2, 3, 4.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from sklearn.ensemble import HistGradientBoostingClassifier
+
+from perception.errors import PerceptionInputError
+from perception.items.features import N_FEATURES
+
+CLASSIFIER_MODES = ("fused", "features", "hmm")
+MATERIAL_IDS = (2, 3, 4)
+_FLOOR = 1e-4
+"""Smallest probability a source may give a class, so that one overconfident source cannot veto
+the other outright."""
+
+
+class ItemClassifier:
+    """Material probabilities of items from their feature vectors.
+
+    Args:
+        features: (n, N_FEATURES) training features.
+        class_ids: (n,) true class ids (2 paper, 3 plastic, 4 aluminium).
+        seed: Seed of the estimator's randomness.
+    """
+
+    def __init__(self, features: np.ndarray, class_ids: np.ndarray, seed: int = 0):
+        features = np.asarray(features, dtype=np.float64)
+        class_ids = np.asarray(class_ids, dtype=np.int64)
+        if features.ndim != 2 or features.shape[1] != N_FEATURES:
+            raise PerceptionInputError("features", f"(n, {N_FEATURES})", features.shape)
+        if len(class_ids) != len(features) or not set(class_ids.tolist()) <= set(MATERIAL_IDS):
+            raise PerceptionInputError("class_ids", f"one of {MATERIAL_IDS} per row", class_ids)
+        counts = np.array([np.sum(class_ids == c) for c in MATERIAL_IDS], dtype=float)
+        if np.any(counts < 5):
+            raise PerceptionInputError("class_ids", "at least 5 items of each class", counts)
+        self.train_prior = counts / counts.sum()
+        self.estimator = HistGradientBoostingClassifier(
+            max_iter=300, learning_rate=0.08, max_leaf_nodes=15, l2_regularization=1.0,
+            random_state=seed,
+        )  # fmt: skip
+        self.estimator.fit(features, class_ids)
+        self._columns = [list(self.estimator.classes_).index(c) for c in MATERIAL_IDS]
+
+    def probabilities(self, features: np.ndarray) -> np.ndarray:
+        """(n, 3) p(class | features) over (paper, plastic, aluminium)."""
+        features = np.atleast_2d(np.asarray(features, dtype=np.float64))
+        if features.shape[1] != N_FEATURES:
+            raise PerceptionInputError("features", f"(n, {N_FEATURES})", features.shape)
+        return self.estimator.predict_proba(features)[:, self._columns]
+
+
+def fuse(
+    classifier_probs: np.ndarray, train_prior: np.ndarray, hmm_probs: np.ndarray
+) -> np.ndarray:
+    """(n, 3) p(class | features, HMM): the classifier's likelihood times the HMM posterior.
+
+    Args:
+        classifier_probs: (n, 3) p_clf(class | features).
+        train_prior: (3,) class mix of the classifier's training set.
+        hmm_probs: (n, 3) the stripe HMMs' class posterior of each item.
+    """
+    likelihood = np.maximum(np.atleast_2d(classifier_probs), _FLOOR) / np.asarray(train_prior)
+    joint = likelihood * np.maximum(np.atleast_2d(hmm_probs), _FLOOR)
+    return joint / joint.sum(axis=1, keepdims=True)
+
+
+def combine(
+    mode: str,
+    hmm_probs: np.ndarray,
+    classifier_probs: np.ndarray | None = None,
+    train_prior: np.ndarray | None = None,
+) -> np.ndarray:
+    """(n, 3) class probabilities of items in classifier `mode` (one of CLASSIFIER_MODES)."""
+    if mode not in CLASSIFIER_MODES:
+        raise PerceptionInputError("classifier", " | ".join(CLASSIFIER_MODES), mode)
+    hmm_probs = np.atleast_2d(np.asarray(hmm_probs, dtype=np.float64))
+    if mode == "hmm":
+        return hmm_probs
+    if classifier_probs is None or train_prior is None:
+        raise PerceptionInputError("classifier", "a trained item classifier", None)
+    if mode == "features":
+        return np.atleast_2d(classifier_probs)
+    return fuse(classifier_probs, train_prior, hmm_probs)

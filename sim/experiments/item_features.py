@@ -1,0 +1,183 @@
+"""Labelled items of the camera: the item classifier's training table and its item-level scores.
+
+A flow rides the belt in physics (`sim.experiments.flow_replay.FlowReplay`, robot at home) past
+the episode's own camera perception (`sim.episode.sensing.CameraPerception`: rendered frame,
+noisy stereo depth, pipeline, stripe HMMs, segmentation). Every item it reports is labelled
+with the true item nearest its centroid at that instant (within `MATCH_M`; reports farther
+from every true item, e.g. two items merged into one, are kept with class 0 and left out of
+training and scores). Per item: the features, the HMMs' posterior, the true class and type.
+
+    python -m sim.experiments.item_features record --seeds 100 ... --out sim/data/item_features.npz
+    python -m sim.experiments.item_features evaluate --seeds 0 1 2 3 4
+
+`record` writes the training table the shipped classifier is fitted from (training seeds
+100-111 at x1, x1.2, x1.5); `evaluate` records held-out flows and prints, per class and
+overall, the accuracy of the `hmm`, `features` and `fused` modes. Recordings are cached per
+flow in `--cache` (default runs/cache/item_features), named after the flow's settings.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from perception.codes import CLASS_NAMES
+from perception.items.classifier import MATERIAL_IDS, ItemClassifier, combine
+from perception.items.features import N_FEATURES
+from sim.cell.depth_noise import ZED_CLASS, StereoDepthNoise
+from sim.episode.item_classifier import FIT_SEED, TRAINING_TABLE, load_table
+from sim.episode.sensing import WINDOW_ROWS, CameraPerception
+from sim.experiments.flow_replay import FlowReplay
+from sim.flow.catalogue import load_catalogue
+from sim.flow.config import FlowConfig
+from sim.flow.ground_truth import flow_rows
+from sim.paths import REPO_ROOT
+
+MATCH_M = 0.03
+"""A report is labelled with the nearest true item within this distance of its centroid [m]."""
+DEFAULT_CACHE = REPO_ROOT / "runs" / "cache" / "item_features"
+TRAIN_SEEDS = tuple(range(100, 112))
+SPEED_FACTORS = (1.0, 1.2, 1.5)
+
+
+def record(
+    speed_factor: float,
+    seed: int,
+    n_items: int = 100,
+    duration_s: float = 90.0,
+    depth_noise: StereoDepthNoise | None = ZED_CLASS,
+) -> dict:
+    """Runs one flow past the camera perception; returns its labelled items (arrays)."""
+    start = time.process_time()
+    catalogue = load_catalogue()
+    config = FlowConfig(
+        n_items=n_items, duration_s=duration_s, speed_factor=speed_factor, seed=seed
+    )
+    replay = FlowReplay.start(config, catalogue)
+    pool, data = replay.pool, replay.data
+    perception = CameraPerception(
+        replay.model, data, catalogue, replay.speed, config.observation_period_s,
+        classifier="hmm", depth_noise=depth_noise, seed=seed,
+    )  # fmt: skip
+    rows: dict[str, list] = {k: [] for k in ("features", "hmm", "class_id", "type", "dist")}
+    try:
+        for _ in replay.rows(flow_rows(replay.flow, catalogue) + WINDOW_ROWS):
+            perception.observe(float(data.time))
+            if not perception.reported:
+                continue
+            slots = pool.active_slots()
+            xy = data.xpos[pool.body_ids[slots], :2]
+            for item in perception.reported:
+                det = item.detection
+                d = np.hypot(xy[:, 0] - det.x, xy[:, 1] - det.y) if len(slots) else np.zeros(0)
+                k = int(np.argmin(d)) if len(d) else -1
+                near = k >= 0 and d[k] <= MATCH_M
+                item_id = int(pool.item_ids[slots[k]]) if near else -1
+                rows["features"].append(item.features)
+                rows["hmm"].append(item.hmm_probs)
+                rows["class_id"].append(int(replay.flow.class_id[item_id]) if near else 0)
+                rows["type"].append(int(pool.type_index[slots[k]]) if near else -1)
+                rows["dist"].append(float(d[k]) if k >= 0 else np.inf)
+    finally:
+        perception.close()
+    n = len(rows["class_id"])
+    return {
+        "features": np.array(rows["features"], dtype=np.float64).reshape(n, N_FEATURES),
+        "hmm": np.array(rows["hmm"], dtype=np.float64).reshape(n, 3),
+        "class_id": np.array(rows["class_id"], dtype=np.int64),
+        "type_index": np.array(rows["type"], dtype=np.int64),
+        "dist_m": np.array(rows["dist"], dtype=np.float64),
+        "seed": np.full(n, seed, dtype=np.int64),
+        "speed_factor": np.full(n, speed_factor, dtype=np.float64),
+        "cpu_s": np.array(time.process_time() - start),
+    }
+
+
+def load_or_record(cache: Path, speed_factor: float, seed: int) -> dict:
+    """One flow's labelled items, from `cache` when there, else recorded and stored."""
+    path = cache / f"items-x{speed_factor:g}-seed{seed}.npz"
+    if path.exists():
+        with np.load(path) as f:
+            return {k: f[k] for k in f.files}
+    out = record(speed_factor, seed)
+    cache.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.stem}.tmp.npz")
+    np.savez_compressed(tmp, **out)
+    tmp.replace(path)
+    return out
+
+
+def gather(cache: Path, seeds, speed_factors) -> dict:
+    """The labelled items of every (seed, speed factor), concatenated."""
+    parts = [load_or_record(cache, f, s) for s in seeds for f in speed_factors]
+    keys = [k for k in parts[0] if k != "cpu_s"]
+    return {k: np.concatenate([p[k] for p in parts]) for k in keys}
+
+
+def accuracy_table(table: dict, classifier: ItemClassifier) -> list[str]:
+    """Lines of the item-level table: accuracy per class of each mode on labelled items."""
+    labelled = table["class_id"] > 0
+    truth = table["class_id"][labelled]
+    hmm = table["hmm"][labelled]
+    clf = classifier.probabilities(table["features"][labelled])
+    names = [CLASS_NAMES[c - 1] for c in MATERIAL_IDS]
+    lines = [
+        "| mode | " + " | ".join(names) + " | all |",
+        "|---|" + "---|" * (len(names) + 1),
+    ]
+    for mode in ("hmm", "features", "fused"):
+        probs = combine(mode, hmm, clf, classifier.train_prior)
+        guess = np.asarray(MATERIAL_IDS)[np.argmax(probs, axis=1)]
+        cells = []
+        for c in MATERIAL_IDS:
+            mine = truth == c
+            cells.append(f"{np.mean(guess[mine] == c):.3f} (n={int(mine.sum())})")
+        lines.append(f"| {mode} | " + " | ".join(cells) + f" | {np.mean(guess == truth):.3f} |")
+    unmatched = int(np.sum(~labelled))
+    lines.append(f"reports matched to no true item within {MATCH_M * 1000:.0f} mm: {unmatched}")
+    return lines
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m sim.experiments.item_features")
+    parser.add_argument("action", choices=("record", "evaluate"))
+    parser.add_argument("--seeds", type=int, nargs="+", default=None)
+    parser.add_argument("--speed-factors", type=float, nargs="+", default=list(SPEED_FACTORS))
+    parser.add_argument("--cache", type=Path, default=DEFAULT_CACHE)
+    parser.add_argument("--out", type=Path, default=TRAINING_TABLE)
+    parser.add_argument("--table", type=Path, default=TRAINING_TABLE, help="training table")
+    args = parser.parse_args(argv)
+    if args.action == "record":
+        seeds = args.seeds or list(TRAIN_SEEDS)
+        table = gather(args.cache, seeds, args.speed_factors)
+        keep = table["class_id"] > 0
+        out = {k: v[keep] for k, v in table.items()}
+        tmp = args.out.with_name(f".{args.out.stem}.tmp.npz")
+        np.savez_compressed(tmp, **out)
+        tmp.replace(args.out)
+        counts = {CLASS_NAMES[c - 1]: int(np.sum(out["class_id"] == c)) for c in MATERIAL_IDS}
+        print(f"wrote {args.out}: {int(keep.sum())} labelled items {counts}", file=sys.stderr)
+        return 0
+    seeds = args.seeds or [0, 1, 2, 3, 4]
+    train = load_table(args.table)
+    overlap = set(np.unique(train["seed"]).tolist()) & set(seeds)
+    if overlap:
+        print(f"seeds: held-out seeds only (these trained the classifier: {sorted(overlap)})")
+        return 2
+    classifier = ItemClassifier(train["features"], train["class_id"], seed=FIT_SEED)
+    table = gather(args.cache, seeds, args.speed_factors)
+    trained = sorted(np.unique(train["seed"]).tolist())
+    n_train = len(train["class_id"])
+    print(
+        f"held-out seeds {seeds} at x{args.speed_factors}; trained on seeds {trained} ({n_train})"
+    )
+    print("\n".join(accuracy_table(table, classifier)))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,90 @@
+"""Item features from pixels, the item classifier and its fusion with the stripe HMMs."""
+
+import math
+
+import numpy as np
+import pytest
+
+from perception.errors import PerceptionInputError
+from perception.items.classifier import ItemClassifier, combine, fuse
+from perception.items.features import FEATURE_NAMES, N_FEATURES, item_features
+
+PIXEL = 0.002
+
+
+def _rect(length, width, height, rgb, noise=0.0, seed=0):
+    b, y = np.meshgrid(np.arange(0, length, PIXEL), np.arange(0, width, PIXEL), indexing="ij")
+    rng = np.random.default_rng(seed)
+    h = height + noise * rng.standard_normal(b.size)
+    return b.ravel(), y.ravel(), h, np.tile(np.asarray(rgb, np.uint8), (b.size, 1))
+
+
+def _disc(radius, height, rgb):
+    b, y = np.meshgrid(np.arange(-radius, radius, PIXEL), np.arange(-radius, radius, PIXEL))
+    inside = b**2 + y**2 <= radius**2
+    n = int(inside.sum())
+    return b[inside], y[inside], np.full(n, height), np.tile(np.asarray(rgb, np.uint8), (n, 1))
+
+
+def feature(vector, name):
+    return vector[FEATURE_NAMES.index(name)]
+
+
+def test_a_sheet_is_long_wide_full_and_flat_through_depth_noise():
+    f = item_features(*_rect(0.21, 0.148, 0.001, (235, 235, 230), noise=0.004))
+    assert len(f) == N_FEATURES
+    assert feature(f, "length_m") == pytest.approx(0.21, abs=0.004)
+    assert feature(f, "width_m") == pytest.approx(0.148, abs=0.004)
+    assert feature(f, "fill") == pytest.approx(1.0, abs=0.05)
+    assert feature(f, "area_m2") == pytest.approx(0.21 * 0.148, rel=0.03)
+    assert feature(f, "height_p50_m") == pytest.approx(0.001, abs=0.001)
+    assert feature(f, "above_3cm") == 0.0
+    assert feature(f, "bright_grey") == 1.0
+
+
+def test_a_standing_can_is_round_tall_and_red():
+    f = item_features(*_disc(0.033, 0.115, (200, 20, 20)))
+    assert feature(f, "fill") == pytest.approx(math.pi / 4, abs=0.05)
+    assert feature(f, "height_p90_m") == pytest.approx(0.115, abs=1e-6)
+    assert feature(f, "above_6cm") == 1.0
+    assert feature(f, "hue_0") == 1.0 and feature(f, "coloured") == 1.0
+
+
+def test_features_refuse_mismatched_pixels():
+    b, y, h, rgb = _rect(0.05, 0.05, 0.0, (0, 0, 200))
+    with pytest.raises(PerceptionInputError):
+        item_features(b, y[:-1], h, rgb)
+
+
+def test_classifier_learns_separable_items_and_reports_its_training_mix():
+    rng = np.random.default_rng(0)
+    rows, labels = [], []
+    for cls, (length, height, rgb) in {
+        2: (0.2, 0.001, (235, 235, 230)),
+        3: (0.2, 0.035, (190, 215, 225)),
+        4: (0.12, 0.033, (200, 20, 20)),
+    }.items():
+        for k in range(30 if cls != 4 else 15):
+            scale = 1 + 0.15 * (rng.random() - 0.5)
+            rows.append(item_features(*_rect(length * scale, 0.07, height, rgb, 0.004, k)))
+            labels.append(cls)
+    clf = ItemClassifier(np.array(rows), np.array(labels))
+    assert clf.train_prior == pytest.approx([30 / 75, 30 / 75, 15 / 75])
+    test = item_features(*_rect(0.12, 0.07, 0.033, (200, 20, 20), 0.004, 99))
+    assert np.argmax(clf.probabilities(test)[0]) == 2
+
+
+def test_fusion_is_likelihood_times_hmm_posterior():
+    prior = np.array([0.3, 0.4, 0.3])
+    hmm = np.array([[0.2, 0.5, 0.3]])
+    # A classifier that learnt nothing returns its training mix: the HMM decides alone.
+    assert fuse(prior[None], prior, hmm) == pytest.approx(hmm)
+    clf = np.array([[0.6, 0.3, 0.1]])
+    expected = clf / prior * hmm
+    assert fuse(clf, prior, hmm) == pytest.approx(expected / expected.sum())
+    assert combine("hmm", hmm) == pytest.approx(hmm)
+    assert combine("features", hmm, clf, prior) == pytest.approx(clf)
+    with pytest.raises(PerceptionInputError, match="classifier"):
+        combine("fused", hmm)
+    with pytest.raises(PerceptionInputError, match="classifier"):
+        combine("colour", hmm, clf, prior)
