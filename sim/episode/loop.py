@@ -126,6 +126,7 @@ class Episode:
             speed_factor=config.speed_factor,
             seed=config.seed,
             observation_period_s=config.observation_period_s,
+            world=config.world_variation,
         )
         self.flow = generate_flow(flow_config, cell.catalogue, cell.pool.size)
         self.t_last_spawn = float(self.flow.t_spawn[-1]) if len(self.flow) else 0.0

@@ -217,7 +217,11 @@ def _grid_point(
         raise InvalidInput(exc.field, exc.allowed, exc.got, f"{where} at ({coords})") from None
 
 
-LATER_KEYS = {"min_class_confidence": 0.0}
+LATER_KEYS = {
+    "min_class_confidence": 0.0,
+    "world": "varied",
+    **{name: None for name in episode_config.WORLD_NUMBERS},
+}
 """Episode-config keys (with their defaults) added after sweeps were first identified."""
 
 
