@@ -128,7 +128,17 @@ RUN_CASES = [
     ("min-confidence-nan", ["--min-confidence", "nan"], "min_class_confidence", {}),
     ("min-confidence-inf", ["--min-confidence", "inf"], "min_class_confidence", {}),
     ("min-confidence-text", ["--min-confidence", "high"], "--min-confidence", {}),
-    ("unknown-option", ["--colour", "red"], "unrecognized", {}),
+    ("unknown-option", ["--paint", "red"], "unrecognized", {}),
+    ("world-unknown", ["--world", "flat"], "--world", {}),
+    ("size-jitter-too-large", ["--size-jitter", "0.5"], "size_jitter", {}),
+    ("crushed-share-negative", ["--crushed-share", "-0.1"], "crushed_share", {}),
+    ("overlap-depth-nan", ["--overlap-depth-m", "nan"], "overlap_depth_m", {}),
+    (
+        "paper-shares-over-one",
+        ["--crumpled-share", "0.7", "--folded-share", "0.5"],
+        "folded_share",
+        {},
+    ),  # fmt: skip
     ("energy-price-negative", ["--energy-price", "-1"], "energy_price_eur_per_kwh", {}),
     ("energy-price-nan", ["--energy-price", "nan"], "energy_price_eur_per_kwh", {}),
     ("energy-price-huge", ["--energy-price", "1e12"], "energy_price_eur_per_kwh", {}),
@@ -257,6 +267,13 @@ RUN_CASES = [
         "robot.place_pause_s",
         {"c.toml": "[robot]\nplace_pause_s = 60\n"},
     ),  # noqa: E501
+    ("config-world-unknown", ["--config", "{tmp}/c.toml"], "world", {"c.toml": 'world = "odd"\n'}),
+    (
+        "config-overlap-share-text",
+        ["--config", "{tmp}/c.toml"],
+        "overlap_share",
+        {"c.toml": 'overlap_share = "lots"\n'},
+    ),
     (
         "config-min-confidence-over-one",
         ["--config", "{tmp}/c.toml"],

@@ -15,6 +15,7 @@ from sim.flow.config import (
 )
 from sim.flow.footprint_polygons import polygon, shift_intervals
 from sim.flow.generator import POOL_CAPACITY_REQUIRED, generate_flow, max_items_on_belt
+from sim.flow.world import WorldVariation
 
 N_LARGE = 20_000
 STRIPES = (0.10, 0.25, 0.30, 0.20, 0.15)
@@ -86,7 +87,9 @@ def test_same_seed_same_bytes_other_seed_other_flow(catalogue):
 def test_densest_flow_never_overlaps_and_stays_on_the_belt(catalogue, speed_factor):
     duration = 120.0
     n = int(MAX_ITEMS_PER_METRE * 0.185 * speed_factor * duration)
-    flow = generate_flow(FlowConfig(n, duration, speed_factor, seed=11), catalogue)
+    # The uniform world keeps items apart; the varied one is tests/test_world_variation.py's.
+    config = FlowConfig(n, duration, speed_factor, seed=11, world=WorldVariation.uniform())
+    flow = generate_flow(config, catalogue)
     v = flow.config.belt_speed_mps
     shapes = np.array(
         [

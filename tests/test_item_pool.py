@@ -48,8 +48,10 @@ def test_spawn_sets_type_mass_colour_and_rest_pose_then_park_restores():
     assert pool.slot_of(7) == slot and pool.item_type(slot).name == "can_330_lying"
     assert model.body_mass[body] == pytest.approx(0.0135)
     assert model.geom_rgba[geom].tolist() == pytest.approx(list(rgba))
-    others = np.delete(pool.geom_ids[slot], k)
+    others = pool.geom_ids[slot][pool.geom_ids[slot] != geom]
+    assert len(others) == 3 and geom in pool.geom_ids[slot]
     assert not model.geom_contype[others].any() and not model.geom_rgba[others, 3].any()
+    assert model.geom_rgba[pool.label_ids[slot], 3] == 0.0  # no label asked for
     for _ in range(500):
         mujoco.mj_step(model, data)
     pos = pool.position(data, slot)
@@ -118,9 +120,14 @@ def test_feed_drops_a_generated_flow_in_order_with_its_types_colours_and_poses()
     assert not any(w.number for w in data.warning)
     for i in range(due):
         slot = pool.slot_of(i)
-        assert pool.type_index[slot] == flow.type_index[i]
+        assert pool.type_index[slot] == flow.variant[i]
+        assert pool.item_type(slot) == flow.item_type(i, CATALOGUE)
         rgba = model.geom_rgba[pool.geom_id(slot)]
-        assert rgba.tolist() == pytest.approx(list(CATALOGUE.rgba[flow.colour[i]]))
+        assert rgba.tolist() == pytest.approx(flow.rgba[i].tolist())
+        label = model.geom_rgba[pool.label_ids[slot]]
+        assert label[3] == flow.label_rgba[i, 3]
+        if label[3] > 0:
+            assert label.tolist() == pytest.approx(flow.label_rgba[i].tolist())
         pos = pool.position(data, slot)
         expected_x = X_INFEED + flow.config.belt_speed_mps * (data.time - flow.t_spawn[i])
         assert pos[0] == pytest.approx(expected_x, abs=0.002)  # riding with the belt since its drop

@@ -20,6 +20,7 @@ from sim.flow.footprint_polygons import contains, to_body
 from sim.flow.generator import generate_flow
 from sim.flow.ground_truth import cell_truth_from_poses, flow_truth, grid_truth, yaw_from_xmat
 from sim.flow.ground_truth_io import load_truth, save_flow_truth
+from sim.flow.world import WorldVariation
 
 PITCH = 0.0925  # x1: 0.185 m/s x 0.5 s
 CELL_AREA = 0.16 * PITCH
@@ -99,13 +100,16 @@ def test_majority_class_and_dominant_colour_in_a_shared_cell(catalogue):
 
 def test_coverage_conserves_area_and_codes_match_code_of_cell():
     catalogue = load_catalogue()
-    flow = generate_flow(FlowConfig(n_items=150, duration_s=90.0, seed=5), catalogue)
+    # Varied sizes and shapes, but no item over another, so every footprint's area is counted.
+    world = WorldVariation(overlap_share=0.0)
+    flow = generate_flow(FlowConfig(n_items=150, duration_s=90.0, seed=5, world=world), catalogue)
     x = X_CAMERA - flow.config.belt_speed_mps * flow.tau
+    types = flow.item_types(catalogue)
     truth = grid_truth(
         x, flow.y, flow.yaw, flow.type_index, flow.class_id, flow.colour, catalogue,
-        X_CAMERA, flow.config.row_pitch_m, 220,
+        X_CAMERA, flow.config.row_pitch_m, 220, item_types=types,
     )  # fmt: skip
-    area = sum(catalogue.types[k].footprint_area for k in flow.type_index)
+    area = sum(t.footprint_area for t in types)
     cell_area = 0.16 * flow.config.row_pitch_m
     assert truth.covered.sum() * cell_area == pytest.approx(area, rel=1e-4)
     colours = flow.colour[np.maximum(truth.dominant, 0)]
@@ -159,7 +163,14 @@ def test_poses_at_observation_times_reproduce_the_flow_truth(speed_factor):
         x = X_INFEED + v * (k * period - flow.t_spawn)
         xy = np.column_stack([x, flow.y, np.zeros(len(flow))])
         row = cell_truth_from_poses(
-            xy, flow.yaw, flow.type_index, flow.class_id, flow.colour, catalogue, v * period
+            xy,
+            flow.yaw,
+            flow.type_index,
+            flow.class_id,
+            flow.colour,
+            catalogue,
+            v * period,
+            item_types=flow.item_types(catalogue),
         )
         assert np.array_equal(row[0], classes[k]) and np.array_equal(row[1], codes[k]), k
 

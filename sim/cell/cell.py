@@ -58,9 +58,13 @@ class Cell:
             c: self.data.site(f"bin_{name}_drop").xpos.copy() for c, name in BIN_NAMES.items()
         }
         self._home_key = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_KEY, "home")
-        item_radius = float(np.max(self.model.geom_rbound[self.pool.geom_ids[0]]))
-        self.wake_x = wake_line(lambda p: reachable_mask(self.geometry, p), item_radius)
-        """Settled items riding the belt wake before this x (`sim.cell.riding`) [m]."""
+        self.item_radius = max(
+            float(self.pool.props(k)["geom_rbound"]) for k in range(len(self.catalogue.types))
+        )
+        """Largest bounding radius of a catalogue type at its nominal size [m]."""
+        self.wake_x = wake_line(lambda p: reachable_mask(self.geometry, p), self.item_radius)
+        """Settled items riding the belt wake before this x (`sim.cell.riding`) [m]; an episode
+        whose largest item is larger than `item_radius` wakes them that much earlier."""
 
     def bins_tuple(self) -> tuple[tuple[float, float, float], ...]:
         """Release points of the paper, plastic and aluminium bins, for the planners [m]."""

@@ -1,12 +1,16 @@
 """The item lifecycle on a fixed pool of bodies: spawn at the infeed, park when done.
 
 The pool (`models/cell/items.xml`, see `sim.cell.item_pool_xml`) holds `item_<n>` free bodies, each
-with one geom per catalogue type. Spawning turns a parked slot into one flow item: the type's geom
-collides and is drawn in the flow's colour, the body gets the type's mass and inertia (as MuJoCo
-computes them for that geom alone), gravity, and a pose just above the belt at rest. Parking
-hides it again, 2 m below the cell, gravity-compensated and touching nothing, where MuJoCo puts
-it to sleep. Spawning and parking are the only places item poses or velocities are written;
-while an item rides, only contacts move it.
+with one geom per shape-and-pose family and a visual-only label sleeve. Spawning turns a parked
+slot into one flow item: its family's geom takes the item's (scaled) size, friction and bounding
+volumes (`geom_rbound`, `geom_aabb`, which MuJoCo's broad and mid phases use), collides and is
+drawn in the item's colour, the label is drawn when the item has one, the body gets the item's
+mass and inertia (all as MuJoCo's compiler derives them for that geom alone, from a one-body
+model compiled once per item type and scale), gravity, and a pose just above the belt (or above
+the flat item it partly lies on) at rest. Parking hides it again, 2 m below the cell,
+gravity-compensated and touching nothing, where MuJoCo puts it to sleep. Spawning and parking
+are the only places item poses or velocities are written; while an item rides, only contacts
+move it.
 """
 
 from __future__ import annotations
@@ -17,18 +21,24 @@ import mujoco
 import numpy as np
 
 from sim.cell.conveyor import Belt
-from sim.cell.item_pool_xml import HIDDEN_GROUP, ITEM_GROUP, geom_name
+from sim.cell.item_pool_xml import HIDDEN_GROUP, ITEM_GROUP, LABEL, geom_name
 from sim.errors import InvalidInput
-from sim.flow.catalogue import Catalogue, ItemType
+from sim.flow.catalogue import FAMILIES, Catalogue, ItemType
 from sim.flow.config import X_INFEED
 
 DROP_CLEARANCE = 0.002
 """Gap between the belt and a spawned item's lowest point [m]."""
 _INERTIA_FIELDS = ("body_mass", "body_inertia", "body_ipos", "body_iquat", "body_invweight0")
+_GEOM_FIELDS = ("geom_size", "geom_quat", "geom_friction", "geom_rbound", "geom_aabb")
+LABEL_RADIUS_GAIN = 1.04
+"""A label sleeve's radius over its item's: just outside the wall, so it is drawn over it."""
+LABEL_LENGTH_SHARE = 0.6
+"""Share of a can's or bottle's straight part its label covers, centred."""
+_CACHE_SIZE = 4096
 
 
-def _type_inertia(item_type: ItemType) -> dict[str, np.ndarray]:
-    """Mass properties of one item alone, as MuJoCo's compiler derives them from its geom."""
+def _type_props(item_type: ItemType) -> dict[str, np.ndarray]:
+    """Mass properties and geom fields of one item alone, as MuJoCo's compiler derives them."""
     spec = mujoco.MjSpec()
     body = spec.worldbody.add_body()
     body.add_freejoint()
@@ -37,12 +47,20 @@ def _type_inertia(item_type: ItemType) -> dict[str, np.ndarray]:
         size=list(item_type.size) + [0.0] * (3 - len(item_type.size)),
         quat=list(item_type.geom_quat),
         mass=item_type.mass,
+        friction=list(item_type.friction),
     )
     model = spec.compile()
     props = {name: getattr(model, name)[1].copy() for name in _INERTIA_FIELDS}
+    props |= {name: getattr(model, name)[0].copy() for name in _GEOM_FIELDS}
     props["dof_invweight0"] = model.dof_invweight0[:6].copy()
     props["dof_M0"] = model.dof_M0[:6].copy()
     return props
+
+
+def label_size(item_type: ItemType) -> tuple[float, float]:
+    """(radius, half-length) [m] of the label sleeve of a round item."""
+    radius, half = item_type.size
+    return LABEL_RADIUS_GAIN * radius, LABEL_LENGTH_SHARE * half
 
 
 class ItemPool:
@@ -66,8 +84,8 @@ class ItemPool:
         ) >= 0:
             slot = len(body_ids)
             ids = [
-                mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, geom_name(slot, t))
-                for t in catalogue.types
+                mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, geom_name(slot, family))
+                for family in (*FAMILIES, LABEL)
             ]
             if min(ids) < 0:
                 raise InvalidInput("items.xml", "a pool generated from this catalogue", slot)
@@ -79,15 +97,21 @@ class ItemPool:
         if not body_ids:
             raise InvalidInput("model", "a scene including models/cell/items.xml", None)
         self.body_ids = np.array(body_ids)
-        self.geom_ids = np.array(geom_ids)
+        self.geom_ids = np.array(geom_ids)[:, : len(FAMILIES)]
+        """(slots, families) geom ids, families in `FAMILIES` order."""
+        self.label_ids = np.array(geom_ids)[:, len(FAMILIES)]
         self.grip_ids = np.array(grip_ids)
         self.tree_ids = model.body_treeid[self.body_ids]
         self.qpos_adr = model.jnt_qposadr[model.body_jntadr[self.body_ids]]
         self.dof_adr = model.jnt_dofadr[model.body_jntadr[self.body_ids]]
         self.park_qpos = np.array([model.qpos0[a : a + 7] for a in self.qpos_adr])
-        self._inertia = [_type_inertia(t) for t in catalogue.types]
+        self._props: dict[tuple, dict[str, np.ndarray]] = {}
         self.item_ids = np.full(len(body_ids), -1)
         self.type_index = np.full(len(body_ids), -1)
+        """Catalogue index of the type (base or variant) each slot plays, -1 when parked."""
+        self.active_geom = np.full(len(body_ids), -1)
+        """The colliding geom of each slot, -1 when parked."""
+        self._types: list[ItemType | None] = [None] * len(body_ids)
 
     @property
     def size(self) -> int:
@@ -104,12 +128,26 @@ class ItemPool:
         return int(hits[0]) if len(hits) else None
 
     def item_type(self, slot: int) -> ItemType:
-        """Catalogue type a slot currently plays."""
-        return self.catalogue.types[self.type_index[slot]]
+        """The item type an active slot plays, scaled to the item's own size and mass."""
+        item_type = self._types[slot]
+        if item_type is None:
+            raise InvalidInput("slot", "an active slot", slot)
+        return item_type
 
     def geom_id(self, slot: int) -> int:
         """The colliding geom of an active slot."""
-        return int(self.geom_ids[slot, self.type_index[slot]])
+        return int(self.active_geom[slot])
+
+    def props(self, type_index: int, scale=(1.0, 1.0, 1.0)) -> dict[str, np.ndarray]:
+        """Mass properties and geom fields of a catalogue type at `scale` (cached)."""
+        item_type = self.catalogue.types[type_index].scaled(scale)
+        key = (type_index, item_type.size, item_type.mass)
+        props = self._props.get(key)
+        if props is None:
+            if len(self._props) >= _CACHE_SIZE:
+                self._props.clear()
+            props = self._props[key] = _type_props(item_type)
+        return props
 
     def position(self, data: mujoco.MjData, slot: int) -> np.ndarray:
         """World position of a slot's body origin (the item's centre) [m]."""
@@ -125,6 +163,9 @@ class ItemPool:
         yaw: float,
         rgba,
         vx: float = 0.0,
+        scale=(1.0, 1.0, 1.0),
+        label_rgba=None,
+        z_drop: float = 0.0,
     ) -> int:
         """Drops flow item `item_id` onto the belt at rest, just above the surface.
 
@@ -134,10 +175,14 @@ class ItemPool:
             type_index: Index into the catalogue's types.
             x, y: Belt-plane position of the item's centre [m].
             yaw: Heading of the item's x axis [rad].
-            rgba: Colour (from the catalogue's colour table, chosen by the flow).
+            rgba: Colour (the flow's, `Flow.rgba`).
             vx: Initial velocity along the belt [m/s]: 0 drops it at rest (it then slips and,
                 if round, rolls until friction brings it to the belt's speed); the belt's speed
                 hands it over from a feeder at belt speed (see `feed`).
+            scale: Size factors (length, width, height) of the type's nominal size.
+            label_rgba: Colour of its printed label (round items); None or alpha 0: none.
+            z_drop: Height above the belt of what it lands on (a flat item it partly lies
+                over) [m].
 
         Returns:
             The slot used.
@@ -156,13 +201,24 @@ class ItemPool:
             )
         slot = int(free[0])
         m, body = self.model, self.body_ids[slot]
-        item_type = self.catalogue.types[type_index]
-        geom = self.geom_ids[slot, type_index]
+        item_type = self.catalogue.types[type_index].scaled(scale)
+        props = self.props(type_index, scale)
+        geom = self.geom_ids[slot, FAMILIES.index(item_type.family)]
         m.geom_contype[geom] = m.geom_conaffinity[geom] = 1
         m.geom_group[geom] = ITEM_GROUP
         m.geom_rgba[geom] = rgba
+        for name in _GEOM_FIELDS:
+            getattr(m, name)[geom] = props[name]
+        if label_rgba is not None and label_rgba[3] > 0 and item_type.shape != "box":
+            label = self.label_ids[slot]
+            radius, half = label_size(item_type)
+            m.geom_size[label] = (radius, half, 0.0)
+            m.geom_quat[label] = item_type.geom_quat
+            m.geom_rgba[label] = label_rgba
+            m.geom_group[label] = ITEM_GROUP
+            m.geom_rbound[label] = math.hypot(radius, half)
+            m.geom_aabb[label] = (0.0, 0.0, 0.0, radius, radius, half)
         m.body_contype[body] = m.body_conaffinity[body] = 1
-        props = self._inertia[type_index]
         for name in _INERTIA_FIELDS:
             getattr(m, name)[body] = props[name]
         m.body_subtreemass[body] = props["body_mass"]
@@ -170,10 +226,11 @@ class ItemPool:
         m.dof_invweight0[dofs] = props["dof_invweight0"]
         m.dof_M0[dofs] = props["dof_M0"]
         m.body_gravcomp[body] = 0.0
-        z = self.belt.geometry.top_z + item_type.rest_height + DROP_CLEARANCE
+        z = self.belt.geometry.top_z + float(z_drop) + item_type.rest_height + DROP_CLEARANCE
         quat = (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2))
         self._write_pose(data, slot, (x, y, z), quat, vx)
         self.item_ids[slot], self.type_index[slot] = item_id, type_index
+        self.active_geom[slot], self._types[slot] = geom, item_type
         return slot
 
     def park(self, data: mujoco.MjData, slot: int) -> int:
@@ -184,6 +241,7 @@ class ItemPool:
         m, body = self.model, self.body_ids[slot]
         geoms = self.geom_ids[slot]
         m.geom_contype[geoms] = m.geom_conaffinity[geoms] = 0
+        geoms = np.append(geoms, self.label_ids[slot])
         m.geom_group[geoms] = HIDDEN_GROUP
         m.geom_rgba[geoms, 3] = 0.0
         m.body_contype[body] = m.body_conaffinity[body] = 0
@@ -193,6 +251,7 @@ class ItemPool:
         park = self.park_qpos[slot]
         self._write_pose(data, slot, park[:3], park[3:])
         self.item_ids[slot], self.type_index[slot] = -1, -1
+        self.active_geom[slot], self._types[slot] = -1, None
         return item_id
 
     def _write_pose(self, data: mujoco.MjData, slot: int, pos, quat, vx: float = 0.0) -> None:
@@ -209,9 +268,9 @@ class ItemPool:
         """Spawns the flow's items due by `data.time`, from index `start`; returns the next index.
 
         Items are handed over at the belt's speed, as from an infeed conveyor: the flow places
-        them as if they moved with the belt from the drop on, 5 mm apart. Dropped at rest
-        instead, a lying can lags 2.6 cm behind while it spins up and stops rolling, enough to
-        hit the next item of its stripe.
+        them as if they moved with the belt from the drop on, apart by the world's gap. Dropped
+        at rest instead, a lying can lags 2.6 cm behind while it spins up and stops rolling,
+        enough to hit the next item of its stripe.
 
         Args:
             data: Simulation state (its time decides which items are due).
@@ -222,9 +281,11 @@ class ItemPool:
         while i < len(flow) and flow.t_spawn[i] <= t:
             # Dropped a fraction of a step late: place it where the belt has carried it since.
             x = X_INFEED + self.belt.speed * (t - float(flow.t_spawn[i]))
-            rgba = self.catalogue.rgba[int(flow.colour[i])]
-            k, y, yaw = int(flow.type_index[i]), float(flow.y[i]), float(flow.yaw[i])
-            self.spawn(data, i, k, x, y, yaw, rgba, vx=self.belt.speed)
+            k, y, yaw = int(flow.variant[i]), float(flow.y[i]), float(flow.yaw[i])
+            self.spawn(
+                data, i, k, x, y, yaw, flow.rgba[i], vx=self.belt.speed, scale=flow.scale[i],
+                label_rgba=flow.label_rgba[i], z_drop=float(flow.z_drop[i]),
+            )  # fmt: skip
             i += 1
         return i
 

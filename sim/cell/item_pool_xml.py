@@ -4,11 +4,15 @@
 
 Layout. `POOL_SIZE` slots (the flow generator's `POOL_CAPACITY_REQUIRED`, the most items the belt
 carries at once at the densest setting), each a free body `item_<n>` (joint `item_<n>_joint`)
-holding one geom per catalogue type, `item_<n>_<type name>`, all centred on the body origin in
-the catalogue's body frame (z up, long axis along x). Only the geom of the type a slot currently
-plays collides and is drawn; the others have contype = conaffinity = 0, alpha 0 and group 5
-(hidden), so one slot can become any type at run time without recompiling the model
-(`sim.cell.item_pool` switches them and writes the type's mass and inertia into the body).
+holding one geom per shape-and-pose family (`sim.flow.catalogue.FAMILIES`): `item_<n>_box`,
+`item_<n>_cylinder_standing`, `item_<n>_cylinder_lying`, `item_<n>_capsule_lying`, all centred on
+the body origin in the catalogue's body frame (z up, long axis along x), plus a visual-only
+`item_<n>_label` (a cylinder sleeve: a can's or bottle's printed label). Only the geom of the
+family a slot currently plays collides and is drawn; the others have contype = conaffinity = 0,
+alpha 0 and group 5 (hidden), so one slot can become any item, of any size, at run time without
+recompiling the model (`sim.cell.item_pool` writes the item's size, friction, colour, bounding
+volumes, mass and inertia). The sizes and frictions written here are placeholders: those of the
+largest catalogue type of each family.
 
 Parked slots sit 2 m below the belt in a grid, with every geom non-colliding and gravity
 compensated (`gravcomp` 1), so they float still, touch nothing and fall asleep (sleeping is
@@ -22,10 +26,11 @@ until `sim.cell.suction` seals the cup on that item.
 
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 
-from sim.flow.catalogue import Catalogue, ItemType, load_catalogue
+from sim.flow.catalogue import FAMILIES, LYING_QUAT, Catalogue, load_catalogue
 from sim.flow.generator import POOL_CAPACITY_REQUIRED
 from sim.paths import MODELS_DIR
 
@@ -40,6 +45,7 @@ PARK_COLUMNS = 12
 PARK_ORIGIN = (-2.4, -2.0)
 """(x, y) of the first parked slot [m]."""
 HIDDEN_GROUP = 5
+LABEL = "label"
 ITEM_GROUP = 0
 CUP_BODY = "cup_link"
 GRIP_SOLREF = "0.004 1"
@@ -52,22 +58,33 @@ def park_position(slot: int) -> tuple[float, float, float]:
     return (PARK_ORIGIN[0] + PARK_PITCH * col, PARK_ORIGIN[1] - PARK_PITCH * row, PARK_Z)
 
 
-def geom_name(slot: int, item_type: ItemType) -> str:
-    """Name of the geom of `item_type` in slot `slot`."""
-    return f"item_{slot}_{item_type.name}"
+def geom_name(slot: int, family: str) -> str:
+    """Name of the geom of shape-and-pose `family` (or "label") in slot `slot`."""
+    return f"item_{slot}_{family}"
 
 
 def _fmt(values) -> str:
     return " ".join(f"{v:.6g}" for v in values)
 
 
-def _geom(slot: int, item_type: ItemType) -> str:
-    round_lying = item_type.shape in ("cylinder", "capsule") and item_type.pose == "lying"
-    quat = "" if item_type.pose != "lying" else f' quat="{_fmt(item_type.geom_quat)}"'
+def _placeholder(catalogue: Catalogue, family: str) -> tuple[tuple[float, ...], tuple]:
+    """(size, friction) of the catalogue's largest type of a family, to stand in the file."""
+    members = [t for t in catalogue.types if t.family == family]
+    if not members:
+        shape = family.split("_")[0]
+        return (0.05,) * (3 if shape == "box" else 2), (0.5, 0.005, 0.0001)
+    largest = max(members, key=lambda t: (math.prod(t.size), t.name))
+    return largest.size, largest.friction
+
+
+def _geom(slot: int, family: str, catalogue: Catalogue) -> str:
+    round_lying = family.endswith("_lying")
+    quat = f' quat="{_fmt(LYING_QUAT)}"' if round_lying else ""
+    size, friction = _placeholder(catalogue, family)
     return (
-        f'      <geom name="{geom_name(slot, item_type)}" type="{item_type.shape}" '
-        f'size="{_fmt(item_type.size)}"{quat} condim="{6 if round_lying else 3}" '
-        f'friction="{_fmt(item_type.friction)}"/>'
+        f'      <geom name="{geom_name(slot, family)}" type="{family.split("_")[0]}" '
+        f'size="{_fmt(size)}"{quat} condim="{6 if round_lying else 3}" '
+        f'friction="{_fmt(friction)}"/>'
     )
 
 
@@ -79,7 +96,9 @@ def _body(slot: int, catalogue: Catalogue) -> str:
         # Placeholder inertia: sim.cell.item_pool writes the spawned type's mass and inertia.
         f'      <inertial pos="0 0 0" mass="{first.mass:.6g}" diaginertia="1e-5 1e-5 1e-5"/>',
     ]
-    lines += [_geom(slot, t) for t in catalogue.types]
+    lines += [_geom(slot, family, catalogue) for family in FAMILIES]
+    # The label never collides (the class's contype and conaffinity 0 are never switched).
+    lines.append(f'      <geom name="{geom_name(slot, LABEL)}" type="cylinder" size="0.03 0.03"/>')
     lines.append("    </body>")
     return "\n".join(lines)
 
@@ -93,8 +112,8 @@ def pool_xml(catalogue: Catalogue, pool_size: int = POOL_SIZE) -> str:
         for slot in range(pool_size)
     )
     return f"""<!-- Generated by `python -m sim.cell.item_pool_xml` from sim/data/items.toml;
-     do not edit. {pool_size} item bodies, one geom per item type each
-     (see sim/cell/item_pool_xml.py). -->
+     do not edit. {pool_size} item bodies, one geom per shape-and-pose family and a
+     label each (see sim/cell/item_pool_xml.py). -->
 <mujoco model="items">
   <option>
     <flag sleep="enable"/>

@@ -128,9 +128,22 @@ class ItemRiding:
             if slot not in touching:
                 self._ride(data, int(slot), vb)
 
+    def wake_near(self, data: mujoco.MjData, slots) -> None:
+        """Wakes the riders within `PROXIMITY_M` of the items in `slots` (e.g. just dropped
+        onto them)."""
+        riders = self.riding()
+        if not len(riders) or not len(slots):
+            return
+        slots = np.asarray(slots, dtype=int)
+        rider_xy = data.xpos[self.pool.body_ids[riders], :2]
+        near_xy = data.xpos[self.pool.body_ids[slots], :2]
+        gap = np.linalg.norm(near_xy[:, None, :] - rider_xy[None, :, :], axis=-1)
+        reach = self._radius(slots)[:, None] + self._radius(riders)[None, :] + PROXIMITY_M
+        for slot in riders[np.any(gap < reach, axis=0)]:
+            self._wake(int(slot))
+
     def _radius(self, slots: np.ndarray) -> np.ndarray:
-        geoms = self.pool.geom_ids[slots, self.pool.type_index[slots]]
-        return self.model.geom_rbound[geoms]
+        return self.model.geom_rbound[self.pool.active_geom[slots]]
 
     def _touching_other(self, data: mujoco.MjData) -> set[int]:
         """Slots of items in contact with anything but the belt."""

@@ -17,6 +17,21 @@ from pathlib import Path
 
 from planner.decision.registry import PLANNERS
 
+# `sim.episode.config.WORLD_NUMBERS`, spelled out so the parser imports no numerics
+# (tests/test_world_variation.py checks they agree).
+WORLD_NUMBERS = (
+    "size_jitter",
+    "crushed_share",
+    "crumpled_share",
+    "folded_share",
+    "hue_jitter_deg",
+    "colour_jitter",
+    "label_share",
+    "min_gap_m",
+    "overlap_share",
+    "overlap_depth_m",
+)
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of `sortsim run`."""
@@ -71,6 +86,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="leave on the belt an item whose most probable class has a posterior below P, "
         "0..1 (default 0: every item may be picked)",
     )
+    parser.add_argument(
+        "--world",
+        default=None,
+        choices=["varied", "uniform"],
+        help="varied: item sizes, shapes, colours and gaps vary as on a real belt; uniform: "
+        "every item its catalogue type's (default varied; docs/world.md)",
+    )
+    for name in WORLD_NUMBERS:
+        parser.add_argument(
+            "--" + name.replace("_", "-"),
+            type=float,
+            default=None,
+            help=f"override the world preset's {name} (docs/world.md)",
+        )
 
 
 class Progress:
@@ -201,6 +230,8 @@ def main(args: argparse.Namespace) -> int:
         energy_price_eur_per_kwh=args.energy_price,
         min_class_confidence=args.min_confidence,
         classifier=args.classifier,
+        world=args.world,
+        **{name: getattr(args, name) for name in WORLD_NUMBERS},
     )
     out = Path(args.out)
     preflight(config, out, args.video)

@@ -20,6 +20,18 @@ TOML layout (every key optional; defaults are the headline episode)::
                                 # left on the belt (sim/episode/confidence.py); 0: none is
     classifier = "hmm"          # camera items' class: fused | features | hmm (the thesis's)
     depth_noise = true          # the stereo camera's depth error (sim/cell/depth_noise.py)
+    world = "varied"            # varied | uniform: how items vary (sim/flow/world.py,
+                                # docs/world.md); the numbers below override the preset's
+    size_jitter = 0.15          # size factors in [1 - j, 1 + j] per dimension
+    crushed_share = 0.25        # cans and bottles crushed
+    crumpled_share = 0.2        # paper sheets crumpled
+    folded_share = 0.15         # A4 sheets folded
+    hue_jitter_deg = 8.0        # colour: hue +- [deg]
+    colour_jitter = 0.12        # colour: saturation and value +- (relative)
+    label_share = 0.6           # round containers with a printed label in a second colour
+    min_gap_m = 0.0             # least gap between items [m] (uniform: 0.005)
+    overlap_share = 0.1         # items allowed to lie partly over a flat neighbour
+    overlap_depth_m = 0.02      # how far over it [m]
     [values]                    # EUR per item (thesis table 3.3)
     paper = 0.22
     plastic = 0.25
@@ -53,6 +65,7 @@ from planner.decision.registry import check_planner
 from planner.motion.belt_speeds import SPEED_RANGE_MPS, SPEED_TOLERANCE_MPS, SPEED_X1_MPS
 from sim.errors import InvalidInput, RefusedInput
 from sim.flow.config import FlowConfig
+from sim.flow.world import WorldVariation
 
 BELT_SPEED_X1_MPS = SPEED_X1_MPS
 BELT_SPEED_RANGE_MPS = SPEED_RANGE_MPS
@@ -62,6 +75,9 @@ PERCEPTIONS = ("camera", "truth")
 CLASSIFIERS = ("fused", "features", "hmm")
 ITEM_RIDINGS = ("settled", "contact")
 OBJECTIVES = ("value_over_distance", "value_only", "distance_only")
+WORLDS = ("varied", "uniform")
+WORLD_NUMBERS = tuple(f.name for f in dataclasses.fields(WorldVariation))
+"""Keys overriding one number of the `world` preset (`WorldVariation`'s fields)."""
 MAX_ITEMS = 20000
 MAX_ENERGY_PRICE = 1e6
 """Highest energy price accepted [EUR/kWh] (far above any tariff: a stress test's price)."""
@@ -180,6 +196,17 @@ class EpisodeConfig:
     min_class_confidence: float = 0.0
     classifier: str = "hmm"
     depth_noise: bool = True
+    world: str = "varied"
+    size_jitter: float | None = None
+    crushed_share: float | None = None
+    crumpled_share: float | None = None
+    folded_share: float | None = None
+    hue_jitter_deg: float | None = None
+    colour_jitter: float | None = None
+    label_share: float | None = None
+    min_gap_m: float | None = None
+    overlap_share: float | None = None
+    overlap_depth_m: float | None = None
     values: Values = field(default_factory=Values)
     qlearning: QLearning = field(default_factory=QLearning)
     video: Video = field(default_factory=Video)
@@ -224,7 +251,22 @@ class EpisodeConfig:
         )
         for name, cls in _SECTIONS.items():
             _check(isinstance(getattr(self, name), cls), name, f"a [{name}] table", None, w)
+        _check(self.world in WORLDS, "world", " | ".join(WORLDS), self.world, w)
+        for name in WORLD_NUMBERS:
+            v = getattr(self, name)
+            _check(v is None or _number(v), name, "a number", v, w)
+        try:
+            _ = self.world_variation
+        except InvalidInput as exc:
+            raise InvalidInput(exc.field, exc.allowed, exc.got, w) from None
         self._check_flow()
+
+    @property
+    def world_variation(self) -> WorldVariation:
+        """How the items vary: the `world` preset with the numbers set here."""
+        preset = WorldVariation() if self.world == "varied" else WorldVariation.uniform()
+        changes = {n: getattr(self, n) for n in WORLD_NUMBERS if getattr(self, n) is not None}
+        return dataclasses.replace(preset, **changes) if changes else preset
 
     def _check_flow(self) -> None:
         """The flow's own limits (its density: items per metre of belt), checked now rather

@@ -127,6 +127,7 @@ class Episode:
             speed_factor=config.speed_factor,
             seed=config.seed,
             observation_period_s=config.observation_period_s,
+            world=config.world_variation,
         )
         self.flow = generate_flow(flow_config, cell.catalogue, cell.pool.size)
         self.t_last_spawn = float(self.flow.t_spawn[-1]) if len(self.flow) else 0.0
@@ -138,10 +139,23 @@ class Episode:
         self.tracker = Tracker(self.speed)
         self.planner.reset()
         pauses = config.robot
-        self.robot = PickController(cell, self.speed, pauses.pick_pause_s, pauses.place_pause_s)
+        self.robot = PickController(
+            cell,
+            self.speed,
+            pauses.pick_pause_s,
+            pauses.place_pause_s,
+            items=self.flow.item_types(cell.catalogue),
+        )
         self.bins = Bins(self.model, self.data, cell.pool)
+        # Riders wake upstream of the robot by the largest item's radius (`sim.cell.riding`).
+        radius = max(
+            (float(cell.pool.props(int(k), f)["geom_rbound"]) for k, f in
+             zip(self.flow.variant, self.flow.scale, strict=True)),
+            default=0.0,
+        )  # fmt: skip
+        wake_x = cell.wake_x - max(radius - cell.item_radius, 0.0)
         self.riding = ItemRiding(
-            self.model, cell.pool, cell.wake_x, enabled=config.item_riding == "settled"
+            self.model, cell.pool, wake_x, enabled=config.item_riding == "settled"
         )
         # MuJoCo's warning counts start at zero (the reset above clears them).
         self.mj_warnings = WarningCounter(self.data)
@@ -361,6 +375,10 @@ class Episode:
         first = self.next_spawn
         self.next_spawn = self.cell.pool.feed(self.data, self.flow, first)
         mujoco.mj_kinematics(self.model, self.data)  # poses of the new items for the checks
+        # An item dropped partly onto a flat one: that one touches again if it was riding.
+        landing = [i for i in range(first, self.next_spawn) if self.flow.z_drop[i] > 0]
+        if landing:
+            self.riding.wake_near(self.data, [self.cell.pool.slot_of(i) for i in landing])
         for i in range(first, self.next_spawn):
             self.metrics.on_entered(i, int(self.flow.class_id[i]))
 

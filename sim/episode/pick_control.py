@@ -16,6 +16,7 @@ A seal that does not form leaves the cup to lift straight up, empty.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
 
 import mujoco
@@ -36,7 +37,7 @@ from sim.cell.cell import Cell
 from sim.cell.conveyor import rail_top_z
 from sim.cell.executor import Playback
 from sim.cell.suction import SuctionCup
-from sim.flow.catalogue import Catalogue
+from sim.flow.catalogue import Catalogue, ItemType
 
 PRESS_DEPTH_M = 0.003
 """The cup aims this far below the item's top so that its lip touches it [m]."""
@@ -57,11 +58,12 @@ MAX_RAISES = 3
 """Times the approach is planned again over a neighbour the last plan passed too low."""
 
 
-def clear_height(catalogue: Catalogue, rail_top: float) -> float:
+def clear_height(catalogue: Catalogue, rail_top: float, items: Iterable[ItemType] = ()) -> float:
     """Height [m] a held item's bottom keeps above the belt once lifted: over the rails and
-    over the tallest catalogue item standing on the belt (a held item swept lower knocks
-    standing cans off the belt), plus `CLEARANCE_M`."""
-    tallest = max(2.0 * t.rest_height for t in catalogue.types)
+    over the tallest item standing on the belt, catalogue types at their nominal size and
+    `items` (the episode's own, scaled: `Flow.item_types`) alike (a held item swept lower
+    knocks standing cans off the belt), plus `CLEARANCE_M`."""
+    tallest = max(2.0 * t.rest_height for t in (*catalogue.types, *items))
     return max(rail_top, tallest) + CLEARANCE_M
 
 
@@ -112,10 +114,16 @@ class PickController:
         belt_speed: Belt speed [m/s].
         pick_pause: Extra dwell after the seal, riding with the item [s].
         place_pause: Extra dwell over the bin after the release [s].
+        items: The episode's items (scaled types), so the lift clears the tallest of them.
     """
 
     def __init__(
-        self, cell: Cell, belt_speed: float, pick_pause: float = 0.0, place_pause: float = 0.0
+        self,
+        cell: Cell,
+        belt_speed: float,
+        pick_pause: float = 0.0,
+        place_pause: float = 0.0,
+        items: Iterable[ItemType] = (),
     ):
         self.cell = cell
         self.belt_speed = float(belt_speed)
@@ -134,7 +142,7 @@ class PickController:
         self.plan_failures = 0
         self.raises = 0  # approaches planned again over a neighbour
         self.neighbour_refusals = 0  # picks refused: a neighbour in the cup's way down
-        self.clear_z = clear_height(cell.catalogue, rail_top_z(cell.model))
+        self.clear_z = clear_height(cell.catalogue, rail_top_z(cell.model), items)
         self._pick: _PickInProgress | None = None
         self._request: tuple[float, float, int] | None = None
         self.started: list[StartedPick] = []  # every pick started, as planned

@@ -80,4 +80,5 @@ class FlowReplay:
             self.catalogue,
             self.config.row_pitch_m,
             x_centre=X_CAMERA + self.speed * (self.data.time - k * period),
+            item_types=[self.pool.item_type(int(slot)) for slot in slots],
         )

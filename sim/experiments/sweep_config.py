@@ -26,8 +26,8 @@ grid point. The grid's size (the product of the axes' lengths) is checked before
 built: at most `MAX_EPISODES`. A sweep's `identity` is a hash of every grid point's resolved
 config, seeds aside, so the runner can tell this sweep's results from another's (adding seeds
 keeps the identity: the sweep resumes and grows). Keys added to the episode config later
-(`LATER_KEYS`) enter the identity only when set away from their default, so a sweep started
-before they existed still resumes.
+(`LATER_KEYS`) enter the identity only when set away from the value that behaves as before
+they existed, so a sweep started before them resumes only when it would still run the same.
 """
 
 from __future__ import annotations
@@ -217,8 +217,17 @@ def _grid_point(
         raise InvalidInput(exc.field, exc.allowed, exc.got, f"{where} at ({coords})") from None
 
 
-LATER_KEYS = {"min_class_confidence": 0.0}
-"""Episode-config keys (with their defaults) added after sweeps were first identified."""
+LATER_KEYS = {
+    "min_class_confidence": 0.0,
+    "world": "uniform",
+    **{name: None for name in episode_config.WORLD_NUMBERS},
+    "classifier": "hmm",
+    "depth_noise": False,
+}
+"""Episode-config keys added after sweeps were first identified, with the value that gives the
+behaviour from before they existed (not their default): a grid point at that value is left out
+of the identity, so an old sweep resumes only when its episodes would still run as they did
+(the world was uniform, the camera's depth exact and its items classed by the HMMs)."""
 
 
 def _resolved(variant: str, config: EpisodeConfig) -> str:

@@ -9,6 +9,7 @@ cylinder), a disc (standing cylinder) or a stadium (lying capsule) in the body's
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import tomllib
 from dataclasses import dataclass
@@ -24,6 +25,11 @@ MATERIALS = CLASS_NAMES[1:]
 SHAPE_POSES = {"box": ("flat",), "cylinder": ("standing", "lying"), "capsule": ("lying",)}
 SIZE_LEN = {"box": 3, "cylinder": 2, "capsule": 2}
 LYING_QUAT = (math.sqrt(0.5), 0.0, math.sqrt(0.5), 0.0)
+VARIANT_KINDS = ("crushed", "crumpled", "folded")
+SHEET_HALF_THICKNESS_M = 0.0025
+"""Boxes at most this thick (half-size) are sheets: paper, cardboard [m]."""
+FAMILIES = ("box", "cylinder_standing", "cylinder_lying", "capsule_lying")
+"""Shape-and-pose families: one geom of each per item-pool slot."""
 
 
 @dataclass(frozen=True)
@@ -41,6 +47,9 @@ class ItemType:
         friction: MuJoCo (sliding, torsional, rolling) friction.
         weight: Relative frequency within its material class.
         colour_probs: Probability of each colour of `perception.codes.COLOURS` (sums to 1).
+        variant_of: For a shape variant (a crushed can, a crumpled sheet), the name of the
+            base type it is drawn in place of; "" for a base type.
+        kind: The variant's kind (`VARIANT_KINDS`); "" for a base type.
     """
 
     name: str
@@ -52,9 +61,15 @@ class ItemType:
     friction: tuple[float, float, float]
     weight: float
     colour_probs: tuple[float, ...]
+    variant_of: str = ""
+    kind: str = ""
 
     def __post_init__(self):
         where = f"item {self.name!r}"
+        if bool(self.variant_of) != bool(self.kind) or self.kind not in ("", *VARIANT_KINDS):
+            raise InvalidInput(
+                "kind", "/".join(VARIANT_KINDS) + " with variant_of", self.kind, where
+            )
         if self.material not in MATERIALS:
             raise InvalidInput("material", "/".join(MATERIALS), self.material, where)
         if self.shape not in SHAPE_POSES:
@@ -73,6 +88,48 @@ class ItemType:
         probs = self.colour_probs
         if len(probs) != len(COLOURS) or min(probs) < 0 or abs(sum(probs) - 1) > 1e-9:
             raise InvalidInput("colours", f"weights over {COLOURS} summing to 1", probs, where)
+
+    @property
+    def family(self) -> str:
+        """Shape-and-pose family (`FAMILIES`), e.g. "cylinder_lying"."""
+        return "box" if self.shape == "box" else f"{self.shape}_{self.pose}"
+
+    @property
+    def is_sheet(self) -> bool:
+        """A box thin as a sheet (paper, cardboard): its thickness is not scaled."""
+        return self.shape == "box" and self.size[2] <= SHEET_HALF_THICKNESS_M
+
+    @property
+    def is_flat(self) -> bool:
+        """Flat enough for another item to lie partly on it: a sheet or a crushed box."""
+        return self.is_sheet or (self.shape == "box" and self.kind == "crushed")
+
+    def effective_scale(self, factors) -> tuple[float, float, float]:
+        """The factors (length, width, height) this shape can take from drawn `factors`.
+
+        A sheet keeps its thickness (height 1); a standing cylinder's disc scales with the
+        length factor alone; a lying cylinder's or capsule's height is its width (the radius).
+        """
+        fx, fy, fz = (float(f) for f in factors)
+        if self.shape == "box":
+            return fx, fy, 1.0 if self.is_sheet else fz
+        if self.pose == "standing":
+            return fx, fx, fz
+        return fx, fy, fy
+
+    def scaled(self, factors) -> ItemType:
+        """This type scaled by (length, width, height) `factors` (see `effective_scale`); the
+        mass scales with the volume (with the area for sheets, whose thickness stays)."""
+        fx, fy, fz = self.effective_scale(factors)
+        if (fx, fy, fz) == (1.0, 1.0, 1.0):
+            return self
+        if self.shape == "box":
+            size = (self.size[0] * fx, self.size[1] * fy, self.size[2] * fz)
+        elif self.pose == "standing":
+            size = (self.size[0] * fx, self.size[1] * fz)
+        else:
+            size = (self.size[0] * fy, self.size[1] * fx)
+        return dataclasses.replace(self, size=size, mass=self.mass * fx * fy * fz)
 
     @property
     def class_id(self) -> int:
@@ -156,6 +213,25 @@ class Catalogue:
             raise InvalidInput("item.material", f"every material of {MATERIALS}", missing)
         if len(self.rgba) != len(COLOURS):
             raise InvalidInput("colours", f"one RGBA per colour of {COLOURS}", len(self.rgba))
+        seen_variant = False
+        for item_type in self.types:
+            where = f"item {item_type.name!r}"
+            if not item_type.variant_of:
+                # Base types first, so their indices (flows' type ids) do not move.
+                if seen_variant:
+                    raise InvalidInput("variant_of", "variants after every base type", "", where)
+                continue
+            seen_variant = True
+            base = [t for t in self.types if t.name == item_type.variant_of and not t.variant_of]
+            if not base:
+                raise InvalidInput(
+                    "variant_of", "the name of a base type", item_type.variant_of, where
+                )
+            twins = [t for t in self.types if t.variant_of == item_type.variant_of]
+            if sum(t.kind == item_type.kind for t in twins) > 1:
+                raise InvalidInput(
+                    "kind", "one variant of each kind per base type", item_type.kind, where
+                )
 
     def index(self, name: str) -> int:
         """Index of the item type called `name`."""
@@ -165,8 +241,18 @@ class Catalogue:
         raise InvalidInput("item", "/".join(t.name for t in self.types), name)
 
     def of_material(self, material: str) -> tuple[int, ...]:
-        """Indices of the types of one material."""
-        return tuple(i for i, t in enumerate(self.types) if t.material == material)
+        """Indices of the base types (not the shape variants) of one material."""
+        return tuple(
+            i for i, t in enumerate(self.types) if t.material == material and not t.variant_of
+        )
+
+    def variants(self, kind: str) -> np.ndarray:
+        """Per type index, the index of its variant of `kind`, or -1 for none."""
+        out = np.full(len(self.types), -1, dtype=np.int64)
+        for i, item_type in enumerate(self.types):
+            if item_type.kind == kind:
+                out[self.index(item_type.variant_of)] = i
+        return out
 
     def colour_rgba(self, colour: str | int) -> tuple[float, float, float, float]:
         """RGBA of a colour name or index of `perception.codes.COLOURS`."""
@@ -211,30 +297,45 @@ def _colour_probs(weights: object, where: str) -> tuple[float, ...]:
 
 
 _ITEM_KEYS = ("name", "material", "shape", "pose", "size", "mass", "friction", "weight", "colours")
+_VARIANT_KEYS = ("name", "variant_of", "kind", "shape", "pose", "size", "mass", "friction")
 
 
-def _item_type(entry: object, index: int, path: Path) -> ItemType:
+def _item_type(entry: object, index: int, path: Path, bases: dict[str, ItemType]) -> ItemType:
     if not isinstance(entry, dict):
         raise InvalidInput("item", "an array of tables [[item]]", type(entry).__name__, str(path))
     name = entry.get("name", "?")
     where = f"{path}, item {name!r}" if isinstance(name, str) else f"{path}, item {index}"
-    for key in _ITEM_KEYS:
+    keys = _VARIANT_KEYS if "variant_of" in entry else _ITEM_KEYS
+    for key in keys:
         if key not in entry:
             raise InvalidInput(key, "present in every [[item]]", None, where)
-    extra = set(entry) - set(_ITEM_KEYS)
+    extra = set(entry) - set(keys)
     if extra:
-        raise InvalidInput(sorted(extra)[0], f"only the keys {_ITEM_KEYS}", None, where)
+        raise InvalidInput(sorted(extra)[0], f"only the keys {keys}", None, where)
     try:
+        if "variant_of" in entry:
+            # A variant is drawn in place of its base: same material, weight and colours.
+            base_name = _text(entry, "variant_of", where)
+            if base_name not in bases:
+                raise InvalidInput("variant_of", "the name of a base type above", base_name, where)
+            base = bases[base_name]
+            inherited = {"material": base.material, "weight": base.weight}
+            inherited |= {"colour_probs": base.colour_probs, "variant_of": base_name}
+            inherited["kind"] = _text(entry, "kind", where)
+        else:
+            inherited = {
+                "material": _text(entry, "material", where),
+                "weight": _number(entry, "weight", where),
+                "colour_probs": _colour_probs(entry["colours"], where),
+            }
         return ItemType(
             name=_text(entry, "name", where),
-            material=_text(entry, "material", where),
             shape=_text(entry, "shape", where),
             pose=_text(entry, "pose", where),
             size=_numbers(entry, "size", where),
             mass=_number(entry, "mass", where),
             friction=_numbers(entry, "friction", where, 3),
-            weight=_number(entry, "weight", where),
-            colour_probs=_colour_probs(entry["colours"], where),
+            **inherited,
         )
     except InvalidInput as exc:
         if exc.where == where:
@@ -282,7 +383,14 @@ def load_catalogue(path: Path | str = DATA_DIR / "items.toml") -> Catalogue:
     extra = set(data) - {"colours", "item"}
     if extra:
         raise InvalidInput(sorted(extra)[0], "only [colours] and [[item]]", None, str(path))
-    types = tuple(_item_type(e, i, path) for i, e in enumerate(items))
+    bases: dict[str, ItemType] = {}
+    types = []
+    for i, entry in enumerate(items):
+        item_type = _item_type(entry, i, path, bases)
+        if not item_type.variant_of:
+            bases[item_type.name] = item_type
+        types.append(item_type)
+    types = tuple(types)
     try:
         return Catalogue(types=types, rgba=tuple(rgba))
     except InvalidInput as exc:

@@ -10,7 +10,7 @@ the -y side.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -18,6 +18,7 @@ from planner.motion.belt_speeds import SPEED_RANGE_MPS as BELT_SPEED_RANGE_MPS
 from planner.motion.belt_speeds import SPEED_TOLERANCE_MPS
 from planner.motion.belt_speeds import SPEED_X1_MPS as BELT_SPEED_X1_MPS
 from sim.errors import InvalidInput
+from sim.flow.world import WorldVariation
 
 BELT_HALF_WIDTH = 0.4
 BELT_X_RANGE = (-3.0, 1.5)
@@ -79,6 +80,8 @@ class FlowConfig:
         class_priors: Class probabilities of the first item of each stripe.
         seed: Seed of `numpy.random.default_rng`.
         observation_period_s: Grid row period T [s].
+        world: How items vary from their catalogue types (sizes, variants, colours, gaps);
+            `WorldVariation.uniform()` for the uniform world.
     """
 
     n_items: int = 100
@@ -89,6 +92,7 @@ class FlowConfig:
     class_priors: tuple[float, ...] = DEFAULT_CLASS_PRIORS
     seed: int = 0
     observation_period_s: float = OBSERVATION_PERIOD_S
+    world: WorldVariation = field(default_factory=WorldVariation)
 
     def __post_init__(self):
         n = self.n_items
@@ -117,6 +121,8 @@ class FlowConfig:
             raise InvalidInput("seed", "an integer >= 0", self.seed)
         if not 0.05 <= float(self.observation_period_s) <= 5.0:
             raise InvalidInput("observation_period_s", "0.05..5 s", self.observation_period_s)
+        if not isinstance(self.world, WorldVariation):
+            raise InvalidInput("world", "a WorldVariation", type(self.world).__name__)
         density = self.items_per_metre
         if density > MAX_ITEMS_PER_METRE * (1 + 1e-9):
             most = int(MAX_ITEMS_PER_METRE * self.duration_s * self.belt_speed_mps + 1e-6)

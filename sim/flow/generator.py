@@ -4,12 +4,17 @@ A biased random number generator, as in the thesis: items arrive one per time sl
 duration/n_items at a uniformly random instant within it; each falls in a stripe drawn from the
 stripe priors; its class follows a Markov chain along the belt within that stripe (the first
 item of a stripe from the class priors); its type within the class follows the catalogue's
-weights and its colour the type's colour distribution. The lateral position is uniform over the
-part of the stripe where the whole footprint stays on the belt, the yaw uniform (redrawn when
-the item would not fit). An item that would touch one already on the belt is dropped later, by
-just enough belt travel to clear it (and never before the previous item of its stripe), so items
-never overlap and each stripe keeps its order.
-Same config and seed, same flow, byte for byte.
+weights and its colour the type's colour distribution. The world's variation
+(`sim.flow.world`, from its own random stream) then gives each item its shape variant (crushed,
+crumpled, folded), size factors, colours and label, and whether it may lie partly over a flat
+neighbour. The lateral position is uniform over the part of the stripe where the whole (scaled)
+footprint stays on the belt, the yaw uniform (redrawn when the item would not fit). An item
+that would come closer than the world's `min_gap_m` to one already on the belt is dropped later,
+by just enough belt travel to clear it (and never before the previous item of its stripe), so
+each stripe keeps its order; an item allowed to overlap may reach up to `overlap_depth_m` over a
+flat item dropped before it, and is then dropped high enough to land on it.
+Same config and seed, same flow, byte for byte; `WorldVariation.uniform()` gives the flows of
+the uniform world (every item its type's nominal size and colour, 5 mm apart).
 """
 
 from __future__ import annotations
@@ -20,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sim.errors import InvalidInput
-from sim.flow.catalogue import Catalogue
+from sim.flow.catalogue import Catalogue, ItemType
 from sim.flow.config import (
     BELT_HALF_WIDTH,
     ITEM_CLASSES,
@@ -32,8 +37,8 @@ from sim.flow.config import (
     FlowConfig,
 )
 from sim.flow.footprint_polygons import polygon, shift_intervals
+from sim.flow.world import draw_variation, variation_rng
 
-CLEARANCE_M = 0.005
 EDGE_MARGIN_M = 0.005
 YAW_TRIES = 8
 # Most items on the belt at once at MAX_ITEMS_PER_METRE: 12/m x 4.25 m = 51 on average; the slot
@@ -68,6 +73,13 @@ class Flow:
         class_id: 2 paper, 3 plastic, 4 aluminium.
         colour: Index into `perception.codes.COLOURS`.
         stripe: Stripe 0..4 of its centre.
+        variant: Index into `Catalogue.types` of the type actually dropped: `type_index` or one
+            of its shape variants (crushed, crumpled, folded).
+        scale: (n, 3) size factors (length, width, height) of the variant's nominal size.
+        rgba: (n, 4) the item's own colour (its nominal colour `colour`, jittered).
+        label_rgba: (n, 4) its printed label's colour; alpha 0 for none.
+        z_drop: Height of what it lands on above the belt [m]: 0 on the belt, the top of the
+            flat item it partly lies over otherwise.
     """
 
     config: FlowConfig
@@ -78,6 +90,11 @@ class Flow:
     class_id: np.ndarray
     colour: np.ndarray
     stripe: np.ndarray
+    variant: np.ndarray
+    scale: np.ndarray
+    rgba: np.ndarray
+    label_rgba: np.ndarray
+    z_drop: np.ndarray
 
     def __len__(self) -> int:
         return len(self.t_spawn)
@@ -88,6 +105,14 @@ class Flow:
             i, float(self.t_spawn[i]), float(self.y[i]), float(self.yaw[i]),
             int(self.type_index[i]), int(self.class_id[i]), int(self.colour[i]),
         )  # fmt: skip
+
+    def item_type(self, i: int, catalogue: Catalogue) -> ItemType:
+        """The (scaled) item type of item `i` as dropped on the belt."""
+        return catalogue.types[int(self.variant[i])].scaled(self.scale[i])
+
+    def item_types(self, catalogue: Catalogue) -> tuple[ItemType, ...]:
+        """The (scaled) item type of every item."""
+        return tuple(self.item_type(i, catalogue) for i in range(len(self)))
 
     @property
     def item_id(self) -> np.ndarray:
@@ -176,34 +201,57 @@ def generate_flow(config: FlowConfig, catalogue: Catalogue, pool_size: int | Non
     colours = _draw_within(colour_weights, type_index, rng.random(n))
     u_y = rng.random(n)
     u_yaw = rng.uniform(-math.pi, math.pi, size=(n, YAW_TRIES))
+    world = config.world
+    varied = draw_variation(world, catalogue, type_index, colours, variation_rng(config.seed))
+    types = [
+        catalogue.types[k].scaled(f) for k, f in zip(varied.variant, varied.scale, strict=True)
+    ]
+    flat = np.array([t.is_flat for t in types], dtype=bool)
+    gap = world.min_gap_m
 
     t_spawn = np.empty(n)
     y = np.empty(n)
     yaw = np.empty(n)
+    z_drop = np.zeros(n)
     polygons = np.empty((n, 16, 2))
     reach = np.empty(n)
     half_y = np.empty(n)
-    reach_max = max(math.hypot(t.half_length, t.half_width) for t in catalogue.types)
+    reach_max = max(math.hypot(t.half_length, t.half_width) for t in (*catalogue.types, *types))
     last_in_stripe = [0.0] * N_STRIPES
     latest = np.empty(n)
     for i in range(n):
-        item_type = catalogue.types[type_index[i]]
+        item_type = types[i]
         y[i], yaw[i] = _lateral(item_type, int(stripes[i]), u_y[i], u_yaw[i])
         t_i = max(float(t_slot[i]), last_in_stripe[stripes[i]])
         shape = polygon(item_type, 0.0, y[i], yaw[i])
         reach[i] = math.hypot(item_type.half_length, item_type.half_width)
         half_y[i] = float(item_type.half_extents(yaw[i])[1])
-        near = _neighbours(i, t_i, v, y[i], half_y, reach, reach_max, latest, y)
+        near = _neighbours(i, t_i, v, y[i], half_y, reach, reach_max, latest, y, gap)
         if len(near):
             # Belt frame at time 0: an item dropped at t sits at x = -v t.
             offset = np.zeros((len(near), 1, 2))
             offset[:, 0, 0] = v * t_spawn[near]
-            lo, hi = shift_intervals(shape - [v * t_i, 0.0], polygons[near] - offset, CLEARANCE_M)
+            others = polygons[near] - offset
+            clearance = np.full((len(near), 1), gap)
+            base = np.zeros(len(near), dtype=bool)
+            if varied.overlap[i]:
+                # Only over a flat item dropped before it (it lands on that one) and lying on
+                # the belt itself, by at most a quarter of that item's width.
+                base = flat[near] & (t_spawn[near] <= t_i) & (z_drop[near] == 0.0)
+                widths = np.array([types[j].half_width for j in near])
+                depth = np.minimum(world.overlap_depth_m, 0.5 * widths)
+                clearance[base, 0] = -depth[base]
+            lo, hi = shift_intervals(shape - [v * t_i, 0.0], others, clearance)
             delta = 0.0
             for a, b in sorted(zip(lo[lo < hi].tolist(), hi[lo < hi].tolist(), strict=True)):
                 if a < delta < b:
                     delta = b
             t_i += delta / v
+            if base.any():
+                lo, hi = shift_intervals(shape - [v * t_i, 0.0], others[base], 0.0)
+                under = near[base][(lo < 0.0) & (0.0 < hi)]
+                if len(under):
+                    z_drop[i] = max(2.0 * types[j].rest_height for j in under)
         t_spawn[i] = last_in_stripe[stripes[i]] = t_i
         latest[i] = t_i if i == 0 else max(t_i, latest[i - 1])
         polygons[i] = shape
@@ -218,6 +266,11 @@ def generate_flow(config: FlowConfig, catalogue: Catalogue, pool_size: int | Non
         class_id=np.asarray(ITEM_CLASSES)[classes[order]],
         colour=colours[order].astype(np.int64),
         stripe=stripes[order].astype(np.int64),
+        variant=varied.variant[order].astype(np.int64),
+        scale=varied.scale[order],
+        rgba=varied.rgba[order],
+        label_rgba=varied.label_rgba[order],
+        z_drop=z_drop[order],
     )
     most = max_items_on_belt(flow)
     if most > pool_size:
@@ -244,16 +297,16 @@ def _lateral(item_type, stripe: int, u_y: float, u_yaw: np.ndarray) -> tuple[flo
     raise InvalidInput("size", "footprints that fit the outer stripes", item_type.name)
 
 
-def _neighbours(i, t_i, v, y_i, half_y, reach, reach_max, latest, y) -> np.ndarray:
+def _neighbours(i, t_i, v, y_i, half_y, reach, reach_max, latest, y, gap) -> np.ndarray:
     """Items placed before item i that it could touch, now or once dropped later.
 
     `latest[j]` is the latest drop time among items 0..j (non-decreasing), so items before the
     first j with latest[j] >= t_i - window are all too far downstream.
     """
-    window = (reach[i] + reach_max + CLEARANCE_M) / v
+    window = (reach[i] + reach_max + gap) / v
     start = int(np.searchsorted(latest[:i], t_i - window, side="left"))
     near = np.arange(start, i)
     if len(near) == 0:
         return near
-    apart = np.abs(y[near] - y_i) > half_y[near] + half_y[i] + CLEARANCE_M
+    apart = np.abs(y[near] - y_i) > half_y[near] + half_y[i] + gap
     return near[~apart]

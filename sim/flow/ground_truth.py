@@ -15,12 +15,13 @@ y in [-0.4 + 0.16 j, -0.4 + 0.16 (j + 1)).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from perception.codes import COLOURS, EMPTY_CODE, MEDIUM_MAX, MIN_FRACTION, SMALL_MAX, VOID
-from sim.flow.catalogue import Catalogue
+from sim.flow.catalogue import Catalogue, ItemType
 from sim.flow.config import BELT_HALF_WIDTH, N_STRIPES, STRIPE_WIDTH, X_CAMERA
 from sim.flow.coverage import outline, polygon_rect_areas
 from sim.flow.generator import Flow
@@ -54,6 +55,7 @@ def grid_truth(
     x_first: float,
     pitch: float,
     n_rows: int,
+    item_types: Sequence[ItemType] | None = None,
 ) -> GridTruth:
     """True classes and codes of `n_rows` grid rows from item footprints on the belt plane.
 
@@ -66,6 +68,8 @@ def grid_truth(
         x_first: x of row 0's centre [m]; row k is centred at x_first - k * pitch.
         pitch: Row length along the belt [m].
         n_rows: Rows to compute.
+        item_types: Each item's own (scaled, variant) type (`Flow.item_types`); default the
+            catalogue's type of `type_index`.
     """
     shape = (n_rows, N_STRIPES)
     by_class = np.zeros((n_rows, N_STRIPES, 5))
@@ -73,9 +77,10 @@ def grid_truth(
     best_colour = np.zeros(shape, dtype=np.int64)
     dominant = np.full(shape, -1, dtype=np.int64)
     cell_area = pitch * STRIPE_WIDTH
-    types = catalogue.types
+    if item_types is None:
+        item_types = [catalogue.types[int(k)] for k in type_index]
     for i in range(len(x)):
-        item_type = types[int(type_index[i])]
+        item_type = item_types[i]
         ex, ey = (float(e) for e in item_type.half_extents(yaw[i]))
         k0 = max(math.ceil((x_first - x[i] - ex) / pitch - 0.5), 0)
         k1 = min(math.floor((x_first - x[i] + ex) / pitch + 0.5), n_rows - 1)
@@ -110,7 +115,8 @@ def grid_truth(
 
 def flow_rows(flow: Flow, catalogue: Catalogue) -> int:
     """Rows from t = 0 until the last item has fully passed the camera line."""
-    reach = max(math.hypot(t.half_length, t.half_width) for t in catalogue.types)
+    types = (*catalogue.types, *flow.item_types(catalogue))
+    reach = max(math.hypot(t.half_length, t.half_width) for t in types)
     last = float(flow.tau.max()) if len(flow) else 0.0
     return (
         int(math.ceil(last / flow.config.observation_period_s + reach / flow.config.row_pitch_m))
@@ -139,6 +145,7 @@ def flow_truth(
     truth = grid_truth(
         x, flow.y, flow.yaw, flow.type_index, flow.class_id, flow.colour, catalogue,
         x_first=X_CAMERA, pitch=flow.config.row_pitch_m, n_rows=n_rows,
+        item_types=flow.item_types(catalogue),
     )  # fmt: skip
     return truth.classes, truth.codes
 
@@ -158,6 +165,7 @@ def cell_truth_from_poses(
     catalogue: Catalogue,
     pitch: float,
     x_centre: float = X_CAMERA,
+    item_types: Sequence[ItemType] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """True classes and codes of the camera band's row from items' physical poses.
 
@@ -170,6 +178,8 @@ def cell_truth_from_poses(
         catalogue: Item types.
         pitch: Row length along the belt, belt speed x observation period [m].
         x_centre: Centre of the camera band [m].
+        item_types: Each item's own (scaled, variant) type (`ItemPool.item_type`); default the
+            catalogue's type of `type_index`.
 
     Returns:
         (classes, codes): int arrays (5,), one per stripe.
@@ -177,6 +187,6 @@ def cell_truth_from_poses(
     xy = np.asarray(xy, dtype=float).reshape(len(yaw), -1)
     truth = grid_truth(
         xy[:, 0], xy[:, 1], np.asarray(yaw, dtype=float), type_index, class_id, colour,
-        catalogue, x_first=x_centre, pitch=pitch, n_rows=1,
+        catalogue, x_first=x_centre, pitch=pitch, n_rows=1, item_types=item_types,
     )  # fmt: skip
     return truth.classes[0], truth.codes[0]
