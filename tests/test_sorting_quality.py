@@ -115,6 +115,24 @@ def test_a_track_is_attributed_to_the_nearest_item_within_the_gate():
     assert attributed_item(new_track(-1.00, 0.15), 2.0, 0.185, tie, 0.15) == 4
 
 
+def test_a_track_on_a_long_items_end_is_that_items():
+    from sim.flow.catalogue import load_catalogue
+
+    catalogue = load_catalogue()
+    bottle = catalogue.types[catalogue.index("pet_bottle_1l5")]  # 31 cm long, 9 cm wide
+    sheet = catalogue.types[catalogue.index("paper_scrap")]
+    items = {3: (-1.00, 0.00), 4: (-1.00, 0.12)}
+    shapes = {3: (0.0, bottle), 4: (0.0, sheet)}
+    # 12 cm from the bottle's centre along its axis: beyond the 6 cm gate, on its footprint.
+    track = new_track(-0.88, 0.01)
+    assert attributed_item(track, 2.0, 0.185, items, 0.06) is None
+    assert attributed_item(track, 2.0, 0.185, items, 0.06, shapes) == 3
+    # Across it, 7 cm from its axis: off the bottle (4.5 cm radius, 1 cm margin) and off the
+    # sheet: the nearest centre within the gate, the sheet's; without the sheet, a phantom.
+    assert attributed_item(new_track(-1.00, 0.07), 2.0, 0.185, items, 0.06, shapes) == 4
+    assert attributed_item(new_track(-1.00, 0.065), 2.0, 0.185, {3: items[3]}, 0.06, shapes) is None
+
+
 def test_a_truth_track_is_its_own_item():
     far = {1: (5.0, 5.0)}
     assert attributed_item(new_track(-1.0, 0.0, true_id=8), 2.0, 0.185, far, 0.06) == 8

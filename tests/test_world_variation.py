@@ -200,8 +200,12 @@ def test_episode_config_world_keys():
     assert config.load(None, world="uniform").world_variation == WorldVariation.uniform()
     uniform_no_gap = config.load(None, world="uniform", min_gap_m=0.0).world_variation
     assert uniform_no_gap.min_gap_m == 0.0 and uniform_no_gap.size_jitter == 0.0
-    defaults = config.load(None).to_dict()
-    assert all(defaults[key] == value for key, value in LATER_KEYS.items())
+    # Every later key is an episode-config key; at the value LATER_KEYS holds the episode runs
+    # as before the key existed (the uniform world, no depth noise, the HMMs' classes).
+    before = config.load(
+        None, world="uniform", classifier="hmm", depth_noise=False, min_class_confidence=0.0
+    ).to_dict()
+    assert all(before[key] == value for key, value in LATER_KEYS.items())
 
 
 def test_pool_spawns_scaled_items_with_their_mass_bounds_and_label(catalogue):

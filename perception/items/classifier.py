@@ -2,16 +2,21 @@
 
 `ItemClassifier` is a scikit-learn gradient-boosted tree ensemble over `item_features`, trained
 on labelled items of flows disjoint from every evaluation (`sim.experiments.item_features`).
-The stripe HMMs (the thesis's method) give each item a class posterior from the sequence of
-observation codes in its stripe: what came before and after it along the belt. Fused, the
-classifier's likelihood weights the HMM posterior as a prior:
+The stripe HMMs (the thesis's method) carry the belt's sequence: classes come in runs along a
+stripe. Their prediction of an item's class from the codes of its stripe before it (the
+predicted state distribution of the item's first row, before its own codes are seen) is a prior
+the features cannot give; fused, the classifier's likelihood weights it:
 
     p(class | features, HMM) ~ p(features | class) p(class | HMM)
                              ~ [p_clf(class | features) / p_train(class)] p(class | HMM),
 
 where p_train is the class mix the classifier was trained on (dividing by it turns the
-classifier's posterior into a likelihood up to a constant). Three modes (`CLASSIFIER_MODES`):
-`hmm` (the thesis's path alone), `features` (the classifier alone), `fused`.
+classifier's posterior into a likelihood up to a constant). The HMMs' posterior of the item's
+own cells (what the thesis's path decides from) is not used as the prior: it already holds the
+item's own colour and size codes, which the features hold too, and counting them twice makes
+the fusion overconfident where the codes mislead (a white pot coded as paper);
+`sim.experiments.item_features evaluate` measures both. Three modes (`CLASSIFIER_MODES`): `hmm`
+(the thesis's path alone: the HMMs' posterior), `features` (the classifier alone), `fused`.
 
 Probabilities are over (paper, plastic, aluminium), class ids 2, 3, 4.
 """
@@ -69,12 +74,12 @@ class ItemClassifier:
 def fuse(
     classifier_probs: np.ndarray, train_prior: np.ndarray, hmm_probs: np.ndarray
 ) -> np.ndarray:
-    """(n, 3) p(class | features, HMM): the classifier's likelihood times the HMM posterior.
+    """(n, 3) p(class | features, HMM): the classifier's likelihood times the HMMs' prior.
 
     Args:
         classifier_probs: (n, 3) p_clf(class | features).
         train_prior: (3,) class mix of the classifier's training set.
-        hmm_probs: (n, 3) the stripe HMMs' class posterior of each item.
+        hmm_probs: (n, 3) the stripe HMMs' class distribution of each item (their prediction).
     """
     likelihood = np.maximum(np.atleast_2d(classifier_probs), _FLOOR) / np.asarray(train_prior)
     joint = likelihood * np.maximum(np.atleast_2d(hmm_probs), _FLOOR)
@@ -87,7 +92,15 @@ def combine(
     classifier_probs: np.ndarray | None = None,
     train_prior: np.ndarray | None = None,
 ) -> np.ndarray:
-    """(n, 3) class probabilities of items in classifier `mode` (one of CLASSIFIER_MODES)."""
+    """(n, 3) class probabilities of items in classifier `mode` (one of CLASSIFIER_MODES).
+
+    Args:
+        mode: `hmm`, `features` or `fused`.
+        hmm_probs: (n, 3) what the HMMs say of each item: their posterior in `hmm` mode, their
+            prediction (the prior) in `fused` mode.
+        classifier_probs: (n, 3) p_clf(class | features) (not needed in `hmm` mode).
+        train_prior: (3,) the classifier's training class mix (not needed in `hmm` mode).
+    """
     if mode not in CLASSIFIER_MODES:
         raise PerceptionInputError("classifier", " | ".join(CLASSIFIER_MODES), mode)
     hmm_probs = np.atleast_2d(np.asarray(hmm_probs, dtype=np.float64))

@@ -3,9 +3,11 @@
 The metrics count the items perception never reported (`never_detected`,
 `sim.episode.metrics`), which needs each track tied to a true item. In truth mode a detection
 carries its item's id. A camera detection carries none (a real cell has no such id), so a new
-track is attributed to the true item on the belt nearest to the track's position at the
-detection time, if one lies within the gate (the tracker's match radius, 0.06 m); otherwise
-to none (a phantom). Only the metrics read the result: the tracker, the decision managers and
+track is attributed to the true item whose footprint (grown by `FOOTPRINT_MARGIN_M`) holds the
+track's position at the detection time (the nearest centre among several), else to the item
+nearest to it if one lies within the gate (the tracker's match radius, 0.06 m); otherwise to
+none (a phantom). The footprint counts a track on either end of a long bottle, 10 cm from its
+centre, as the bottle's. Only the metrics read the result: the tracker, the decision managers and
 the pick never see it.
 """
 
@@ -14,7 +16,15 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 
+import numpy as np
+
 from sim.episode.tracking import Track
+from sim.flow.catalogue import ItemType
+from sim.flow.footprint_polygons import to_body
+
+FOOTPRINT_MARGIN_M = 0.01
+"""A track within this of an item's footprint lies on it [m] (centroids of items cut apart
+lie well inside)."""
 
 
 def attributed_item(
@@ -23,6 +33,7 @@ def attributed_item(
     belt_speed: float,
     items_xy: Mapping[int, tuple[float, float]],
     gate_m: float,
+    shapes: Mapping[int, tuple[float, ItemType]] | None = None,
 ) -> int | None:
     """The true item a new track is of, or None.
 
@@ -31,7 +42,9 @@ def attributed_item(
         t: Time of the detection [s].
         belt_speed: Belt speed [m/s] (the track's position at `t`).
         items_xy: Belt position (x, y) [m] of every true item on the belt at `t`, by item id.
-        gate_m: Farthest an item may be from the track to be attributed [m].
+        gate_m: Farthest an item's centre may be from the track to be attributed [m] (when
+            no footprint holds the track).
+        shapes: (yaw [rad], scaled item type) of the items, by item id; None: centres only.
 
     Returns:
         The track's own item id when perception gave one (truth mode), else the id of the
@@ -41,5 +54,25 @@ def attributed_item(
         return int(track.true_id)
     x, y = track.x_at(t, belt_speed), track.y
     distances = {int(i): math.hypot(ix - x, iy - y) for i, (ix, iy) in items_xy.items()}
+    if shapes:
+        on = [(distances[i], i) for i in distances if _on_footprint(shapes, i, x, y, items_xy)]
+        if on:
+            return min(on)[1]
     within = [(d, item_id) for item_id, d in distances.items() if d <= gate_m]
     return min(within)[1] if within else None
+
+
+def _on_footprint(shapes, item_id: int, x: float, y: float, items_xy) -> bool:
+    """Whether (x, y) [m] lies on item `item_id`'s footprint grown by FOOTPRINT_MARGIN_M."""
+    if item_id not in shapes:
+        return False
+    yaw, item_type = shapes[item_id]
+    ix, iy = items_xy[item_id]
+    lx, ly = (float(v[0]) for v in to_body(np.array([x]), np.array([y]), ix, iy, yaw))
+    kind, a, b = item_type.footprint
+    m = FOOTPRINT_MARGIN_M
+    if kind == "disc":
+        return math.hypot(lx, ly) <= a + m
+    ex = max(abs(lx) - a, 0.0)
+    ey = max(abs(ly) - b, 0.0) if kind == "rect" else abs(ly)
+    return math.hypot(ex, ey) <= (m if kind == "rect" else b + m)

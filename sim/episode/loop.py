@@ -43,6 +43,7 @@ from sim.episode.sensing import CAMERA_SIZE, CameraPerception, TruthPerception
 from sim.episode.tracking import Tracker
 from sim.flow.config import X_INFEED, FlowConfig
 from sim.flow.generator import generate_flow
+from sim.flow.ground_truth import yaw_from_xmat
 
 log = logging.getLogger(__name__)
 
@@ -396,16 +397,20 @@ class Episode:
         `sim.episode.attribution`: bookkeeping the robot never sees)."""
         if not created:
             return
-        items_xy = {}
+        items_xy, shapes = {}, {}
         if any(track.true_id is None for track in created):
             pool, held = self.cell.pool, self.robot.suction.held_slot
             for slot in pool.active_slots():
                 if slot != held:
-                    x, y = self.data.xpos[pool.body_ids[slot]][:2]
-                    items_xy[int(pool.item_ids[slot])] = (float(x), float(y))
+                    body = pool.body_ids[slot]
+                    x, y = self.data.xpos[body][:2]
+                    item_id = int(pool.item_ids[slot])
+                    items_xy[item_id] = (float(x), float(y))
+                    yaw = float(yaw_from_xmat(self.data.xmat[body][None])[0])
+                    shapes[item_id] = (yaw, pool.item_type(int(slot)))
         gate = self.tracker.match_radius
         for track in created:
-            item_id = attributed_item(track, t, self.speed, items_xy, gate)
+            item_id = attributed_item(track, t, self.speed, items_xy, gate, shapes)
             if item_id is not None:
                 self.metrics.on_detected(item_id)
 

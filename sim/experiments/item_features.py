@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from perception.codes import CLASS_NAMES
-from perception.items.classifier import MATERIAL_IDS, ItemClassifier, combine
+from perception.items.classifier import MATERIAL_IDS, ItemClassifier, fuse
 from perception.items.features import N_FEATURES
 from sim.cell.depth_noise import ZED_CLASS, StereoDepthNoise
 from sim.episode.item_classifier import FIT_SEED, TRAINING_TABLE, load_table
@@ -63,7 +63,8 @@ def record(
         replay.model, data, catalogue, replay.speed, config.observation_period_s,
         classifier="hmm", depth_noise=depth_noise, seed=seed,
     )  # fmt: skip
-    rows: dict[str, list] = {k: [] for k in ("features", "hmm", "class_id", "type", "dist")}
+    keys = ("features", "hmm", "hmm_prior", "class_id", "type", "dist")
+    rows: dict[str, list] = {k: [] for k in keys}
     try:
         for _ in replay.rows(flow_rows(replay.flow, catalogue) + WINDOW_ROWS):
             perception.observe(float(data.time))
@@ -79,6 +80,7 @@ def record(
                 item_id = int(pool.item_ids[slots[k]]) if near else -1
                 rows["features"].append(item.features)
                 rows["hmm"].append(item.hmm_probs)
+                rows["hmm_prior"].append(item.hmm_prior)
                 rows["class_id"].append(int(replay.flow.class_id[item_id]) if near else 0)
                 rows["type"].append(int(pool.type_index[slots[k]]) if near else -1)
                 rows["dist"].append(float(d[k]) if k >= 0 else np.inf)
@@ -88,6 +90,7 @@ def record(
     return {
         "features": np.array(rows["features"], dtype=np.float64).reshape(n, N_FEATURES),
         "hmm": np.array(rows["hmm"], dtype=np.float64).reshape(n, 3),
+        "hmm_prior": np.array(rows["hmm_prior"], dtype=np.float64).reshape(n, 3),
         "class_id": np.array(rows["class_id"], dtype=np.int64),
         "type_index": np.array(rows["type"], dtype=np.int64),
         "dist_m": np.array(rows["dist"], dtype=np.float64),
@@ -114,7 +117,7 @@ def load_or_record(cache: Path, speed_factor: float, seed: int) -> dict:
 def gather(cache: Path, seeds, speed_factors) -> dict:
     """The labelled items of every (seed, speed factor), concatenated."""
     parts = [load_or_record(cache, f, s) for s in seeds for f in speed_factors]
-    keys = [k for k in parts[0] if k != "cpu_s"]
+    keys = [k for k in parts[0] if k != "cpu_s" and all(k in p for p in parts)]
     return {k: np.concatenate([p[k] for p in parts]) for k in keys}
 
 
@@ -129,14 +132,21 @@ def accuracy_table(table: dict, classifier: ItemClassifier) -> list[str]:
         "| mode | " + " | ".join(names) + " | all |",
         "|---|" + "---|" * (len(names) + 1),
     ]
-    for mode in ("hmm", "features", "fused"):
-        probs = combine(mode, hmm, clf, classifier.train_prior)
+    prior = table["hmm_prior"][labelled]
+    rows = (
+        ("hmm (the thesis's: the HMMs' posterior)", hmm),
+        ("features", clf),
+        ("fused (features x the HMMs' prediction)", fuse(clf, classifier.train_prior, prior)),
+        ("features x the HMMs' posterior", fuse(clf, classifier.train_prior, hmm)),
+        ("the HMMs' prediction alone", prior),
+    )
+    for label, probs in rows:
         guess = np.asarray(MATERIAL_IDS)[np.argmax(probs, axis=1)]
         cells = []
         for c in MATERIAL_IDS:
             mine = truth == c
             cells.append(f"{np.mean(guess[mine] == c):.3f} (n={int(mine.sum())})")
-        lines.append(f"| {mode} | " + " | ".join(cells) + f" | {np.mean(guess == truth):.3f} |")
+        lines.append(f"| {label} | " + " | ".join(cells) + f" | {np.mean(guess == truth):.3f} |")
     unmatched = int(np.sum(~labelled))
     lines.append(f"reports matched to no true item within {MATCH_M * 1000:.0f} mm: {unmatched}")
     return lines

@@ -42,6 +42,7 @@ from sim.experiments.flow_replay import FlowReplay
 from sim.flow.catalogue import Catalogue, ItemType, load_catalogue
 from sim.flow.config import BELT_HALF_WIDTH, X_CAMERA, FlowConfig
 from sim.flow.footprint_polygons import to_body
+from sim.flow.generator import generate_flow
 from sim.flow.ground_truth import flow_rows, yaw_from_xmat
 
 GROW_M = 0.003
@@ -111,8 +112,12 @@ class FoundItem:
     pixel_y: np.ndarray
 
 
+N_ITEMS = 100
+DURATION_S = 90.0
+
+
 def record(
-    speed_factor: float, seed: int, n_items: int = 100, duration_s: float = 90.0
+    speed_factor: float, seed: int, n_items: int = N_ITEMS, duration_s: float = DURATION_S
 ) -> Recording:
     """Runs a flow past the camera perception and records its rows with the truth."""
     start = time.process_time()
@@ -126,7 +131,6 @@ def record(
         replay.model, data, catalogue, replay.speed, config.observation_period_s,
         classifier="hmm", seed=seed,
     )  # fmt: skip
-    rest = np.array([t.rest_height for t in catalogue.types])
     rows = []
     try:
         for _ in replay.rows(flow_rows(replay.flow, catalogue) + WINDOW_ROWS):
@@ -136,7 +140,8 @@ def record(
             bodies = pool.body_ids[slots]
             xyz = data.xpos[bodies]
             types = pool.type_index[slots].copy()
-            on_belt = (xyz[:, 2] > -0.05) & (xyz[:, 2] < rest[types] + ON_BELT_TOL_M)
+            rest = np.array([pool.item_type(int(s)).rest_height for s in slots])
+            on_belt = (xyz[:, 2] > -0.05) & (xyz[:, 2] < rest + ON_BELT_TOL_M)
             truth = TruePoses(
                 pool.item_ids[slots].copy(),
                 xyz[:, 0].copy(),
@@ -206,13 +211,22 @@ def inside_grown(item_type: ItemType, lx: np.ndarray, ly: np.ndarray, grow: floa
     return ex * ex + ly * ly <= (b + grow) ** 2
 
 
-def true_items(recording: Recording, catalogue: Catalogue) -> np.ndarray:
+def flow_item_types(recording: Recording, catalogue: Catalogue) -> tuple[ItemType, ...]:
+    """The (scaled) type of every item of the recording's flow, as dropped on the belt."""
+    config = FlowConfig(
+        n_items=N_ITEMS, duration_s=DURATION_S, speed_factor=recording.speed_factor,
+        seed=recording.seed,
+    )  # fmt: skip
+    return generate_flow(config, catalogue).item_types(catalogue)
+
+
+def true_items(recording: Recording, types: tuple[ItemType, ...]) -> np.ndarray:
     """Flow indices of the items seen resting on the belt wholly past the camera line."""
     seen = set()
     for row in recording.rows:
         truth = row.truth
         for n in np.flatnonzero(truth.on_belt):
-            item_type = catalogue.types[int(truth.type_index[n])]
+            item_type = types[int(truth.item_id[n])]
             if truth.x[n] - math.hypot(item_type.half_length, item_type.half_width) > X_CAMERA:
                 seen.add(int(truth.item_id[n]))
     return np.array(sorted(seen), dtype=np.int64)
@@ -222,7 +236,8 @@ def score_recording(
     recording: Recording, split: SplitSettings | None, catalogue: Catalogue
 ) -> SegmentScore:
     """Detected / split / merged / missed of every true item of the recording."""
-    ids = true_items(recording, catalogue)
+    types = flow_item_types(recording, catalogue)
+    ids = true_items(recording, types)
     column = {int(i): c for c, i in enumerate(ids)}
     found = found_items(recording, split)
     overlap = np.zeros((len(found), len(ids)))
@@ -235,7 +250,7 @@ def score_recording(
             c = column.get(int(truth.item_id[n]))
             if c is None:
                 continue
-            item_type = catalogue.types[int(truth.type_index[n])]
+            item_type = types[int(truth.item_id[n])]
             reach = math.hypot(item_type.half_length, item_type.half_width) + GROW_M
             near = (np.abs(x - truth.x[n]) <= reach) & (np.abs(item.pixel_y - truth.y[n]) <= reach)
             if np.any(near):
