@@ -165,3 +165,20 @@ def test_results_of_another_sweep_are_refused_not_merged(tmp_path, monkeypatch):
     with pytest.raises(sweep.InvalidInput, match="another sweep"):
         sweep.run_sweep(sweep_config.load(path), out, workers=1)
     assert (out / "episodes.csv").read_bytes() == before
+
+
+def test_the_progress_bar_reaches_the_end_with_an_eta(tmp_path, monkeypatch):
+    def fake_run(spec):
+        c = spec.config
+        return {"seed": c.seed, "planner": c.planner, "speed_factor": c.speed_factor,
+                "n_items": c.items, "accuracy": 1.0, "profit_eur": 0.0}, []  # fmt: skip
+
+    monkeypatch.setattr(sweep, "run_spec", fake_run)
+    path = tmp_path / "grid.toml"
+    path.write_text(GRID.replace("seeds = 1", "seeds = 2"))
+    shown = []
+    sweep.run_sweep(
+        sweep_config.load(path), tmp_path / "out", workers=1, bar=lambda f, t: shown.append((f, t))
+    )
+    assert [f for f, _ in shown] == [0.25, 0.5, 0.75, 1.0]
+    assert all("ETA" in t for _, t in shown[:-1]) and shown[-1][1] == "4/4 episodes, done"

@@ -207,6 +207,10 @@ def preflight(config, out: Path, video: str | Path | None) -> None:
         cache = hmm_cache_path()
         if cache.exists():
             read_cache(cache)
+        if config.classifier != "hmm":
+            from sim.episode.item_classifier import trained_item_classifier
+
+            trained_item_classifier()  # a missing or broken training table, refused now
     if video is not None:
         from sim.cell.video import check_encoder
 

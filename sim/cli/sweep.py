@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import sys
 from pathlib import Path
 
 MAX_WORKERS = 256
@@ -64,13 +65,27 @@ def main(args: argparse.Namespace) -> int:
 
         CameraCalibration.load(DEFAULT_CALIBRATION)
         check_backend()
+    if any(
+        spec.config.perception == "camera" and spec.config.classifier != "hmm"
+        for spec in config.episodes
+    ):
+        from sim.episode.item_classifier import trained_item_classifier
 
+        trained_item_classifier()  # a missing training table refused before any episode
+
+    from sim.cli.run import Progress
     from sim.episode import manifest
 
     manifest.write(args.out, manifest.build("sweep", sweep_manifest_config(config), seeds(config)))
 
     log = logging.getLogger("sim.experiments.sweep")
-    rows = sweep.run_sweep(config, args.out, args.workers, args.ray, progress=log.info)
+    # On a terminal a bar with the ETA is redrawn in place (the per-episode lines go to
+    # --verbose); elsewhere (logs, CI) each episode's line is printed.
+    bar = Progress() if sys.stderr.isatty() and log.isEnabledFor(logging.INFO) else None
+    line = log.debug if bar else log.info
+    rows = sweep.run_sweep(config, args.out, args.workers, args.ray, progress=line, bar=bar)
+    if bar:
+        bar.done()
     print(f"{config.name}: {len(rows)} episodes in {args.out / 'episodes.csv'}")
     from sim.experiments import thesis_report
 

@@ -18,7 +18,7 @@ TOML layout (every key optional; defaults are the headline episode)::
     energy_price_eur_per_kwh = 0.0  # > 0: every planner nets each pick's motor energy cost
     min_class_confidence = 0.0  # 0..1: an item whose most probable class is less probable is
                                 # left on the belt (sim/episode/confidence.py); 0: none is
-    classifier = "hmm"          # camera items' class: fused | features | hmm (the thesis's)
+    classifier = "fused"        # camera items' class: fused | features | hmm (the thesis's)
     depth_noise = true          # the stereo camera's depth error (sim/cell/depth_noise.py)
     world = "varied"            # varied | uniform: how items vary (sim/flow/world.py,
                                 # docs/world.md); the numbers below override the preset's
@@ -194,7 +194,7 @@ class EpisodeConfig:
     item_riding: str = "settled"
     energy_price_eur_per_kwh: float = 0.0
     min_class_confidence: float = 0.0
-    classifier: str = "hmm"
+    classifier: str = "fused"
     depth_noise: bool = True
     world: str = "varied"
     size_jitter: float | None = None

@@ -178,7 +178,7 @@ class CameraPerception:
         belt_speed: float,
         period_s: float,
         camera=None,
-        classifier: str = "hmm",
+        classifier: str = "fused",
         depth_noise: StereoDepthNoise | None = ZED_CLASS,
         seed: int = 0,
     ):

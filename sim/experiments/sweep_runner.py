@@ -212,8 +212,11 @@ def run_sweep(
     workers: int | None = None,
     ray_address: str | None = None,
     progress: Callable[[str], None] | None = None,
+    bar: Callable[[float, str], None] | None = None,
 ) -> list[dict]:
     """Run the pending episodes of `sweep` into `out_dir`/episodes.csv; returns all rows.
+
+    `progress` gets a line per episode, `bar` the share of the sweep done and its ETA.
 
     Raises:
         InvalidInput: `out_dir` is refused (`check_out_dir`), before any episode runs; or an
@@ -241,12 +244,14 @@ def run_sweep(
         outputs.append_sweep_picks(picks_path, [{**key, **p} for p in picks])
         outputs.append_episode(csv_path, row)
         count[0] += 1
+        elapsed = time.perf_counter() - start
+        eta = eta_text(elapsed, count[0] - done_before, total - count[0])
+        if bar:
+            bar(count[0] / total, f"{count[0]}/{total} episodes, {eta}")
         if progress:
-            elapsed = time.perf_counter() - start
             progress(
                 f"[{count[0]}/{total}] {spec.key}  accuracy {float(row['accuracy']):.3f}  "
-                f"profit {float(row['profit_eur']):.2f} EUR  ({elapsed:.0f} s, "
-                f"{eta_text(elapsed, count[0] - done_before, total - count[0])})"
+                f"profit {float(row['profit_eur']):.2f} EUR  ({elapsed:.0f} s, {eta})"
             )
 
     if todo:
