@@ -54,6 +54,10 @@ MAX_LEAD_S = 1.0
 upstream is waited for and decided on again (its position is fresher by then) [s]."""
 WAIT_STEP_S = 0.25
 """Longest wait before deciding again on an item still upstream [s]."""
+RETRY_AFTER_S = 0.25
+"""An item the cup cannot meet now (a neighbour in the way, a plan outside the motor limits as
+it enters the window) is offered again after this long, while it is still on the belt [s]. The
+camera reports an item once; dropping its track would lose it for good."""
 MAX_FAILURES = 2
 """Attempts after which truth mode gives an item up (it is re-detected every period)."""
 CHECK_PERIOD_S = 0.02
@@ -202,6 +206,7 @@ class Episode:
         # (track, choice, energy reading at the start, travel [m]) of the pick under way
         self._pick_started: tuple | None = None
         self.failures: dict[int, int] = {}  # failed attempts per true item id (truth mode)
+        self.not_before: dict[int, float] = {}  # track id -> when it may be offered again [s]
         self.timings = dict.fromkeys(
             ("physics", "perception", "decision", "planning", "video"), 0.0
         )
@@ -278,7 +283,8 @@ class Episode:
         self.timings["planning"] += time.perf_counter() - t1
         self.latencies["plan"].append(time.perf_counter() - t1)
         if not intercept.feasible:
-            self.tracker.remove(track.track_id)  # cannot be met: let it go
+            # Not now: offered again shortly (the tracker prunes it once it is past the robot).
+            self.not_before[track.track_id] = t + RETRY_AFTER_S
             return False
         if intercept.meet_time > MAX_LEAD_S + WAIT_STEP_S:
             self.next_decision = t + WAIT_STEP_S  # the cycle model was optimistic: wait
@@ -467,6 +473,8 @@ class Episode:
         for tr in self.tracker.tracks():
             if self.failures.get(tr.true_id, 0) >= MAX_FAILURES:
                 continue  # truth mode: an item the cup failed on twice is given up
+            if self.not_before.get(tr.track_id, 0.0) > t:
+                continue  # the cup could not meet it a moment ago
             items.append(TrackedItem(tr.track_id, tr.x_at(t, self.speed), tr.y, tuple(tr.probs)))
         return sure_items(items, self.config.min_class_confidence)
 
