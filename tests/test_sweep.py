@@ -144,13 +144,17 @@ def test_sweep_on_local_ray(swept, tmp_path):
     assert len(rows) == 2
 
 
-def test_results_of_another_sweep_are_refused_not_merged(tmp_path, monkeypatch):
-    def fake_run(spec):
-        c = spec.config
-        return {"seed": c.seed, "planner": c.planner, "speed_factor": c.speed_factor,
-                "n_items": c.items, "accuracy": 1.0, "profit_eur": 0.0}, []  # fmt: skip
+def blank_episode(spec):
+    """A stand-in for the episode runner: the row of the spec's grid point, no picks (the
+    sweep's bookkeeping is under test, not the episodes)."""
+    c = spec.config
+    row = {"seed": c.seed, "planner": c.planner, "speed_factor": c.speed_factor,
+           "n_items": c.items, "accuracy": 1.0, "profit_eur": 0.0}  # fmt: skip
+    return row, []
 
-    monkeypatch.setattr(sweep, "run_spec", fake_run)
+
+def test_results_of_another_sweep_are_refused_not_merged(tmp_path, monkeypatch):
+    monkeypatch.setattr(sweep, "run_spec", blank_episode)
     path = tmp_path / "grid.toml"
     path.write_text(GRID)
     out = tmp_path / "out"
@@ -168,12 +172,7 @@ def test_results_of_another_sweep_are_refused_not_merged(tmp_path, monkeypatch):
 
 
 def test_the_progress_bar_reaches_the_end_with_an_eta(tmp_path, monkeypatch):
-    def fake_run(spec):
-        c = spec.config
-        return {"seed": c.seed, "planner": c.planner, "speed_factor": c.speed_factor,
-                "n_items": c.items, "accuracy": 1.0, "profit_eur": 0.0}, []  # fmt: skip
-
-    monkeypatch.setattr(sweep, "run_spec", fake_run)
+    monkeypatch.setattr(sweep, "run_spec", blank_episode)
     path = tmp_path / "grid.toml"
     path.write_text(GRID.replace("seeds = 1", "seeds = 2"))
     shown = []
