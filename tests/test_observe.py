@@ -17,6 +17,7 @@ from sim.cell.camera import BeltCamera, marker_points
 from sim.cli.calibrate import DEFAULT_CALIBRATION
 from sim.experiments.perception_eval import evaluate_camera
 from sim.flow.catalogue import load_catalogue
+from sim.flow.world import WorldVariation
 from sim.paths import REPO_ROOT, SCENE_XML
 
 FIXTURE = REPO_ROOT / "tests" / "models" / "belt_camera.xml"
@@ -148,9 +149,17 @@ def test_refusals(fixture_frame):
         pipeline.observe(frame, SPEED, 0.0, depth[:10])
 
 
+# The coding pipeline against the truth's codes in the uniform world: there the truth's colour
+# of an item is the colour it is drawn in. In the varied world a label or a jittered shade can
+# change a cell's dominant colour, which the truth (nominal colours) does not see: agreement
+# 93.3 % on the short flow, 94.7 % on the 90 s flow at x1 (the camera's items are classed from
+# their features there, not from the codes).
+UNIFORM = WorldVariation.uniform()
+
+
 def test_camera_codes_agree_with_the_truth_on_a_short_flow():
     """30 items over 15 s at x1 (the full 150-item, 90 s episodes are the slow test below)."""
-    score = evaluate_camera(1.0, n_items=30, duration_s=15.0, seed=3, size=SIZE)
+    score = evaluate_camera(1.0, n_items=30, duration_s=15.0, seed=3, size=SIZE, world=UNIFORM)
     busy = score.n_cells - score.confusion[EMPTY_CODE - 1, EMPTY_CODE - 1]
     assert score.unobserved == 0
     assert busy >= 40  # the flow does put items in front of the camera
@@ -160,7 +169,7 @@ def test_camera_codes_agree_with_the_truth_on_a_short_flow():
 @pytest.mark.slow
 @pytest.mark.parametrize("factor", [1.0, 1.2, 1.5])
 def test_camera_codes_agree_with_the_truth_over_a_90s_episode(factor):
-    score = evaluate_camera(factor, n_items=150, duration_s=90.0, seed=0, size=SIZE)
+    score = evaluate_camera(factor, n_items=150, duration_s=90.0, seed=0, size=SIZE, world=UNIFORM)
     print(score.report())
     assert score.unobserved == 0
     assert score.agreement >= 0.95, score.report()

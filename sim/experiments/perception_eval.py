@@ -29,6 +29,7 @@ from sim.experiments.flow_replay import FlowReplay
 from sim.flow.catalogue import load_catalogue
 from sim.flow.config import X_CAMERA, FlowConfig
 from sim.flow.ground_truth import flow_rows
+from sim.flow.world import WorldVariation
 from sim.paths import CAMERA_CALIBRATION_JSON as DEFAULT_CALIBRATION
 
 SIZE_LABELS = ("none", "small", "medium", "large")
@@ -114,6 +115,7 @@ def evaluate_camera(
     plane_z: float = 0.0,
     rules: ColourRules | None = None,
     depth: bool = True,
+    world: WorldVariation | None = None,
 ) -> CameraScore:
     """Runs a flow through the cell and scores every observed row's codes.
 
@@ -126,12 +128,16 @@ def evaluate_camera(
         plane_z: Height of the pipeline's rectified plane [m] (frames without depth).
         rules: Colour rules of the pipeline.
         depth: Give the pipeline the camera's depth map as well as the frame.
+        world: How the items vary (default: the varied world). The truth's codes take each
+            item's nominal colour, so in the varied world a printed label or a jittered shade
+            that changes a cell's dominant colour counts against the camera.
     """
     start = time.perf_counter()
     catalogue = load_catalogue()
     config = FlowConfig(
-        n_items=n_items, duration_s=duration_s, speed_factor=speed_factor, seed=seed
-    )
+        n_items=n_items, duration_s=duration_s, speed_factor=speed_factor, seed=seed,
+        world=WorldVariation() if world is None else world,
+    )  # fmt: skip
     replay = FlowReplay.start(config, catalogue)
     data, speed = replay.data, replay.speed
     calibration = CameraCalibration.load(DEFAULT_CALIBRATION).scaled(size)
