@@ -20,7 +20,7 @@ import numpy as np
 
 from sim.episode.tracking import Track
 from sim.flow.catalogue import ItemType
-from sim.flow.footprint_polygons import to_body
+from sim.flow.footprint_polygons import contains_grown, to_body
 
 FOOTPRINT_MARGIN_M = 0.01
 """A track within this of an item's footprint lies on it [m] (centroids of items cut apart
@@ -67,12 +67,5 @@ def _on_footprint(shapes, item_id: int, x: float, y: float, items_xy) -> bool:
     if item_id not in shapes:
         return False
     yaw, item_type = shapes[item_id]
-    ix, iy = items_xy[item_id]
-    lx, ly = (float(v[0]) for v in to_body(np.array([x]), np.array([y]), ix, iy, yaw))
-    kind, a, b = item_type.footprint
-    m = FOOTPRINT_MARGIN_M
-    if kind == "disc":
-        return math.hypot(lx, ly) <= a + m
-    ex = max(abs(lx) - a, 0.0)
-    ey = max(abs(ly) - b, 0.0) if kind == "rect" else abs(ly)
-    return math.hypot(ex, ey) <= (m if kind == "rect" else b + m)
+    lx, ly = to_body(np.array([x]), np.array([y]), *items_xy[item_id], yaw)
+    return bool(contains_grown(item_type, lx, ly, FOOTPRINT_MARGIN_M)[0])

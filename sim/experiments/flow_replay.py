@@ -16,6 +16,7 @@ import mujoco
 import numpy as np
 
 from sim.cell.conveyor import Belt
+from sim.cell.depth_noise import ZED_CLASS
 from sim.cell.item_pool import ItemPool
 from sim.cell.mjcf import load_scene
 from sim.flow.config import X_CAMERA, FlowConfig
@@ -46,6 +47,17 @@ class FlowReplay:
         flow = generate_flow(config, catalogue, pool.size)
         mujoco.mj_forward(model, data)
         return cls(config, catalogue, model, data, pool, flow)
+
+    def camera_perception(self, depth_noise=ZED_CLASS):
+        """The episode's camera perception looking at this flow (`hmm` mode: the recorders
+        keep the HMMs' classes and the items' features apart), its depth noise seeded by the
+        flow's seed. Close it when done."""
+        from sim.episode.sensing import CameraPerception
+
+        return CameraPerception(
+            self.model, self.data, self.catalogue, self.speed, self.config.observation_period_s,
+            classifier="hmm", depth_noise=depth_noise, seed=self.config.seed,
+        )  # fmt: skip
 
     @property
     def speed(self) -> float:

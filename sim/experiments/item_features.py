@@ -30,7 +30,7 @@ from perception.items.classifier import MATERIAL_IDS, ItemClassifier, fuse
 from perception.items.features import N_FEATURES
 from sim.cell.depth_noise import ZED_CLASS, StereoDepthNoise
 from sim.episode.item_classifier import FIT_SEED, TRAINING_TABLE, load_table
-from sim.episode.sensing import WINDOW_ROWS, CameraPerception
+from sim.episode.sensing import WINDOW_ROWS
 from sim.experiments.flow_replay import FlowReplay
 from sim.flow.catalogue import load_catalogue
 from sim.flow.config import FlowConfig
@@ -59,10 +59,7 @@ def record(
     )
     replay = FlowReplay.start(config, catalogue)
     pool, data = replay.pool, replay.data
-    perception = CameraPerception(
-        replay.model, data, catalogue, replay.speed, config.observation_period_s,
-        classifier="hmm", depth_noise=depth_noise, seed=seed,
-    )  # fmt: skip
+    perception = replay.camera_perception(depth_noise)
     keys = ("features", "hmm", "hmm_prior", "class_id", "type", "dist")
     rows: dict[str, list] = {k: [] for k in keys}
     try:

@@ -36,12 +36,11 @@ from sim.episode.sensing import (
     ITEM_SPLIT,
     ON_BELT_TOL_M,
     WINDOW_ROWS,
-    CameraPerception,
 )
 from sim.experiments.flow_replay import FlowReplay
 from sim.flow.catalogue import Catalogue, ItemType, load_catalogue
 from sim.flow.config import BELT_HALF_WIDTH, X_CAMERA, FlowConfig
-from sim.flow.footprint_polygons import to_body
+from sim.flow.footprint_polygons import contains_grown, to_body
 from sim.flow.generator import generate_flow
 from sim.flow.ground_truth import flow_rows, yaw_from_xmat
 
@@ -127,10 +126,7 @@ def record(
     )
     replay = FlowReplay.start(config, catalogue)
     pool, data = replay.pool, replay.data
-    perception = CameraPerception(
-        replay.model, data, catalogue, replay.speed, config.observation_period_s,
-        classifier="hmm", seed=seed,
-    )  # fmt: skip
+    perception = replay.camera_perception()
     rows = []
     try:
         for _ in replay.rows(flow_rows(replay.flow, catalogue) + WINDOW_ROWS):
@@ -199,18 +195,6 @@ def found_items(recording: Recording, split: SplitSettings | None) -> list[Found
     return found
 
 
-def inside_grown(item_type: ItemType, lx: np.ndarray, ly: np.ndarray, grow: float) -> np.ndarray:
-    """Whether body-frame points (lx, ly) [m] lie within `grow` [m] of the footprint."""
-    kind, a, b = item_type.footprint
-    if kind == "rect":
-        ex, ey = np.maximum(np.abs(lx) - a, 0.0), np.maximum(np.abs(ly) - b, 0.0)
-        return ex * ex + ey * ey <= grow * grow
-    if kind == "disc":
-        return lx * lx + ly * ly <= (a + grow) ** 2
-    ex = np.maximum(np.abs(lx) - a, 0.0)
-    return ex * ex + ly * ly <= (b + grow) ** 2
-
-
 def flow_item_types(recording: Recording, catalogue: Catalogue) -> tuple[ItemType, ...]:
     """The (scaled) type of every item of the recording's flow, as dropped on the belt."""
     config = FlowConfig(
@@ -255,7 +239,7 @@ def score_recording(
             near = (np.abs(x - truth.x[n]) <= reach) & (np.abs(item.pixel_y - truth.y[n]) <= reach)
             if np.any(near):
                 lx, ly = to_body(x[near], item.pixel_y[near], truth.x[n], truth.y[n], truth.yaw[n])
-                overlap[f, c] = np.count_nonzero(inside_grown(item_type, lx, ly, GROW_M))
+                overlap[f, c] = np.count_nonzero(contains_grown(item_type, lx, ly, GROW_M))
             distance[f, c] = math.hypot(centre_x - truth.x[n], item.y - truth.y[n])
     sizes = np.array([len(item.pixel_b) for item in found], dtype=float)
     return score_segments(overlap, sizes, distance)

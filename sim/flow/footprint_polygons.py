@@ -57,6 +57,18 @@ def _local_outline(item_type: ItemType) -> np.ndarray:
     return np.vstack([right, -right])
 
 
+def contains_grown(item_type: ItemType, lx: np.ndarray, ly: np.ndarray, grow: float) -> np.ndarray:
+    """Whether body-frame points (lx, ly) [m] lie within `grow` [m] of the footprint."""
+    kind, a, b = item_type.footprint
+    if kind == "rect":
+        ex, ey = np.maximum(np.abs(lx) - a, 0.0), np.maximum(np.abs(ly) - b, 0.0)
+        return ex * ex + ey * ey <= grow * grow
+    if kind == "disc":
+        return lx * lx + ly * ly <= (a + grow) ** 2
+    ex = np.maximum(np.abs(lx) - a, 0.0)
+    return ex * ex + ly * ly <= (b + grow) ** 2
+
+
 def polygon(item_type: ItemType, x: float, y: float, yaw: float) -> np.ndarray:
     """(POLYGON_VERTICES, 2) belt-plane outline [m] enclosing the footprint at (x, y, yaw).
 
