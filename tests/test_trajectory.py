@@ -174,3 +174,27 @@ def test_a_move_on_a_ruckig_profile_boundary_is_still_planned():
     p, v, _ = segment.at_time(segment.duration)
     np.testing.assert_allclose(p, goal.position, atol=1e-8)
     np.testing.assert_allclose(v, 0.0, atol=1e-8)
+
+
+def test_vectorised_states_are_ruckigs_to_the_bit(robot):
+    """`Chain.states_at` (numpy over ruckig's phases) gives exactly what `at_time` gives, one
+    time at a time: the executor's set-points and every plan check are sampled with it."""
+    geom, _, gen = robot
+    rng = np.random.default_rng(7)
+    config = PickPlaceConfig()
+    for _ in range(60):
+        start, pick, speed, drop = _random_pair(rng, geom)
+        chain = plan_chain(
+            State.at_rest(start), pick_place_waypoints(pick, speed, drop, config), gen
+        )
+        assert any(isinstance(s, Dwell) for s in chain.segments)
+        times = np.concatenate(
+            [
+                np.arange(0.0, chain.duration, 0.001),
+                chain.starts,  # every segment's ends
+                rng.uniform(-0.05, chain.duration + 0.05, 200),  # and outside it (clamped)
+            ]
+        )
+        one_by_one = np.array([np.concatenate(chain.at_time(float(t))) for t in times])
+        at_once = np.concatenate(chain.states_at(times), axis=1)
+        np.testing.assert_array_equal(at_once, one_by_one)

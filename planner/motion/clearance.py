@@ -127,7 +127,7 @@ def path_conflicts(
     less than `margin_z` above its top. One `Conflict` per neighbour, the lowest pass.
 
     Args:
-        chain: The plan (`at_time(t)` gives the TCP, the lip's centre, first).
+        chain: The plan (`states_at(times)` gives the TCP, the lip's centre, first).
         t_end: End of the checked span [s from the plan's start] (e.g. the touch-down).
         obstacles: The neighbours, as they lie at the plan's start.
         belt_speed: Belt speed along +x [m/s] (the neighbours move with it).
@@ -139,7 +139,7 @@ def path_conflicts(
     if not obstacles or t_end <= t_start:
         return []
     times = np.append(np.arange(t_start, t_end, CHECK_DT), t_end)
-    tcp = np.array([chain.at_time(float(t))[0][:3] for t in times])
+    tcp = chain.states_at(times)[0][:, :3]
     gaps = footprint_distances(obstacles, tcp[:, :2], belt_speed * times) - cup_radius
     tops = np.array([b.top for b in obstacles])
     close = (gaps < margin_xy) & (tcp[None, :, 2] < tops[:, None] + margin_z)

@@ -214,5 +214,5 @@ def path_inside(
     path (descent, seal, lift), where it runs along the workspace's lower edge."""
     t_end = chain.duration if t_end is None else t_end
     times = np.append(np.arange(t_start, t_end, dt), t_end)
-    xyz = np.array([chain.at_time(float(t))[0][:3] for t in times])
+    xyz = chain.states_at(times)[0][:, :3]
     return bool(np.all(reachable_mask(geom, xyz)))

@@ -34,6 +34,8 @@ TORQUE_MARGIN = 0.90
 """Share of the motors' torque limit a plan may use: the lumped model reads about 5 % under the
 simulated torques (rod inertia), and the servo feedback needs some headroom."""
 
+_NOT_BUILT = object()
+
 
 class RuckigSegment(Segment):
     """A segment backed by a `ruckig.Trajectory`."""
@@ -43,6 +45,7 @@ class RuckigSegment(Segment):
         self._duration = float(trajectory.duration)
         self.limits = limits
         self.label = label
+        self._tables = _NOT_BUILT  # the phase tables of `states_at`, built on first use
 
     @property
     def duration(self) -> float:
@@ -51,6 +54,56 @@ class RuckigSegment(Segment):
     def at_time(self, t: float):
         p, v, a = self._traj.at_time(min(max(t, 0.0), self._duration))
         return np.array(p), np.array(v), np.array(a)
+
+    def states_at(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Positions, velocities and accelerations (n, 4) at `times` (n,) [s] (clamped to the
+        segment), bit for bit what ruckig's `at_time` gives, evaluated in numpy at once: each
+        coordinate's profile is seven jerk-constant phases, p + t (v + t (a/2 + t j/6)) from
+        the phase's start state. Falls back to ruckig per time where a profile has a brake
+        phase (a start outside the limits) or a time lies past a profile's last phase."""
+        t = np.minimum(np.maximum(np.asarray(times, dtype=float), 0.0), self._duration)
+        tables = self._phase_tables()
+        if tables is None:
+            return super().states_at(t)
+        ends, phase_p, phase_v, phase_a, phase_j = tables
+        out = np.empty((3, t.size, 4))
+        at_end = t >= self._duration
+        for dof in range(4):
+            t_sum = ends[dof]
+            index = np.searchsorted(t_sum, t, side="right")
+            rest = t_sum[-1] <= t
+            if np.any(rest & ~at_end):
+                return super().states_at(t)  # a coordinate finished early: ruckig's branch
+            index = np.where(at_end, 7, np.minimum(index, 6))
+            start = np.where(index > 0, t_sum[np.maximum(index - 1, 0)], 0.0)
+            d = np.where(index > 0, t - start, t)
+            p0, v0, a0 = phase_p[dof][index], phase_v[dof][index], phase_a[dof][index]
+            j = np.where(at_end, 0.0, phase_j[dof][np.minimum(index, 6)])
+            out[0, :, dof] = p0 + d * (v0 + d * (a0 / 2 + d * j / 6))
+            out[1, :, dof] = v0 + d * (a0 + d * j / 2)
+            out[2, :, dof] = a0 + d * j
+        return out[0], out[1], out[2]
+
+    def _phase_tables(self):
+        """(phase end times, start p, v, a, jerk) per coordinate, or None where the
+        vectorised evaluation does not apply (brake phases, several sections)."""
+        if self._tables is not _NOT_BUILT:
+            return self._tables
+        profiles = self._traj.profiles
+        tables = None
+        if len(profiles) == 1 and all(
+            p.brake.duration == 0.0 and p.accel.duration == 0.0 for p in profiles[0]
+        ):
+            section = profiles[0]
+            tables = (
+                [np.cumsum(p.t) for p in section],
+                [np.array(p.p) for p in section],
+                [np.array(p.v) for p in section],
+                [np.array(p.a) for p in section],
+                [np.array(p.j) for p in section],
+            )
+        self._tables = tables
+        return tables
 
     def position_range(self, dof: int) -> tuple[float, float]:
         """Lowest and highest position of coordinate `dof` over the segment (exact)."""
@@ -71,8 +124,7 @@ class RuckigSegment(Segment):
         velocities and accelerations (N, 4) there."""
         grid = np.append(np.arange(0.0, self._duration, dt), self._duration)
         times = np.unique(np.concatenate([grid, self.breakpoints()]))
-        arr = np.array([self._traj.at_time(float(t)) for t in times])
-        return times, arr[:, 0, :], arr[:, 1, :], arr[:, 2, :]
+        return (times, *self.states_at(times))
 
 
 def motor_speeds(geom: DeltaGeometry, xyz: np.ndarray, vxyz: np.ndarray) -> np.ndarray:

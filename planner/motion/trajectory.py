@@ -82,6 +82,14 @@ class Segment(abc.ABC):
     def at_time(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Position, velocity and acceleration at time `t` [s] (clamped to the segment)."""
 
+    def states_at(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Positions, velocities and accelerations (n, 4) at `times` (n,) [s], each as
+        `at_time` gives it (backends evaluate all times at once)."""
+        out = np.empty((3, len(times), DOF))
+        for k, t in enumerate(times):
+            out[0, k], out[1, k], out[2, k] = self.at_time(float(t))
+        return out[0], out[1], out[2]
+
     @property
     def start(self) -> State:
         """State at t = 0."""
@@ -120,6 +128,12 @@ class Dwell(Segment):
         pos = self._start.position + self._start.velocity * t
         return pos, self._start.velocity.copy(), np.zeros(DOF)
 
+    def states_at(self, times: np.ndarray):
+        t = np.minimum(np.maximum(np.asarray(times, dtype=float), 0.0), self._duration)
+        pos = self._start.position + self._start.velocity * t[:, None]
+        vel = np.broadcast_to(self._start.velocity, pos.shape).copy()
+        return pos, vel, np.zeros_like(pos)
+
 
 class Chain:
     """Segments played one after another (each segment must start where the last one ended)."""
@@ -148,6 +162,21 @@ class Chain:
         i = min(max(i, 0), len(self.segments) - 1)
         return self.segments[i].at_time(t - self.starts[i])
 
+    def states_at(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Positions, velocities and accelerations (n, 4) at `times` (n,) [s], each exactly
+        as `at_time` gives it, evaluated segment by segment in one go."""
+        times = np.asarray(times, dtype=float)
+        index = np.clip(
+            np.searchsorted(self.starts, times, side="right") - 1, 0, len(self.segments) - 1
+        )
+        out = np.empty((3, times.size, DOF))
+        for i in np.unique(index):
+            rows = index == i
+            out[0, rows], out[1, rows], out[2, rows] = self.segments[i].states_at(
+                times[rows] - self.starts[i]
+            )
+        return out[0], out[1], out[2]
+
     def sample(self, dt: float) -> SampledTrajectory:
         """Samples every `dt` [s] from 0, plus the exact end point."""
         if not np.isfinite(dt) or dt <= 0:
@@ -156,10 +185,7 @@ class Chain:
         times = np.arange(n + 1) * dt
         if self.duration - times[-1] > 1e-12:
             times = np.append(times, self.duration)
-        out = np.empty((3, times.size, DOF))
-        for k, t in enumerate(times):
-            out[0, k], out[1, k], out[2, k] = self.at_time(float(t))
-        return SampledTrajectory(times, out[0], out[1], out[2])
+        return SampledTrajectory(times, *self.states_at(times))
 
 
 @dataclass(frozen=True, eq=False)

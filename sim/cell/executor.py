@@ -35,6 +35,8 @@ class Playable(Protocol):
 
     def at_time(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
 
+    def states_at(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
+
 
 @dataclass(frozen=True)
 class ExecutionLog:
@@ -188,8 +190,7 @@ class TrajectoryExecutor:
             without payload (n, 3), and torque per kilogram of payload (n, 3)
             [m, rad, s, N m, N m/kg].
         """
-        states = np.array([np.concatenate(trajectory.at_time(float(t))) for t in times])
-        pos, vel, acc = states[:, :4], states[:, 4:8], states[:, 8:]
+        pos, vel, acc = trajectory.states_at(times)
         q, qdot, qddot, jac = motor_rates(self.geometry, pos[:, :3], vel[:, :3], acc[:, :3])
         torque = self.dynamics.torque(q, qdot, qddot, jac, acc[:, :3])
         lift = acc[:, :3] + np.array([0.0, 0.0, GRAVITY])
