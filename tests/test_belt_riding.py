@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from planner.motion.kinematics import reachable_mask
+from planner.motion.trajectory import Chain, Dwell, State
 from sim.cell.cell import Cell
 from sim.cell.riding import ItemRiding
 from sim.episode import config as episode_config
@@ -133,6 +134,55 @@ def test_the_wake_line_is_upstream_of_everything_the_robot_reaches():
 
 
 def test_item_riding_is_a_validated_setting():
-    assert episode_config.load(None).item_riding == "settled"
+    assert episode_config.load(None).item_riding == "path"
     with pytest.raises(InvalidInput, match="item_riding"):
         episode_config.load(None, item_riding="kinematic")
+
+
+def _ride_all(cell, riding, count, limit_s=3.0):
+    m, d = cell.model, cell.data
+    while len(riding.riding()) < count and d.time < limit_s:
+        mujoco.mj_step(m, d, nstep=20)
+        riding.update(d)
+    return riding.riding()
+
+
+def test_in_window_riders_wake_only_where_the_cups_path_passes():
+    """`item_riding = "path"`: riders pass the wake line still riding; a pick's planned path
+    wakes the ones it passes near (the target, its touching neighbour), not the others."""
+    cell = Cell()
+    cell.reset(0.185)
+    m, d, pool = cell.model, cell.data, cell.pool
+    x0 = cell.wake_x + 0.05  # already past the wake line
+    # Two items side by side (a group rides together), one 0.6 m further downstream.
+    for slot, dx, y in ((0, 0.0, -0.02), (1, 0.0, 0.1), (2, 0.6, 0.0)):
+        pool.spawn(d, slot, 0, x0 + dx, y, 0.0, (1, 1, 1, 1), cell.belt.speed)
+    riding = ItemRiding(m, pool, cell.wake_x, in_window=True)
+    riders = _ride_all(cell, riding, 3)
+    assert sorted(riders.tolist()) == [0, 1, 2]
+    assert d.xpos[pool.body_ids[0], 0] > cell.wake_x  # riding on inside the window
+    # The cup comes down over item 0 (a dwell 2 cm above its top, for 0.2 s).
+    top = d.xpos[pool.body_ids[0], 2] + m.geom_rbound[pool.geom_id(0)]
+    x, y = d.xpos[pool.body_ids[0], :2]
+    chain = Chain([Dwell(State([x, y, top + 0.02, 0.0], [0.185, 0, 0, 0]), 0.2)])
+    woken = riding.wake_along(d, chain, cell.belt.speed, reach_xy=0.025, reach_z=0.0)
+    assert woken == 2 and riding.riding().tolist() == [2]
+    # A path high above every item wakes nothing.
+    riding2 = ItemRiding(m, pool, cell.wake_x, in_window=True)
+    riding2._rider_of[2] = pool.item_ids[2]
+    high = Chain([Dwell(State([x + 0.6, 0.0, 0.6, 0.0]), 0.2)])
+    assert riding2.wake_along(d, high, cell.belt.speed, reach_xy=0.025, reach_z=0.1) == 0
+
+
+def test_no_item_starts_riding_in_the_window_while_a_pick_is_under_way():
+    cell = Cell()
+    cell.reset(0.185)
+    m, d, pool = cell.model, cell.data, cell.pool
+    pool.spawn(d, 0, 0, cell.wake_x + 0.1, 0.0, 0.0, (1, 1, 1, 1), cell.belt.speed)
+    riding = ItemRiding(m, pool, cell.wake_x, in_window=True)
+    while d.time < 1.0:
+        mujoco.mj_step(m, d, nstep=20)
+        riding.update(d, robot_busy=True)
+    assert len(riding.riding()) == 0
+    riding.update(d, robot_busy=False)
+    assert riding.riding().tolist() == [0]

@@ -167,6 +167,13 @@ class TrajectoryExecutor:
         self._lead = -model.actuator_biasprm[self._act_ids, 2] / gains
         self._ctrl_lo = model.actuator_ctrlrange[self._act_ids, 0]
         self._ctrl_hi = model.actuator_ctrlrange[self._act_ids, 1]
+        # Where the commands go in `data.ctrl`: one slice when the actuators are consecutive.
+        first = int(self._act_ids[0])
+        consecutive = np.array_equal(self._act_ids, np.arange(first, first + len(self._act_ids)))
+        self._ctrl = self.data.ctrl
+        self._ctrl_index = (
+            slice(first, first + len(self._act_ids)) if consecutive else self._act_ids
+        )
         self._site = model.site("cup_site").id
         self._platform = model.body("platform_link").id
 
@@ -218,9 +225,15 @@ class TrajectoryExecutor:
 
     def write_setpoint(self, command: np.ndarray) -> None:
         """Write one period's servo commands [rad] into `data.ctrl`, clipped to the ranges."""
-        self.data.ctrl[self._act_ids] = np.minimum(
-            np.maximum(command, self._ctrl_lo), self._ctrl_hi
-        )
+        self.write_clipped(self.clip_setpoints(command))
+
+    def clip_setpoints(self, commands: np.ndarray) -> np.ndarray:
+        """Servo commands (..., 4) [rad] clipped to the actuators' control ranges."""
+        return np.minimum(np.maximum(commands, self._ctrl_lo), self._ctrl_hi)
+
+    def write_clipped(self, command: np.ndarray) -> None:
+        """Write one period's already clipped servo commands (4,) [rad] into `data.ctrl`."""
+        self._ctrl[self._ctrl_index] = command
 
     def execute(
         self,
@@ -276,8 +289,13 @@ class Playback:
         self._base, self._shift = base, shift
         self.n = len(times)
         self.substeps = executor.substeps
+        self._payload = None  # the payload [kg] `_commands` were made for
+        self._commands = base
 
     def apply(self, k: int) -> None:
         """Write row `k`'s commands into the executor's `data.ctrl`."""
         ex = self.executor
-        ex.write_setpoint(self._base[k] + ex.payload_kg * self._shift[k])
+        if ex.payload_kg != self._payload:  # every row's clipped commands, once per payload
+            self._payload = ex.payload_kg
+            self._commands = ex.clip_setpoints(self._base + self._payload * self._shift)
+        ex.write_clipped(self._commands[k])

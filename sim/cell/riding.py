@@ -14,6 +14,15 @@ after its drop, one knocked about) comes within `PROXIMITY_M` of it, so riding n
 items pass through each other; items that move with the belt keep their distances.
 `ItemRiding(enabled=False)` keeps every item in contact dynamics (the reference the tests
 compare against).
+
+With `in_window=True` (the episode's `item_riding = "path"`) riders do not wake at `wake_x`:
+they ride on through the robot's window until something may touch them. The robot is the only
+thing there that can, and its path is known: when a pick starts, `wake_along` wakes every rider
+the planned path of the cup (and of an item hanging from it) passes near, before the cup moves;
+loose items wake riders as upstream. While a pick is under way no item in the window starts
+riding (one the cup has just woken stays in contact dynamics); an idle robot rests over a bin.
+A settled item that the cup will never come near therefore costs no contact dynamics at all,
+however long the queue in front of the robot.
 """
 
 from __future__ import annotations
@@ -35,7 +44,12 @@ so their contacts have settled again long before the cup arrives [m]."""
 RIDE_MARGIN_M = 0.05
 """An item starts riding only this far upstream of `wake_x` (no ride-wake flicker) [m]."""
 PROXIMITY_M = 0.02
-"""A rider wakes when a loose item's bounding sphere comes this close to its own [m]."""
+"""A rider wakes when a loose item's bounding sphere comes this close to its own [m] (plus the
+distance the loose item covers in two checks at its speed)."""
+PATH_SAMPLE_S = 0.002
+"""Time step at which a pick's planned path is checked against the riders [s]."""
+PATH_MARGIN_M = 0.03
+"""Margin around the cup (and an item hanging from it) within which a rider wakes [m]."""
 
 
 def wake_line(reachable, item_radius: float, z_range=(-0.02, 0.3)) -> float:
@@ -65,8 +79,18 @@ class ItemRiding:
         enabled: False keeps every item in contact dynamics.
     """
 
-    def __init__(self, model: mujoco.MjModel, pool: ItemPool, wake_x: float, enabled: bool = True):
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        pool: ItemPool,
+        wake_x: float,
+        enabled: bool = True,
+        in_window: bool = False,
+        check_period: float = 0.02,
+    ):
         self.model, self.pool, self.wake_x, self.enabled = model, pool, float(wake_x), enabled
+        self.in_window = bool(in_window)
+        self.check_period = float(check_period)
         self.belt_geom = pool.belt.geom_id
         self._rider_of = np.full(pool.size, -1)  # flow item id riding in each slot, -1: none
         self._born = np.full(pool.size, np.inf)  # sim time each slot's item was first seen
@@ -80,8 +104,12 @@ class ItemRiding:
         """Slots whose item rides now."""
         return np.flatnonzero((self._rider_of >= 0) & (self._rider_of == self.pool.item_ids))
 
-    def update(self, data: mujoco.MjData, held_slot: int | None = None) -> None:
-        """Switches items to riding or back; call every few ms of simulated time."""
+    def update(
+        self, data: mujoco.MjData, held_slot: int | None = None, robot_busy: bool = False
+    ) -> None:
+        """Switches items to riding or back; call every `check_period` of simulated time.
+        `robot_busy`: a pick is under way (with `in_window`, no item in the window starts
+        riding then)."""
         if not self.enabled:
             return
         pool = self.pool
@@ -105,25 +133,31 @@ class ItemRiding:
         )
         # Wake the riders near the robot, and those an item not moving with the belt nears.
         rider_xy = data.xpos[pool.body_ids[riders], :2]
-        wake = riders[rider_xy[:, 0] >= self.wake_x]
+        wake = riders[rider_xy[:, 0] >= self.wake_x] if not self.in_window else riders[:0]
         loose = movers[~settled]
         if len(riders) and len(loose):
             loose_xy = data.xpos[pool.body_ids[loose], :2]
             gap = np.linalg.norm(loose_xy[:, None, :] - rider_xy[None, :, :], axis=-1)
             reach = self._radius(loose)[:, None] + self._radius(riders)[None, :] + PROXIMITY_M
+            if self.in_window:  # a knocked item moves fast: wake what it can reach by then
+                speed = np.linalg.norm(v[~settled, :3] - (vb, 0.0, 0.0), axis=1)
+                reach = reach + (2.0 * self.check_period) * speed[:, None]
             wake = np.union1d(wake, riders[np.any(gap < reach, axis=0)])
         for slot in wake:
             self._wake(int(slot))
         # Ride the settled items upstream of the robot that touch nothing but the belt.
+        upstream = data.xpos[pool.body_ids[movers], 0] < self.wake_x - RIDE_MARGIN_M
+        where = upstream | (self.in_window and not robot_busy)
         candidates = movers[
             settled
             & (data.time - self._born[movers] >= SETTLE_AGE_S)
-            & (data.xpos[pool.body_ids[movers], 0] < self.wake_x - RIDE_MARGIN_M)
+            & where
             & (movers != (-1 if held_slot is None else held_slot))
         ]
         if not len(candidates):
             return
-        touching = self._touching_other(data)
+        calm = set(candidates.tolist()) | set(riders.tolist()) if self.in_window else set()
+        touching = self._touching_other(data, calm)
         for slot in candidates:
             if slot not in touching:
                 self._ride(data, int(slot), vb)
@@ -142,17 +176,81 @@ class ItemRiding:
         for slot in riders[np.any(gap < reach, axis=0)]:
             self._wake(int(slot))
 
+    def wake_along(
+        self,
+        data: mujoco.MjData,
+        chain,
+        belt_speed: float,
+        reach_xy: float,
+        reach_z: float,
+    ) -> int:
+        """Wakes the riders the planned path `chain` of the cup, starting now, passes near;
+        returns how many.
+
+        A rider wakes when, at some time of the plan (sampled every `PATH_SAMPLE_S`), the
+        cup's centre is within `reach_xy` + the rider's bounding radius + `PATH_MARGIN_M` of
+        the rider's centre (carried on by the belt) horizontally, while the cup is less than
+        `reach_z` + `PATH_MARGIN_M` above the rider's top.
+
+        Args:
+            data: The cell's data (positions now).
+            chain: The pick's plan from now (`states_at(times)` gives the cup's centre first).
+            belt_speed: Belt speed along +x [m/s].
+            reach_xy: How far from the cup's axis the cup or a held item reaches [m].
+            reach_z: How far below the cup a held item reaches [m].
+        """
+        riders = self.riding()
+        if not len(riders):
+            return 0
+        times = np.append(np.arange(0.0, chain.duration, PATH_SAMPLE_S), chain.duration)
+        cup = chain.states_at(times)[0]
+        body = self.pool.body_ids[riders]
+        centre = data.xpos[body]
+        radius = self._radius(riders)
+        top = centre[:, 2] + radius
+        dx = cup[None, :, 0] - (centre[:, 0, None] + belt_speed * times[None, :])
+        dy = cup[None, :, 1] - centre[:, 1, None]
+        near = np.hypot(dx, dy) < (reach_xy + PATH_MARGIN_M + radius)[:, None]
+        low = cup[None, :, 2] < (top + reach_z + PATH_MARGIN_M)[:, None]
+        woken = riders[np.any(near & low, axis=1)]
+        # And the riders touching those (a group of settled items rides together).
+        grown = self._within(data, riders, woken)
+        while len(grown) > len(woken):
+            woken = grown
+            grown = self._within(data, riders, woken)
+        for slot in woken:
+            self._wake(int(slot))
+        return len(woken)
+
+    def _within(self, data: mujoco.MjData, riders: np.ndarray, slots: np.ndarray) -> np.ndarray:
+        """`slots` and the `riders` whose bounding sphere comes within `PROXIMITY_M` of one of
+        theirs."""
+        if not len(slots):
+            return slots
+        body = self.pool.body_ids
+        gap = np.linalg.norm(
+            data.xpos[body[slots]][:, None, :] - data.xpos[body[riders]][None, :, :], axis=-1
+        )
+        reach = self._radius(slots)[:, None] + self._radius(riders)[None, :] + PROXIMITY_M
+        return np.union1d(slots, riders[np.any(gap < reach, axis=0)])
+
     def _radius(self, slots: np.ndarray) -> np.ndarray:
         return self.model.geom_rbound[self.pool.active_geom[slots]]
 
-    def _touching_other(self, data: mujoco.MjData) -> set[int]:
-        """Slots of items in contact with anything but the belt."""
+    def _touching_other(self, data: mujoco.MjData, calm: set[int] = frozenset()) -> set[int]:
+        """Slots of items in contact with anything but the belt, or but the belt and the
+        `calm` slots (settled items: a group of touching settled items rides together)."""
         if not data.ncon:
             return set()
         pairs = data.contact.geom[: data.ncon]
         pairs = pairs[(pairs != self.belt_geom).all(axis=1)]
-        slots = self._slot_of_body[self.model.geom_bodyid[pairs.ravel()]]
-        return set(slots[slots >= 0].tolist())
+        slots = self._slot_of_body[self.model.geom_bodyid[pairs]]  # (n, 2), -1: not an item
+        out = set()
+        for a, b in slots.tolist():
+            if a >= 0 and b >= 0 and a in calm and b in calm:
+                continue  # two settled items touching: they ride on together
+            out.update(x for x in (a, b) if x >= 0)
+        return out
 
     def _ride(self, data: mujoco.MjData, slot: int, belt_speed: float) -> None:
         m, geom, body = self.model, self.pool.geom_id(slot), self.pool.body_ids[slot]

@@ -107,6 +107,7 @@ class SuctionCup:
         self.last_load = 0.0
         self.peak_load = 0.0
         self._force = np.zeros(6)
+        self._gravity = model.opt.gravity.copy()  # [m/s^2] (read once: the option never changes)
 
     @property
     def area(self) -> float:
@@ -233,7 +234,7 @@ class SuctionCup:
         m = self.model
         body = self.pool.body_ids[slot]
         dof = self.pool.dof_adr[slot]
-        force = m.body_mass[body] * (data.qacc[dof : dof + 3] - m.opt.gravity)
+        force = m.body_mass[body] * (data.qacc[dof : dof + 3] - self._gravity)
         n = data.ncon
         if not n:  # in the air: nothing but the cup acts on the item (the usual case)
             return force

@@ -14,7 +14,7 @@ TOML layout (every key optional; defaults are the headline episode)::
     perception = "camera"       # camera | truth
     duration_s = 90.0           # items arrive over this time [s]
     observation_period_s = 0.5  # one grid row per period [s]
-    item_riding = "settled"     # settled | contact (see sim/cell/riding.py)
+    item_riding = "path"        # path | settled | contact (see sim/cell/riding.py)
     energy_price_eur_per_kwh = 0.0  # > 0: every planner nets each pick's motor energy cost
     min_class_confidence = 0.0  # 0..1: an item whose most probable class is less probable is
                                 # left on the belt (sim/episode/confidence.py); 0: none is
@@ -73,7 +73,7 @@ BELT_SPEED_RANGE_MPS = SPEED_RANGE_MPS
 _SPEED_TOLERANCE_MPS = SPEED_TOLERANCE_MPS + 1e-12  # the belt's own check, to the bit
 PERCEPTIONS = ("camera", "truth")
 CLASSIFIERS = ("fused", "features", "hmm")
-ITEM_RIDINGS = ("settled", "contact")
+ITEM_RIDINGS = ("path", "settled", "contact")
 OBJECTIVES = ("value_over_distance", "value_only", "distance_only")
 WORLDS = ("varied", "uniform")
 WORLD_NUMBERS = tuple(f.name for f in dataclasses.fields(WorldVariation))
@@ -191,7 +191,7 @@ class EpisodeConfig:
     perception: str = "camera"
     duration_s: float = 90.0
     observation_period_s: float = 0.5
-    item_riding: str = "settled"
+    item_riding: str = "path"
     energy_price_eur_per_kwh: float = 0.0
     min_class_confidence: float = 0.0
     classifier: str = "fused"

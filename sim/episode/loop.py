@@ -160,12 +160,21 @@ class Episode:
         )  # fmt: skip
         wake_x = cell.wake_x - max(radius - cell.item_radius, 0.0)
         self.riding = ItemRiding(
-            self.model, cell.pool, wake_x, enabled=config.item_riding == "settled"
+            self.model,
+            cell.pool,
+            wake_x,
+            enabled=config.item_riding != "contact",
+            in_window=config.item_riding == "path",
+            check_period=CHECK_PERIOD_S,
         )
+        # How far the cup, or an item hanging from it, reaches around and below its centre [m]
+        # (the riders its planned path passes within this of are woken as a pick starts).
+        self._path_reach = (self.robot.suction.radius + radius, 2.0 * radius)
         # MuJoCo's warning counts start at zero (the reset above clears them).
         self.mj_warnings = WarningCounter(self.data)
         self.throw_watch = ThrowWatch(self.model, cell.pool)
         self.energy = EnergyMeter(self.model, self.data)
+        self._timestep = float(self.model.opt.timestep)  # [s]
         self._cup_events_seen = 0
         self.context = DecisionContext(
             belt_speed=self.speed,
@@ -299,6 +308,8 @@ class Episode:
         )
         self._pick_started = (track, choice, self.energy.reading(), travel)
         self.robot.start(intercept, -1 if track.true_id is None else int(track.true_id))
+        if self.riding.in_window:
+            self.riding.wake_along(self.data, intercept.plan.chain, self.speed, *self._path_reach)
         return True
 
     def run(self) -> None:
@@ -317,7 +328,7 @@ class Episode:
             self.robot.before_step()
         nstep = 1 if picking else self._idle_steps()
         mujoco.mj_step(self.model, self.data, nstep=nstep)
-        self.energy.add(nstep * self.model.opt.timestep)
+        self.energy.add(nstep * self._timestep)
         if picking:
             self.robot.after_step()
         self._after_step()
@@ -464,7 +475,7 @@ class Episode:
                 self.metrics.on_binned(landing.item_id, landing.true_class, bin_class)
             self.tracker.remove_true(landing.item_id)
         self._book_unsure(self.tracker.prune(t, self.x_discard))
-        self.riding.update(data, held)
+        self.riding.update(data, held, robot_busy=self.robot.busy)
 
     def _tracked_items(self, t: float) -> list[TrackedItem]:
         """The tracked items every decision manager chooses among: the confidence rule

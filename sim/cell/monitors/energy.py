@@ -83,9 +83,23 @@ class EnergyMeter:
         ids = [model.actuator(name).id for name in ACTUATORS]
         self._actuators = np.array(ids)
         constants = [drive.arm_motor_constant] * 3 + [drive.axis4_motor_constant]
-        self._inverse_km2 = 1.0 / np.square(constants)
+        self._inverse_km2 = (1.0 / np.square(constants)).tolist()
         self._efficiency = drive.efficiency
-        self._last_velocity = data.actuator_velocity[self._actuators].copy()
+        # Views of the actuators' forces and speeds in `data` (one slice when the actuators are
+        # consecutive, as in the cell), read as Python floats each step: four numbers do not
+        # pay numpy's per-call cost.
+        first = int(self._actuators[0])
+        if np.array_equal(self._actuators, np.arange(first, first + len(ids))):
+            span = slice(first, first + len(ids))
+            force, speed = data.actuator_force[span], data.actuator_velocity[span]
+            self._read = lambda: (force.tolist(), speed.tolist())
+        else:
+            ids = self._actuators
+            self._read = lambda: (
+                data.actuator_force[ids].tolist(),
+                data.actuator_velocity[ids].tolist(),
+            )
+        self._last_velocity = self._read()[1]
         self.mechanical_j = 0.0
         self.electrical_j = 0.0
         self.signed_j = 0.0
@@ -95,14 +109,16 @@ class EnergyMeter:
         forces of that step (computed at its start, held through it) times the joints' mean
         speed over it (before and after), which makes the signed work exact for MuJoCo's
         integrator (tests/test_energy.py closes the work-energy balance to 0.1 %)."""
-        velocity = self.data.actuator_velocity[self._actuators]
-        tau = self.data.actuator_force[self._actuators]
-        power = tau * (0.5 * (velocity + self._last_velocity))
-        self._last_velocity = velocity.copy()
-        mechanical = float(np.abs(power).sum())
-        electrical = float(np.maximum(power, 0.0).sum()) / self._efficiency
-        electrical += float((tau * tau) @ self._inverse_km2)
-        return mechanical, electrical, float(power.sum())
+        tau, velocity = self._read()
+        mechanical = driving = signed = copper = 0.0
+        for f, v, v0, k in zip(tau, velocity, self._last_velocity, self._inverse_km2, strict=True):
+            power = f * (0.5 * (v + v0))
+            mechanical += abs(power)
+            driving += max(power, 0.0)
+            signed += power
+            copper += f * f * k
+        self._last_velocity = velocity
+        return mechanical, driving / self._efficiency + copper, signed
 
     def add(self, duration_s: float) -> None:
         """Add the power of the step (or block of idle steps) just made, over its
