@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import tomllib
 
 import pytest
 
@@ -11,6 +12,7 @@ from sim.cli import main as cli
 from sim.episode import outputs
 from sim.experiments import sweep_config, thesis_report
 from sim.experiments import sweep_runner as sweep
+from sim.flow.world import WorldVariation
 
 GRID = """
 [sweep]
@@ -181,3 +183,99 @@ def test_the_progress_bar_reaches_the_end_with_an_eta(tmp_path, monkeypatch):
     )
     assert [f for f, _ in shown] == [0.25, 0.5, 0.75, 1.0]
     assert all("ETA" in t for _, t in shown[:-1]) and shown[-1][1] == "4/4 episodes, done"
+
+
+VARIANTS = """
+[sweep]
+name = "tiny_variants"
+speed_factors = [1.0]
+items = [3]
+planners = ["proximity"]
+seeds = 1
+
+[base]
+perception = "truth"
+duration_s = 3.0
+
+[[variants]]
+name = "unsure"
+min_class_confidence = 0.5
+
+[[variants]]
+name = "dear_paper"
+values = { paper = 0.5 }
+"""
+VARIANT_COLUMNS = ("variant.min_class_confidence", "variant.values.paper")
+
+
+@pytest.fixture(scope="module")
+def swept_variants(tmp_path_factory):
+    """A real sweep of two tiny episodes, one per variant, each changing another setting."""
+    root = tmp_path_factory.mktemp("variants")
+    path = root / "variants.toml"
+    path.write_text(VARIANTS)
+    out = root / "out"
+    code = cli.main(["sweep", "--config", str(path), "--out", str(out), "--workers", "1", "-q"])
+    assert code == 0
+    return path, out
+
+
+def _header(path) -> tuple[str, ...]:
+    return tuple(path.read_text().splitlines()[0].split(","))
+
+
+def test_a_sweep_without_variants_writes_the_runs_columns(swept):
+    _, out, _ = swept
+    assert _header(out / "episodes.csv") == outputs.EPISODE_COLUMNS
+    assert _header(out / sweep.PICKS_FILE) == outputs.SWEEP_PICK_COLUMNS
+
+
+def test_variant_settings_are_columns_with_the_values_each_episode_ran_with(swept_variants):
+    """One column per key any variant sets, after the usual ones, in the file's order; each
+    row holds its episode's value, the variant's own or the default (paper's 0.22 EUR)."""
+    _, out = swept_variants
+    assert _header(out / "episodes.csv") == outputs.EPISODE_COLUMNS + VARIANT_COLUMNS
+    rows = {r["variant"]: r for r in outputs.read_rows(out / "episodes.csv")}
+    assert [rows["unsure"][c] for c in VARIANT_COLUMNS] == ["0.5", "0.22"]
+    assert [rows["dear_paper"][c] for c in VARIANT_COLUMNS] == ["0.0", "0.5"]
+    assert rows["unsure"]["min_class_confidence"] == "0.5000"  # the run's own column agrees
+    picks = outputs.read_rows(out / sweep.PICKS_FILE)
+    assert _header(out / sweep.PICKS_FILE) == outputs.SWEEP_PICK_COLUMNS + VARIANT_COLUMNS
+    assert {p["variant"] for p in picks} == {"unsure", "dear_paper"}
+    for pick in picks:
+        assert [pick[c] for c in VARIANT_COLUMNS] == [
+            rows[pick["variant"]][c] for c in VARIANT_COLUMNS
+        ]
+
+
+def test_a_folder_written_before_the_variant_columns_resumes_with_them_filled(
+    swept_variants, tmp_path, monkeypatch
+):
+    """Rows of before the columns existed (no such header) get their episode's values when the
+    sweep resumes; the episode still missing runs and the file ends in the grid's order."""
+    path, out = swept_variants
+    rows = outputs.read_rows(out / "episodes.csv")
+    picks = outputs.read_rows(out / sweep.PICKS_FILE)
+    (tmp_path / sweep.IDENTITY_FILE).write_bytes((out / sweep.IDENTITY_FILE).read_bytes())
+    outputs.write_episodes(tmp_path / "episodes.csv", rows[:1])  # the old columns only
+    first = [p for p in picks if sweep.row_key(p) == sweep.row_key(rows[0])]
+    outputs.write_sweep_picks(tmp_path / sweep.PICKS_FILE, first)
+    monkeypatch.setattr(sweep, "run_spec", blank_episode)
+    again = sweep.run_sweep(sweep_config.load(path), tmp_path, workers=1)
+    assert _header(tmp_path / "episodes.csv") == outputs.EPISODE_COLUMNS + VARIANT_COLUMNS
+    assert [[r[c] for c in VARIANT_COLUMNS] for r in again] == [["0.5", "0.22"], ["0.0", "0.5"]]
+    old_picks = outputs.read_rows(tmp_path / sweep.PICKS_FILE)
+    assert len(old_picks) == len(first) > 0
+    assert all([p[c] for c in VARIANT_COLUMNS] == ["0.5", "0.22"] for p in old_picks)
+
+
+def test_variant_keys_in_order_and_a_world_number_left_to_its_preset():
+    text = VARIANTS.replace('name = "unsure"', 'name = "unsure"\nsize_jitter = 0.05')
+    config = sweep_config.from_dict(tomllib.loads(text), "variants.toml")
+    assert config.variant_keys == ("size_jitter", "min_class_confidence", "values.paper")
+    unsure, dear = config.episodes
+    keys = config.variant_keys
+    assert sweep_config.variant_values(unsure, keys)["variant.size_jitter"] == 0.05
+    preset = WorldVariation().size_jitter  # the varied world's, which dear_paper runs with
+    assert sweep_config.variant_values(dear, keys)["variant.size_jitter"] == preset != 0.05
+    assert sweep_config.from_dict(tomllib.loads(GRID), "grid.toml").variant_columns == ()

@@ -71,6 +71,11 @@ def prepare_environment() -> None:
         os.environ[VARIABLE] = "disable"
 
 
+def given_backend() -> str:
+    """The MUJOCO_GL the user gave ('unset' when none), even one put aside, as text."""
+    return _given()
+
+
 def _given() -> str:
     """The MUJOCO_GL the user gave, as text for the refusal."""
     put_aside = os.environ.get(_PUT_ASIDE)

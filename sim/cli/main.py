@@ -33,6 +33,7 @@ COMMANDS = {
     "bench": "Print the performance figures (real-time factors, latencies, cycle time).",
     "train": "Train the learned pick-order policy on sortsim/PickOrder-v0 (seeded).",
     "report": "Means with 95-percent intervals, figures and an HTML page of run or sweep folders.",
+    "view": "Show one episode live in MuJoCo's interactive viewer (needs a display).",
 }
 
 REFUSED = (RefusedInput, NotAvailable)

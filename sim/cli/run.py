@@ -34,7 +34,14 @@ WORLD_NUMBERS = (
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Options of `sortsim run`."""
+    """Options of `sortsim run`: the episode's (`add_episode_arguments`), the video, the folder."""
+    add_episode_arguments(parser)
+    parser.add_argument("--video", default=None, help="write an MP4 of the episode")
+    parser.add_argument("--out", type=Path, default=Path("runs/latest"), help="output folder")
+
+
+def add_episode_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options that make the episode's config (`load_config`), shared by `sortsim view`."""
     parser.add_argument("--config", type=Path, help="TOML file; command-line options override it")
     parser.add_argument("--seed", type=int, default=None, help="random seed (default 0)")
     parser.add_argument(
@@ -66,8 +73,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="camera items' class: fused (features x stripe HMMs, default), features, hmm "
         "(the thesis's path)",
     )
-    parser.add_argument("--video", default=None, help="write an MP4 of the episode")
-    parser.add_argument("--out", type=Path, default=Path("runs/latest"), help="output folder")
     parser.add_argument(
         "--duration", type=float, default=None, help="seconds over which the items arrive (90)"
     )
@@ -190,53 +195,45 @@ def preflight(config, out: Path, video: str | Path | None) -> None:
         outputs.check_output_file(out / name, "--out")
     if video is not None:
         outputs.check_output_file(video, "--video", (".mp4",), "an MP4 file")
-    camera = config.perception == "camera"
-    if camera:
-        from perception.camera.calibration import CameraCalibration
-        from sim.cell.camera import DEFAULT_CALIBRATION
-
-        CameraCalibration.load(DEFAULT_CALIBRATION)
-    if camera or video is not None:
-        from sim.cell.rendering import check_backend
-
-        check_backend()
-    if camera:
-        from sim.episode.sensing import hmm_cache_path
-        from sim.episode.stripe_hmms import read_cache
-
-        cache = hmm_cache_path()
-        if cache.exists():
-            read_cache(cache)
-        if config.classifier != "hmm":
-            from sim.episode.item_classifier import trained_item_classifier
-
-            trained_item_classifier()  # a missing or broken training table, refused now
+    check_perception(config)
     if video is not None:
+        from sim.cell.rendering import check_backend
         from sim.cell.video import check_encoder
 
+        check_backend()
         check_encoder()
+
+
+def check_perception(config) -> None:
+    """Refuse, before the episode, what camera perception could not run without: the camera's
+    calibration, the rendering back-end, a broken cache of the stripe HMMs, the item
+    classifier's training table (nothing for truth perception)."""
+    if config.perception != "camera":
+        return
+    from perception.camera.calibration import CameraCalibration
+    from sim.cell.camera import DEFAULT_CALIBRATION
+    from sim.cell.rendering import check_backend
+
+    CameraCalibration.load(DEFAULT_CALIBRATION)
+    check_backend()
+    from sim.episode.sensing import hmm_cache_path
+    from sim.episode.stripe_hmms import read_cache
+
+    cache = hmm_cache_path()
+    if cache.exists():
+        read_cache(cache)
+    if config.classifier != "hmm":
+        from sim.episode.item_classifier import trained_item_classifier
+
+        trained_item_classifier()  # a missing or broken training table, refused now
 
 
 def main(args: argparse.Namespace) -> int:
     """Run one episode and write its files."""
-    from sim.episode import config as episode_config
     from sim.episode import outputs
     from sim.paths import CACHE_DIR, remove_stale_temporaries
 
-    config = episode_config.load(
-        args.config,
-        seed=args.seed,
-        items=args.items,
-        speed_factor=args.speed_factor,
-        planner=args.planner,
-        perception=args.perception,
-        duration_s=args.duration,
-        energy_price_eur_per_kwh=args.energy_price,
-        min_class_confidence=args.min_confidence,
-        classifier=args.classifier,
-        world=args.world,
-        **{name: getattr(args, name) for name in WORLD_NUMBERS},
-    )
+    config = load_config(args)
     out = Path(args.out)
     preflight(config, out, args.video)
     video = None if args.video is None else Path(args.video)
@@ -257,3 +254,23 @@ def main(args: argparse.Namespace) -> int:
     written += [args.video] if args.video else []
     print("wrote " + ", ".join(str(p) for p in written))
     return 0
+
+
+def load_config(args: argparse.Namespace):
+    """The episode's validated config: `--config`'s TOML with the options given applied."""
+    from sim.episode import config as episode_config
+
+    return episode_config.load(
+        args.config,
+        seed=args.seed,
+        items=args.items,
+        speed_factor=args.speed_factor,
+        planner=args.planner,
+        perception=args.perception,
+        duration_s=args.duration,
+        energy_price_eur_per_kwh=args.energy_price,
+        min_class_confidence=args.min_confidence,
+        classifier=args.classifier,
+        world=args.world,
+        **{name: getattr(args, name) for name in WORLD_NUMBERS},
+    )

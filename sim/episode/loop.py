@@ -101,7 +101,9 @@ class Episode:
     Args:
         config: The episode's configuration.
         cell: The compiled cell it runs on (reset by `reset`).
-        video: A `sim.cell.video.VideoRecorder`, or None.
+        video: A `sim.cell.video.VideoRecorder`, anything with its interface (`due`,
+            `next_frame_time`, `capture(data, overlay)`, `close`, `abort`; e.g.
+            `sim.cell.live_view.LiveView`), or None.
         progress: Called with (fraction, status line) about once per simulated second.
         planner: A decision manager object (`choose`, `reset`); the config's when omitted.
     """

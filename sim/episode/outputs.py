@@ -249,9 +249,12 @@ def read_rows(path: Path) -> list[dict[str, str]]:
     return rows
 
 
-def write_episodes(path: Path, rows: Iterable[Mapping[str, object]]) -> Path:
-    """Write `episodes.csv` (one row per episode) atomically."""
-    return write_atomic(path, to_csv_text(EPISODE_COLUMNS, rows))
+def write_episodes(
+    path: Path, rows: Iterable[Mapping[str, object]], columns: tuple[str, ...] = EPISODE_COLUMNS
+) -> Path:
+    """Write `episodes.csv` (one row per episode) atomically, in `columns` order (a sweep's
+    adds its variants' settings at the end)."""
+    return write_atomic(path, to_csv_text(columns, rows))
 
 
 def write_picks(path: Path, rows: Iterable[Mapping[str, object]]) -> Path:
@@ -263,27 +266,37 @@ SWEEP_PICK_COLUMNS = ("variant", "planner", "speed_factor", "n_items", "seed", *
 """A sweep's picks.csv: each pick with the key columns of its episode."""
 
 
-def write_sweep_picks(path: Path, rows: Iterable[Mapping[str, object]]) -> Path:
-    """Write a sweep's `picks.csv` atomically."""
-    return write_atomic(path, to_csv_text(SWEEP_PICK_COLUMNS, rows))
+def write_sweep_picks(
+    path: Path,
+    rows: Iterable[Mapping[str, object]],
+    columns: tuple[str, ...] = SWEEP_PICK_COLUMNS,
+) -> Path:
+    """Write a sweep's `picks.csv` atomically, in `columns` order."""
+    return write_atomic(path, to_csv_text(columns, rows))
 
 
-def append_sweep_picks(path: Path, rows: Iterable[Mapping[str, object]]) -> Path:
+def append_sweep_picks(
+    path: Path,
+    rows: Iterable[Mapping[str, object]],
+    columns: tuple[str, ...] = SWEEP_PICK_COLUMNS,
+) -> Path:
     """Append one episode's picks to a sweep's `picks.csv` (rewritten atomically; the rows
     already there are kept as text)."""
     old = read_rows(path)
-    new = [{c: format_value(c, r.get(c)) for c in SWEEP_PICK_COLUMNS} for r in rows]
-    return write_atomic(path, to_csv_text(SWEEP_PICK_COLUMNS, [*old, *new]))
+    new = [{c: format_value(c, r.get(c)) for c in columns} for r in rows]
+    return write_atomic(path, to_csv_text(columns, [*old, *new]))
 
 
-def append_episode(path: Path, row: Mapping[str, object]) -> Path:
+def append_episode(
+    path: Path, row: Mapping[str, object], columns: tuple[str, ...] = EPISODE_COLUMNS
+) -> Path:
     """Append one finished episode to `episodes.csv` (the file is rewritten atomically).
 
     Rows already in the file are kept as text, so an append never reformats earlier rows.
     """
     old = read_rows(path)
-    formatted = {c: format_value(c, row.get(c)) for c in EPISODE_COLUMNS}
-    return write_atomic(path, to_csv_text(EPISODE_COLUMNS, [*old, formatted]))
+    formatted = {c: format_value(c, row.get(c)) for c in columns}
+    return write_atomic(path, to_csv_text(columns, [*old, formatted]))
 
 
 def strip_wall_clock(text: str) -> str:

@@ -69,6 +69,7 @@ def run_episode(
     video_path=None,
     progress=None,
     planner=None,
+    recorder=None,
 ) -> EpisodeResult:
     """Run one episode; returns its episodes.csv row and picks.csv rows.
 
@@ -80,10 +81,15 @@ def run_episode(
         progress: Called with (fraction, status line) while it runs.
         planner: A decision manager object (`choose`, `reset`) to use instead of the config's;
             its `name` attribute (else its class name) goes into episodes.csv.
+        recorder: Instead of an MP4, anything with the video recorder's interface that the
+            loop hands its frames to (`sim.cell.live_view.LiveView`: MuJoCo's viewer);
+            not with `video_path`.
     """
+    if recorder is not None and video_path is not None:
+        raise ValueError("run_episode takes a video_path or a recorder, not both")
     wall0, cpu0 = time.perf_counter(), time.process_time()
     cell = cell if cell is not None else shared_cell()
-    video = None
+    video = recorder
     if video_path is not None:
         from sim.cell.video import VideoRecorder
 

@@ -234,17 +234,18 @@ def page(title: str, table_md: str, thesis: list[str], images: dict[str, bytes])
         "<!DOCTYPE html>",
         '<html lang="en"><head><meta charset="utf-8">',
         f"<title>{html.escape(title)}</title>",
-        "<style>body{font-family:sans-serif;margin:2em}table{border-collapse:collapse}"
-        "td,th{border:1px solid #bbb;padding:3px 8px;text-align:right}"
+        "<style>body{font-family:sans-serif;margin:2em}"
+        "table{border-collapse:collapse;font-size:0.8em}.wide{overflow-x:auto}"
+        "td,th{border:1px solid #bbb;padding:3px 6px;text-align:right}td{white-space:nowrap}"
         "th{background:#eee}pre{background:#f6f6f6;padding:1em}</style></head><body>",
         f"<h1>{html.escape(title)}</h1>",
         "<p>Means over seeds ± the half-width of the 95 % confidence interval (Student's t).</p>",
-        "<table>",
+        '<div class="wide"><table>',
         "<tr>" + "".join(f"<th>{html.escape(c)}</th>" for c in cells[0]) + "</tr>",
     ]
     for row in cells[1:]:
         parts.append("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in row) + "</tr>")
-    parts.append("</table>")
+    parts.append("</table></div>")
     for text in thesis:
         parts.append(f"<h2>The thesis's table, ours (thesis)</h2><pre>{html.escape(text)}</pre>")
     for name, png in images.items():

@@ -20,6 +20,10 @@ TOML layout (`experiments/*.toml`)::
     name = "weight_paper"
     values = { paper = 150.22 }
 
+The keys the variants set (`SweepConfig.variant_keys`, dotted for tables: `values.paper`) become
+columns `variant.<key>` of the sweep's episodes.csv and picks.csv, each holding the value the
+episode ran with (`variant_values`): the variant's own, else the base's or the default.
+
 Every episode's config is built (and so validated, the flow's density included) when the sweep
 loads, so a bad value stops the sweep before its first episode, naming the key, the file and the
 grid point. The grid's size (the product of the axes' lengths) is checked before the grid is
@@ -32,6 +36,7 @@ they existed, so a sweep started before them resumes only when it would still ru
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import math
@@ -55,6 +60,8 @@ _SWEEP_KEYS = {
 }
 _TOP_KEYS = {"sweep", "base", "variants"}
 _GRID_FIELDS = ("speed_factor", "items", "planner", "seed")
+VARIANT_PREFIX = "variant."
+"""Prefix of the columns holding the settings the sweep's variants change."""
 MAX_EPISODES = 100_000
 """Most episodes a sweep may hold (variants x planners x speed factors x item counts x seeds)."""
 
@@ -88,6 +95,41 @@ class SweepConfig:
     path: str | None = None
     identity: str = ""
     """Hash of every grid point's resolved config, seeds aside (see the module docstring)."""
+    variant_keys: tuple[str, ...] = ()
+    """The config keys any variant sets, dotted for tables (`values.paper`), in the order they
+    first appear in the file."""
+
+    @property
+    def variant_columns(self) -> tuple[str, ...]:
+        """The CSV columns of `variant_keys` (`variant.<key>`), after the usual ones."""
+        return tuple(VARIANT_PREFIX + key for key in self.variant_keys)
+
+
+def _dotted(table: dict[str, Any], prefix: str = "") -> list[str]:
+    """The keys of a TOML table, a sub-table's as `table.key`."""
+    keys = []
+    for key, value in table.items():
+        if isinstance(value, dict):
+            keys.extend(_dotted(value, f"{prefix}{key}."))
+        else:
+            keys.append(prefix + key)
+    return keys
+
+
+def variant_values(spec: EpisodeSpec, keys: tuple[str, ...]) -> dict[str, Any]:
+    """{`variant.<key>`: the value episode `spec` runs with} for the dotted `keys`: the
+    variant's, the base's or the default; a world number the config leaves to its preset
+    (`world`), the preset's; None (an empty cell) for a key the config does not hold."""
+    settings = spec.config.to_dict()
+    out = {}
+    for key in keys:
+        value: Any = settings
+        for part in key.split("."):
+            value = value.get(part) if isinstance(value, dict) else None
+        if value is None and key in episode_config.WORLD_NUMBERS:
+            value = getattr(spec.config.world_variation, key)
+        out[VARIANT_PREFIX + key] = value
+    return out
 
 
 def _merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
@@ -180,6 +222,11 @@ def from_dict(data: dict[str, Any], where: str) -> SweepConfig:
     keys = [e.key for e in episodes]
     if len(set(keys)) != len(keys):
         raise InvalidInput("sweep", "grid axes without repeated values", None, where)
+    variant_keys = []
+    for variant in variants:
+        for key in _dotted({k: v for k, v in variant.items() if k != "name"}):
+            if key not in variant_keys:
+                variant_keys.append(key)
     name = sweep.get("name", Path(where).stem)
     table = sweep.get("table")
     for key, value in (("name", name), ("table", table)):
@@ -191,6 +238,7 @@ def from_dict(data: dict[str, Any], where: str) -> SweepConfig:
         episodes=tuple(episodes),
         path=where,
         identity=hashlib.sha256("\n".join(sorted(points)).encode()).hexdigest()[:16],
+        variant_keys=tuple(variant_keys),
     )
 
 
@@ -250,6 +298,4 @@ def first_seeds(sweep: SweepConfig, n: int) -> SweepConfig:
     """The same sweep with only the `n` smallest seeds of each grid point."""
     seeds = sorted({e.config.seed for e in sweep.episodes})[:n]
     kept = tuple(e for e in sweep.episodes if e.config.seed in seeds)
-    return SweepConfig(
-        name=sweep.name, table=sweep.table, episodes=kept, path=sweep.path, identity=sweep.identity
-    )
+    return dataclasses.replace(sweep, episodes=kept)

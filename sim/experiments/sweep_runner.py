@@ -3,7 +3,10 @@
 One row is appended to `<out>/episodes.csv` per finished episode (rewritten atomically), so a
 killed sweep keeps every finished episode; running it again skips them (resume). When every
 episode is done the file is rewritten once more in the grid's order, so the same sweep gives
-the same bytes (wall-clock columns aside) whatever the number of workers.
+the same bytes (wall-clock columns aside) whatever the number of workers. Both CSVs end with
+one column per setting the sweep's variants change (`variant.<key>`,
+`SweepConfig.variant_columns`); a folder written before those columns existed gets them filled
+in, from each row's episode, when the sweep resumes.
 
 The output folder is checked before the first episode (`check_out_dir`): it must be creatable
 and writable, and an `episodes.csv` already there must be this sweep's. The sweep's identity
@@ -25,7 +28,7 @@ from pathlib import Path
 
 from sim.episode import outputs
 from sim.errors import InvalidInput, RefusedInput
-from sim.experiments.sweep_config import EpisodeSpec, SweepConfig, episode_key
+from sim.experiments.sweep_config import EpisodeSpec, SweepConfig, episode_key, variant_values
 from sim.paths import remove_stale_temporaries
 
 IDENTITY_FILE = "sweep.json"
@@ -120,13 +123,45 @@ def _start(sweep: SweepConfig, out: Path) -> None:
     if _recorded_identity(out) != sweep.identity:
         text = {"sweep": sweep.name, "identity": sweep.identity, "config": sweep.path}
         outputs.write_atomic(out / IDENTITY_FILE, json.dumps(text, indent=2) + "\n")
+    episodes_path = out / "episodes.csv"
+    rows = outputs.read_rows(episodes_path)
+    if _with_variant_values(sweep, rows):  # rows of before the variants' columns: filled in
+        outputs.write_episodes(episodes_path, rows, episode_columns(sweep))
     picks_path = out / PICKS_FILE
     if picks_path.exists():  # drop the picks of an episode killed before its row was written
         done = set(_row_keys(out / "episodes.csv"))
         rows = outputs.read_rows(picks_path)
         kept = [r for r in rows if row_key(r) in done]
-        if len(kept) != len(rows):
-            outputs.write_sweep_picks(picks_path, kept)
+        filled = _with_variant_values(sweep, kept)
+        if len(kept) != len(rows) or filled:
+            outputs.write_sweep_picks(picks_path, kept, pick_columns(sweep))
+
+
+def episode_columns(sweep: SweepConfig) -> tuple[str, ...]:
+    """The columns of a sweep's episodes.csv: a run's, then its variants' settings."""
+    return outputs.EPISODE_COLUMNS + sweep.variant_columns
+
+
+def pick_columns(sweep: SweepConfig) -> tuple[str, ...]:
+    """The columns of a sweep's picks.csv: the episode's key, a run's, the variants' settings."""
+    return outputs.SWEEP_PICK_COLUMNS + sweep.variant_columns
+
+
+def _with_variant_values(sweep: SweepConfig, rows: list[dict]) -> bool:
+    """Give rows written without a variant column (a folder of before the column existed)
+    the values of their episode, in place; True if any row got one."""
+    if not sweep.variant_keys:
+        return False
+    specs = {spec.key: spec for spec in sweep.episodes}
+    filled = False
+    for row in rows:
+        spec = specs.get(row_key(row))
+        missing = [c for c in sweep.variant_columns if c not in row]
+        if spec is not None and missing:
+            values = variant_values(spec, sweep.variant_keys)
+            row.update({c: outputs.format_value(c, values[c]) for c in missing})
+            filled = True
+    return filled
 
 
 def run_spec(spec: EpisodeSpec) -> tuple[dict, list[dict]]:
@@ -237,12 +272,14 @@ def run_sweep(
     count = [done_before]
 
     def on_row(spec: EpisodeSpec, row: dict, picks: list[dict]) -> None:
-        row = {**row, "variant": spec.variant}
+        settings = variant_values(spec, sweep.variant_keys)
+        row = {**row, "variant": spec.variant, **settings}
         # The picks first: a sweep killed between the two writes leaves picks of an episode
         # without its row, which the next start removes (`_start`); never a row without picks.
         key = {c: row.get(c) for c in PICK_KEY_COLUMNS}
-        outputs.append_sweep_picks(picks_path, [{**key, **p} for p in picks])
-        outputs.append_episode(csv_path, row)
+        keyed = [{**key, **p, **settings} for p in picks]
+        outputs.append_sweep_picks(picks_path, keyed, pick_columns(sweep))
+        outputs.append_episode(csv_path, row, episode_columns(sweep))
         count[0] += 1
         elapsed = time.perf_counter() - start
         eta = eta_text(elapsed, count[0] - done_before, total - count[0])
@@ -282,7 +319,7 @@ def _sorted_rewrite(sweep: SweepConfig, csv_path: Path) -> list[dict]:
     order = {spec.key: i for i, spec in enumerate(sweep.episodes)}
     rows.sort(key=lambda r: order.get(row_key(r), len(order)))
     if rows:
-        outputs.write_episodes(csv_path, rows)
+        outputs.write_episodes(csv_path, rows, episode_columns(sweep))
     return rows
 
 
