@@ -77,6 +77,9 @@ def main() -> int:
     parser.add_argument("--items", type=int, default=100)
     parser.add_argument("--duration", type=float, default=90.0)
     parser.add_argument("--modes", nargs="+", default=["truth", "camera"])
+    parser.add_argument(
+        "--dense-runs", type=int, default=1, help="runs of 400 items over 191 s, truth (0: none)"
+    )
     args = parser.parse_args()
     runs = {
         "truth": 1 if args.quick else args.runs,
@@ -88,7 +91,7 @@ def main() -> int:
         f"headline episode: x1, {args.items} items over {args.duration:g} s, qlearning; "
         f"runs per mode {runs}; load average {load:.1f} on {os.cpu_count()} CPUs"
     )
-    targets = {"truth": 10.0, "camera": 3.0}
+    targets = {"truth": 30.0, "camera": 12.0}  # the speed issue's, on the machine it was filed on
     for mode in args.modes:
         t0 = time.perf_counter()
         r = bench_mode(cell, mode, runs[mode], args.items, args.duration)
@@ -112,6 +115,13 @@ def main() -> int:
             )
         )
         print(f"  ({time.perf_counter() - t0:.0f} s)")
+    if args.dense_runs > 0 and not args.quick:
+        t0 = time.perf_counter()
+        r = bench_mode(cell, "truth", args.dense_runs, 400, 191.0)
+        print(
+            f"dense belt (400 items over 191 s, truth): median {r['cpu_rtf']:.2f}x real time by "
+            f"CPU time, {r['rtf']:.2f}x wall ({time.perf_counter() - t0:.0f} s)"
+        )
     from sim.experiments.cycle1 import run_cycle1
 
     report = run_cycle1(1.0)
