@@ -88,3 +88,17 @@ def test_fusion_is_likelihood_times_hmm_posterior():
         combine("fused", hmm)
     with pytest.raises(PerceptionInputError, match="classifier"):
         combine("colour", hmm, clf, prior)
+
+
+def test_classifier_on_one_thread_gives_the_estimators_probabilities():
+    """`probabilities` limits OpenMP to one thread; the numbers are scikit-learn's own."""
+    rng = np.random.default_rng(1)
+    features = rng.normal(size=(90, N_FEATURES))
+    labels = np.repeat([2, 3, 4], 30)
+    features[:, 0] += labels  # something to learn
+    clf = ItemClassifier(features, labels)
+    test = rng.normal(size=(7, N_FEATURES)) + np.array([2, 3, 4, 2, 3, 4, 3])[:, None]
+    expected = clf.estimator.predict_proba(test)[
+        :, [list(clf.estimator.classes_).index(c) for c in (2, 3, 4)]
+    ]
+    np.testing.assert_array_equal(clf.probabilities(test), expected)

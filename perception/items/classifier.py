@@ -23,8 +23,11 @@ Probabilities are over (paper, plastic, aluminium), class ids 2, 3, 4.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from sklearn.ensemble import HistGradientBoostingClassifier
+from threadpoolctl import ThreadpoolController
 
 from perception.errors import PerceptionInputError
 from perception.items.features import N_FEATURES
@@ -34,6 +37,12 @@ MATERIAL_IDS = (2, 3, 4)
 _FLOOR = 1e-4
 """Smallest probability a source may give a class, so that one overconfident source cannot veto
 the other outright."""
+
+
+@functools.cache
+def _thread_control() -> ThreadpoolController:
+    """The process's OpenMP thread pools (looked up once: the lookup costs milliseconds)."""
+    return ThreadpoolController()
 
 
 class ItemClassifier:
@@ -64,11 +73,20 @@ class ItemClassifier:
         self._columns = [list(self.estimator.classes_).index(c) for c in MATERIAL_IDS]
 
     def probabilities(self, features: np.ndarray) -> np.ndarray:
-        """(n, 3) p(class | features) over (paper, plastic, aluminium)."""
+        """(n, 3) p(class | features) over (paper, plastic, aluminium).
+
+        Computed on one thread: scikit-learn opens an OpenMP parallel region per tree (900 of
+        them) over the few items of an observation, and each region waits for a second thread;
+        with the other core busy (the renderer, another process) that wait is a scheduler time
+        slice per tree, 3 s per call measured in an episode, against 9 ms on one thread. Each
+        item's sum over the trees is the same on any number of threads.
+        """
         features = np.atleast_2d(np.asarray(features, dtype=np.float64))
         if features.shape[1] != N_FEATURES:
             raise PerceptionInputError("features", f"(n, {N_FEATURES})", features.shape)
-        return self.estimator.predict_proba(features)[:, self._columns]
+        with _thread_control().limit(limits=1, user_api="openmp"):
+            probs = self.estimator.predict_proba(features)
+        return probs[:, self._columns]
 
 
 def fuse(
