@@ -121,8 +121,8 @@ def run_episode(
     timings["total"] = wall
     timings["cpu"] = time.process_time() - cpu0  # this process's CPU time (shared machines)
     timings["decisions"] = episode.decisions
-    if video is not None:  # the video process's own CPU time (frames, encoder) [s]
-        timings |= {f"video_{k}": float(v) for k, v in video.stats.items()}
+    # The video process's own CPU time (frames, encoder) [s]; a live viewer keeps none.
+    timings |= {f"video_{k}": float(v) for k, v in getattr(video, "stats", {}).items()}
     return EpisodeResult(
         config, variant, row, episode.metrics.pick_rows(), timings, episode.latencies
     )
