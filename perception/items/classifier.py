@@ -69,7 +69,8 @@ class ItemClassifier:
             max_iter=300, learning_rate=0.08, max_leaf_nodes=15, l2_regularization=1.0,
             random_state=seed,
         )  # fmt: skip
-        self.estimator.fit(features, class_ids)
+        with _thread_control().limit(limits=1, user_api="openmp"):  # see `probabilities`
+            self.estimator.fit(features, class_ids)
         self._columns = [list(self.estimator.classes_).index(c) for c in MATERIAL_IDS]
 
     def probabilities(self, features: np.ndarray) -> np.ndarray:
