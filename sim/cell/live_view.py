@@ -17,16 +17,15 @@ the main thread: the two contexts live side by side in one process.
 
 from __future__ import annotations
 
-import contextlib
 import os
 import sys
 import threading
 import time
-import warnings
 
 import mujoco
 import numpy as np
 
+from sim.cell.rendering import quiet_stderr
 from sim.cell.video import CLASS_COLOURS, CLASS_SHORT, Overlay
 from sim.errors import InvalidInput
 
@@ -62,26 +61,6 @@ class ViewerClosed(Exception):
         self.status = status
 
 
-@contextlib.contextmanager
-def _quiet():
-    """GLFW's complaints (warnings of the `glfw` package, C messages on stderr) silenced."""
-    try:
-        saved = os.dup(2)
-    except OSError:
-        saved = None
-    try:
-        if saved is not None:
-            with open(os.devnull, "wb") as null:
-                os.dup2(null.fileno(), 2)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            yield
-    finally:
-        if saved is not None:
-            os.dup2(saved, 2)
-            os.close(saved)
-
-
 def check_display() -> None:
     """Refuse, in one line, an environment where MuJoCo's viewer cannot open a window.
 
@@ -98,7 +77,7 @@ def check_display() -> None:
             )
             raise InvalidInput("DISPLAY", allowed, "unset", WHERE)
     try:
-        with _quiet():
+        with quiet_stderr():
             import mujoco.viewer
     except (ImportError, RuntimeError) as exc:
         reason = " ".join(str(exc).split())[:120]
@@ -111,7 +90,7 @@ def check_display() -> None:
         return
     import glfw
 
-    with _quiet():
+    with quiet_stderr():
         opened = bool(glfw.init())
         if opened:
             glfw.terminate()  # the viewer's thread initialises GLFW again for itself

@@ -86,8 +86,9 @@ def _given() -> str:
 
 
 @contextlib.contextmanager
-def _quiet_stderr() -> Iterator[None]:
-    """Silence the C libraries' and GLFW's messages on stderr while the back-end is probed."""
+def quiet_stderr() -> Iterator[None]:
+    """Silence the C libraries' and GLFW's messages on stderr (and Python's warnings) while
+    a back-end is probed or a window opened."""
     try:
         saved = os.dup(2)
     except OSError:
@@ -127,7 +128,7 @@ def check_backend() -> None:
     if os.environ.get(VARIABLE, "").strip().lower() in DISABLED:
         raise _refusal("rendering is disabled")
     failure = None
-    with _quiet_stderr():
+    with quiet_stderr():
         try:
             import mujoco
 
