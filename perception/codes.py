@@ -9,6 +9,10 @@ up to 65 %, large above; under 1 % the cell counts as empty.
 
 from __future__ import annotations
 
+import math
+import re
+from dataclasses import dataclass
+
 import numpy as np
 
 CLASS_NAMES = ("void", "paper", "plastic", "aluminium")
@@ -18,6 +22,84 @@ MATERIALS = (PAPER, PLASTIC, ALUMINIUM)
 """The material classes, one bin each, in the order every value tuple uses."""
 THESIS_VALUES_EUR = (0.22, 0.25, 0.27)
 """Value of an item of each material [EUR] (thesis table 3.3), in the order of MATERIALS."""
+MAX_MATERIALS = 8
+"""Most material classes (bins) a cell may sort."""
+_MATERIAL_NAME = re.compile(r"[a-z][a-z0-9_]{0,23}")
+
+
+@dataclass(frozen=True)
+class Materials:
+    """The material classes a cell sorts, one bin each; data, not code (an item catalogue's
+    `[[material]]` entries). Class ids follow table 3.1's scheme: 1 is void (the empty belt),
+    materials are 2, 3, ... in this order; probability vectors are (void, *materials).
+
+    Attributes:
+        names: Material names, lowercase identifiers (column suffixes: `picked_<name>`).
+        values_eur: Default value of an item of each material [EUR].
+    """
+
+    names: tuple[str, ...] = CLASS_NAMES[1:]
+    values_eur: tuple[float, ...] = THESIS_VALUES_EUR
+
+    def __post_init__(self) -> None:
+        names, values = tuple(self.names), tuple(self.values_eur)
+        if not 1 <= len(names) <= MAX_MATERIALS:
+            raise ValueError(f"materials: allowed 1..{MAX_MATERIALS} (got {len(names)})")
+        for name in names:
+            if not isinstance(name, str) or not _MATERIAL_NAME.fullmatch(name):
+                raise ValueError(
+                    f"material name: allowed a lowercase identifier of up to 24 characters "
+                    f"(got {name!r})"
+                )
+        if len(set(names)) != len(names) or {"void", "none"} & set(names):
+            raise ValueError(f"material names: allowed unique names, not void/none (got {names})")
+        ok = len(values) == len(names) and all(
+            isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) and v >= 0
+            for v in values
+        )
+        if not ok:
+            raise ValueError(f"material values: allowed one finite value >= 0 EUR each ({values})")
+        object.__setattr__(self, "names", names)
+        object.__setattr__(self, "values_eur", tuple(float(v) for v in values))
+
+    @property
+    def count(self) -> int:
+        """Number of materials (bins)."""
+        return len(self.names)
+
+    @property
+    def n_states(self) -> int:
+        """Classes of a grid cell: void and every material (the HMMs' hidden states)."""
+        return len(self.names) + 1
+
+    @property
+    def ids(self) -> tuple[int, ...]:
+        """Class ids of the materials: 2, 3, ..."""
+        return tuple(range(2, 2 + len(self.names)))
+
+    @property
+    def class_names(self) -> tuple[str, ...]:
+        """Name of every class id 1.. : ("void", *names)."""
+        return ("void", *self.names)
+
+    def id_of(self, name: str) -> int:
+        """Class id of material `name`."""
+        return 2 + self.names.index(name)
+
+    def name_of(self, class_id: int | None) -> str:
+        """Name of a class id; "none" for None or 0."""
+        if not class_id:
+            return "none"
+        return self.class_names[int(class_id) - 1]
+
+    @property
+    def is_thesis(self) -> bool:
+        """The thesis's paper, plastic and aluminium (in that order)."""
+        return self.names == CLASS_NAMES[1:]
+
+
+THESIS_MATERIALS = Materials()
+"""The thesis's three materials and values (tables 3.1, 3.3): the default everywhere."""
 
 COLOURS = ("transparent", "brown", "white", "blue", "red", "green")
 SIZES = ("small", "medium", "large")

@@ -1122,7 +1122,7 @@ def test_camera_run_refuses_a_bad_hmm_cache_before_the_episode(
     capfd, tmp_path, sentinel, monkeypatch, case
 ):
     path = _write_hmm(tmp_path / "stripe_hmms.npz", dict((c[0], c[1]) for c in HMM_CASES)[case])
-    monkeypatch.setattr("sim.episode.sensing.hmm_cache_path", lambda: path)
+    monkeypatch.setattr("sim.episode.sensing.hmm_cache_path", lambda *_args: path)
     before = snapshot(sentinel)
     line = refused(capfd, ["run", "--perception", "camera", "--out", sentinel, "--quiet"])
     assert str(path) in line

@@ -17,7 +17,8 @@ def test_defaults_are_the_headline_episode():
     c = config.load(None)
     assert (c.items, c.speed_factor, c.planner, c.perception) == (100, 1.0, "qlearning", "camera")
     assert c.belt_speed_mps == pytest.approx(0.185)
-    assert c.values.by_class() == {2: 0.22, 3: 0.25, 4: 0.27}
+    assert c.values.by_class(c.materials) == {2: 0.22, 3: 0.25, 4: 0.27}
+    assert c.materials.names == ("paper", "plastic", "aluminium") and c.catalogue == ""
     assert (c.qlearning.gamma, c.qlearning.iterations, c.qlearning.batch_rows) == (0.9, 50, 20)
 
 
@@ -26,7 +27,7 @@ def test_toml_then_command_line_overrides(tmp_path):
     path.write_text('seed = 4\nitems = 30\nplanner = "proximity"\n[values]\naluminium = 1.5\n')
     c = config.load(path, items=12, speed_factor=1.2)
     assert (c.seed, c.items, c.planner, c.speed_factor) == (4, 12, "proximity", 1.2)
-    assert c.values.aluminium == 1.5 and c.values.paper == 0.22
+    assert c.values.of_materials(c.materials) == (0.22, 0.25, 1.5)
 
 
 @pytest.mark.parametrize("factor", [1.0, 1.2, 1.5, 0.73, 1.4973])
@@ -81,7 +82,8 @@ def test_every_experiment_config_loads_and_has_its_grid():
         assert len({e.key for e in sweep.episodes}) == size
     t43 = sweep_config.load(EXPERIMENTS_DIR / "table_4_3.toml")
     weighted = [e for e in t43.episodes if e.variant == "weight_class_3"]
-    assert all(e.config.values.plastic == pytest.approx(150.25) for e in weighted)
+    plastic = [e.config.values.of_materials(e.config.materials)[1] for e in weighted]
+    assert plastic == pytest.approx([150.25] * len(weighted))
     paused = sweep_config.load(EXPERIMENTS_DIR / "table_4_6_paused.toml")
     assert {e.config.robot.pick_pause_s for e in paused.episodes} == {0.5}
     t45 = sweep_config.load(EXPERIMENTS_DIR / "table_4_5.toml")

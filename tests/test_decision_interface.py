@@ -29,7 +29,8 @@ def test_both_cycle_models_satisfy_the_protocol():
     ("kwargs", "field"),
     [
         (dict(values=(0.22, -0.25, 0.27)), "values"),
-        (dict(values=(0.22, 0.25)), "values"),
+        (dict(values=()), "values"),
+        (dict(values=(0.22, 0.25)), "bins"),  # two materials, three bins
         (dict(belt_speed=-0.1), "belt_speed"),
         (dict(bins=((0, 0, 0), (1, 1, 1))), "bins"),
         (dict(cycle_model=object()), "cycle_model"),
@@ -95,7 +96,7 @@ def test_tracked_item_validation_and_bin_class():
     with pytest.raises(PlannerInputError):
         TrackedItem(1, 0.0, 0.0, (0.5, 0.5, 0.5, 0.0))
     with pytest.raises(PlannerInputError):
-        TrackedItem(1, 0.0, 0.0, (1.0, 0.0, 0.0))
+        TrackedItem(1, 0.0, 0.0, (1.0,))  # void alone: no material
     with pytest.raises(PlannerInputError):
         RobotState((0.0, 0.0), 0.0)
     # Void most probable overall, but the bin is the most probable material's.

@@ -44,9 +44,10 @@ def test_picks_rows_match_the_episode(short_run):
 
 
 def test_profit_counts_only_items_in_their_own_bin(short_run):
-    row, values = short_run.episode_row, short_run.config.values
-    top = row["picked_paper"] * values.paper + row["picked_plastic"] * values.plastic
-    top += row["picked_aluminium"] * values.aluminium
+    row, config = short_run.episode_row, short_run.config
+    paper, plastic, aluminium = config.values.of_materials(config.materials)
+    top = row["picked_paper"] * paper + row["picked_plastic"] * plastic
+    top += row["picked_aluminium"] * aluminium
     assert row["profit_eur"] <= top + 1e-9
     if row["wrong_bin"] == 0:
         assert row["profit_eur"] == pytest.approx(top)

@@ -37,7 +37,10 @@ def save_models(path: Path | str, models: StripeHmms, cells_per_item=None) -> Pa
         path = path.with_name(path.name + ".npz")
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp.npz")
-    extra = {} if cells_per_item is None else {"cells_per_item": _cells(cells_per_item, path)}
+    states = models.pi.shape[1]
+    extra = (
+        {} if cells_per_item is None else {"cells_per_item": _cells(cells_per_item, path, states)}
+    )
     try:
         np.savez(
             tmp,
@@ -116,23 +119,23 @@ def load_models(
         raise PerceptionInputError(field, f"{exc.field}: {exc.allowed}", exc.got) from None
 
 
-def _cells(values, path) -> np.ndarray:
-    allowed = f"cells_per_item of {N_STATES} counts, finite and > 0 for the item classes"
+def _cells(values, path, states: int = N_STATES) -> np.ndarray:
+    allowed = f"cells_per_item of {states} counts, finite and > 0 for the item classes"
     arr = np.asarray(values)
     if arr.dtype.kind not in "fiu":
         raise PerceptionInputError(f"hmm file {path}", allowed, str(arr.dtype))
     arr = arr.astype(np.float64)
-    ok = arr.shape == (N_STATES,) and not np.any(np.isnan(arr))
+    ok = arr.shape == (states,) and not np.any(np.isnan(arr))
     if not ok or not np.all(np.isfinite(arr[1:])) or np.any(arr[1:] <= 0):
-        got = arr.tolist() if arr.size <= N_STATES else f"shape {arr.shape}"
+        got = arr.tolist() if arr.size <= states else f"shape {arr.shape}"
         raise PerceptionInputError(f"hmm file {path}", allowed, got)
     return arr
 
 
-def load_cells_per_item(path: Path | str) -> np.ndarray | None:
+def load_cells_per_item(path: Path | str, states: int = N_STATES) -> np.ndarray | None:
     """The expected cells per item (N,) stored beside the models, None if the file has none."""
-    load_models(path)
+    load_models(path, states=states)
     with np.load(path, allow_pickle=False) as data:
         if "cells_per_item" not in data.files:
             return None
-        return _cells(data["cells_per_item"], path)
+        return _cells(data["cells_per_item"], path, states)

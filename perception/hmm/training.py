@@ -66,65 +66,79 @@ def _grid(name: str, grid, low: int, high: int, stripes: int | None) -> np.ndarr
     return arr.astype(np.intp)
 
 
-def neighbour_classes(classes: np.ndarray) -> np.ndarray:
+def neighbour_classes(classes: np.ndarray, n_states: int = N_STATES) -> np.ndarray:
     """(rows, S, N) fraction of each stripe's neighbours in each class (1/|neighbours| each)."""
     rows, s = classes.shape
-    onehot = np.eye(N_STATES)[classes - 1]
-    out = np.zeros((rows, s, N_STATES))
+    onehot = np.eye(n_states)[classes - 1]
+    out = np.zeros((rows, s, n_states))
     if s == 1:
-        return out + 1.0 / N_STATES
+        return out + 1.0 / n_states
     out[:, 1:] += onehot[:, :-1]
     out[:, :-1] += onehot[:, 1:]
     out[:, 1:-1] *= 0.5
     return out
 
 
-def count_models(classes_grids, codes_grids, smoothing: float = 0.5, coupled: bool = False):
+def count_models(
+    classes_grids,
+    codes_grids,
+    smoothing: float = 0.5,
+    coupled: bool = False,
+    n_states: int = N_STATES,
+):
     """Supervised StripeHmms from labelled grids (thesis 3.2.2) with additive smoothing.
 
     Args:
-        classes_grids: arrays (rows, S) of true classes 1..4, one per recording.
+        classes_grids: arrays (rows, S) of true classes 1..n_states, one per recording.
         codes_grids: arrays (rows, S) of observation codes 1..19, aligned with classes_grids.
         smoothing: Pseudo-count added to every counted entry (> 0).
-        coupled: Count transitions per neighbour class at t-1 (C = 4) or not (C = 1).
+        coupled: Count transitions per neighbour class at t-1 (C = N) or not (C = 1).
+        n_states: N, the classes: void and the materials (4: the thesis's three).
     """
     TrainConfig(smoothing=smoothing)
     classes_grids, codes_grids = list(classes_grids), list(codes_grids)
     if not classes_grids or len(classes_grids) != len(codes_grids):
         raise PerceptionInputError("grids", "equal, non-zero numbers of class and code grids")
     s = np.asarray(classes_grids[0]).shape[1] if np.ndim(classes_grids[0]) == 2 else 0
-    n_ctx = N_STATES if coupled else 1
-    pi = np.full((s, N_STATES), smoothing)
-    trans = np.full((s, n_ctx, N_STATES, N_STATES), smoothing)
-    emis = np.full((s, N_STATES, N_CODES), smoothing)
+    n_ctx = n_states if coupled else 1
+    pi = np.full((s, n_states), smoothing)
+    trans = np.full((s, n_ctx, n_states, n_states), smoothing)
+    emis = np.full((s, n_states, N_CODES), smoothing)
     stripe = np.arange(s)
     for cls, codes in zip(classes_grids, codes_grids, strict=True):
-        cls = _grid("classes", cls, 1, N_STATES, s)
+        cls = _grid("classes", cls, 1, n_states, s)
         codes = _grid("codes", codes, 1, N_CODES, s)
         if codes.shape != cls.shape:
             raise PerceptionInputError("codes", f"a grid of the classes' shape {cls.shape}")
         np.add.at(pi, (stripe[None], cls - 1), 1.0)
         np.add.at(emis, (stripe[None], cls - 1, codes - 1), 1.0)
         prev, nxt = cls[:-1] - 1, cls[1:] - 1
-        ctx = neighbour_classes(cls)[:-1] if coupled else np.ones(prev.shape + (1,))
+        ctx = neighbour_classes(cls, n_states)[:-1] if coupled else np.ones(prev.shape + (1,))
         for c in range(n_ctx):
             np.add.at(trans, (stripe[None], c, prev, nxt), ctx[..., c])
     norm = [m / m.sum(axis=-1, keepdims=True) for m in (pi, trans, emis)]
     return StripeHmms(*norm)
 
 
-def train(classes_grids, codes_grids, unlabelled_codes=(), config: TrainConfig = TrainConfig()):
+def train(
+    classes_grids,
+    codes_grids,
+    unlabelled_codes=(),
+    config: TrainConfig = TrainConfig(),
+    n_states: int = N_STATES,
+):
     """Counted initialisation on the labelled grids, then Baum-Welch on the codes of all grids.
 
     Args:
         classes_grids, codes_grids: Labelled recordings (see `count_models`).
         unlabelled_codes: Further (rows, S) code grids used only by re-estimation.
         config: Training options.
+        n_states: Classes (void and the materials).
 
     Returns:
         (initial, trained) StripeHmms: the counted models and the re-estimated ones.
     """
-    initial = count_models(classes_grids, codes_grids, config.smoothing, config.coupled)
+    initial = count_models(classes_grids, codes_grids, config.smoothing, config.coupled, n_states)
     if config.max_iter == 0:
         return initial, initial
     seqs = [np.asarray(g).T for g in list(codes_grids) + list(unlabelled_codes)]

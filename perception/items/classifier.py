@@ -50,18 +50,27 @@ class ItemClassifier:
 
     Args:
         features: (n, N_FEATURES) training features.
-        class_ids: (n,) true class ids (2 paper, 3 plastic, 4 aluminium).
+        class_ids: (n,) true class ids (2 paper, 3 plastic, 4 aluminium by default).
         seed: Seed of the estimator's randomness.
+        material_ids: The material class ids, in the order of the probabilities' columns
+            (2, 3, ...; the thesis's three by default).
     """
 
-    def __init__(self, features: np.ndarray, class_ids: np.ndarray, seed: int = 0):
+    def __init__(
+        self,
+        features: np.ndarray,
+        class_ids: np.ndarray,
+        seed: int = 0,
+        material_ids: tuple[int, ...] = MATERIAL_IDS,
+    ):
+        material_ids = tuple(int(c) for c in material_ids)
         features = np.asarray(features, dtype=np.float64)
         class_ids = np.asarray(class_ids, dtype=np.int64)
         if features.ndim != 2 or features.shape[1] != N_FEATURES:
             raise PerceptionInputError("features", f"(n, {N_FEATURES})", features.shape)
-        if len(class_ids) != len(features) or not set(class_ids.tolist()) <= set(MATERIAL_IDS):
-            raise PerceptionInputError("class_ids", f"one of {MATERIAL_IDS} per row", class_ids)
-        counts = np.array([np.sum(class_ids == c) for c in MATERIAL_IDS], dtype=float)
+        if len(class_ids) != len(features) or not set(class_ids.tolist()) <= set(material_ids):
+            raise PerceptionInputError("class_ids", f"one of {material_ids} per row", class_ids)
+        counts = np.array([np.sum(class_ids == c) for c in material_ids], dtype=float)
         if np.any(counts < 5):
             raise PerceptionInputError("class_ids", "at least 5 items of each class", counts)
         self.train_prior = counts / counts.sum()
@@ -71,10 +80,11 @@ class ItemClassifier:
         )  # fmt: skip
         with _thread_control().limit(limits=1, user_api="openmp"):  # see `probabilities`
             self.estimator.fit(features, class_ids)
-        self._columns = [list(self.estimator.classes_).index(c) for c in MATERIAL_IDS]
+        self.material_ids = material_ids
+        self._columns = [list(self.estimator.classes_).index(c) for c in material_ids]
 
     def probabilities(self, features: np.ndarray) -> np.ndarray:
-        """(n, 3) p(class | features) over (paper, plastic, aluminium).
+        """(n, m) p(class | features) over the m materials (paper, plastic, aluminium).
 
         Computed on one thread: scikit-learn opens an OpenMP parallel region per tree (900 of
         them) over the few items of an observation, and each region waits for a second thread;

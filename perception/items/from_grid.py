@@ -30,6 +30,7 @@ from perception.errors import PerceptionInputError
 SUB_COLUMNS = 5
 BIN = -1
 ITEM_CLASSES = (2, 3, 4)
+"""The thesis's material classes (a catalogue may have others: 2..N)."""
 
 
 @dataclass(frozen=True)
@@ -84,18 +85,20 @@ class GridItems:
 
 def expand_grid(classes) -> np.ndarray:
     """(rows, 27) grid: each stripe repeated over 5 columns, bin columns 0 and 26 set to -1."""
-    grid = _classes(classes)
+    grid = _classes(classes, None)
     inner = np.repeat(grid, SUB_COLUMNS, axis=1)
     bins = np.full((grid.shape[0], 1), BIN)
     return np.hstack([bins, inner, bins])
 
 
-def _classes(classes) -> np.ndarray:
+def _classes(classes, n_states: int | None = N_STATES) -> np.ndarray:
+    """The grid, checked: integers 1..n_states (any class >= 1 when n_states is None)."""
     grid = np.asarray(classes)
     if grid.ndim != 2 or not np.issubdtype(grid.dtype, np.integer):
         raise PerceptionInputError("classes", "an integer grid (rows, stripes)", grid.shape)
-    if grid.size and (grid.min() < 1 or grid.max() > N_STATES):
-        raise PerceptionInputError("classes", f"classes 1..{N_STATES}", (grid.min(), grid.max()))
+    top = np.iinfo(np.int64).max if n_states is None else n_states
+    if grid.size and (grid.min() < 1 or grid.max() > top):
+        raise PerceptionInputError("classes", f"classes 1..{top}", (grid.min(), grid.max()))
     return grid
 
 
@@ -137,10 +140,11 @@ def items_kmeans(
     """Items by k-means per class and batch of rows (thesis 3.4, 4.1.2).
 
     Args:
-        classes: (rows, S) decoded classes 1..4.
+        classes: (rows, S) decoded classes 1..N (1 void, 2.. the materials).
         geometry: Cell positions on the belt.
-        cells_per_item: (4,) expected expanded cells per item of classes 1..4 (index class-1).
-        posteriors: Optional (rows, S, 4) class posteriors for the confidences.
+        cells_per_item: (N,) expected expanded cells per item of classes 1..N (index class-1);
+            N = 4 for the thesis's three materials.
+        posteriors: Optional (rows, S, N) class posteriors for the confidences.
         batch_rows: Rows per batch (20 in the thesis).
         seed: Seed of k-means's initialisation.
         first_row: Index of the grid's first row since the episode began (sets `b`).
@@ -148,16 +152,18 @@ def items_kmeans(
     Returns:
         The items; `cells` hold (row, stripe) indices into `classes`.
     """
-    expanded = expand_grid(classes)
     size = np.asarray(cells_per_item, dtype=float)
-    if size.shape != (N_STATES,) or np.any(size[1:] <= 0):
-        raise PerceptionInputError("cells_per_item", "4 expected cell counts, > 0 for 2..4", size)
+    if size.ndim != 1 or len(size) < 2 or np.any(size[1:] <= 0):
+        allowed = "N >= 2 expected cell counts, > 0 for the materials 2..N"
+        raise PerceptionInputError("cells_per_item", allowed, size)
+    _classes(classes, len(size))
+    expanded = expand_grid(classes)
     if int(batch_rows) != batch_rows or batch_rows < 1:
         raise PerceptionInputError("batch_rows", "an integer >= 1", batch_rows)
     items = {"b": [], "y": [], "class_id": [], "confidence": [], "cells": []}
     for start in range(0, expanded.shape[0], int(batch_rows)):
         batch = expanded[start : start + int(batch_rows)]
-        for cls in ITEM_CLASSES:
+        for cls in range(2, len(size) + 1):
             rows, cols = np.nonzero(batch == cls)
             if rows.size == 0:
                 continue
@@ -177,9 +183,9 @@ def items_components(
     classes, geometry: GridGeometry, posteriors=None, first_row: int = 0
 ) -> GridItems:
     """Items as 8-connected regions of one class in the (rows, S) grid (args as items_kmeans)."""
-    grid = _classes(classes)
+    grid = _classes(classes, None)
     items = {"b": [], "y": [], "class_id": [], "confidence": [], "cells": []}
-    for cls in ITEM_CLASSES:
+    for cls in range(2, int(grid.max(initial=VOID)) + 1):
         labels, count = ndimage.label(grid == cls, structure=np.ones((3, 3)))
         for label in range(1, count + 1):
             rows, stripes = np.nonzero(labels == label)
@@ -189,15 +195,17 @@ def items_components(
 
 
 def cells_per_item(classes_grids, item_counts) -> np.ndarray:
-    """(4,) expected expanded cells per item of each class, from labelled grids.
+    """(N,) expected expanded cells per item of each class, from labelled grids.
 
     Args:
         classes_grids: (rows, S) true class grids.
-        item_counts: (4,) number of items of each class (index class-1) in those grids.
+        item_counts: (N,) number of items of each class (index class-1) in those grids.
     """
-    cells = np.zeros(N_STATES)
+    n_states = len(item_counts)
+    cells = np.zeros(n_states)
     for grid in classes_grids:
-        cells += np.bincount(_classes(grid).ravel() - 1, minlength=N_STATES) * SUB_COLUMNS
+        counted = np.bincount(_classes(grid, n_states).ravel() - 1, minlength=n_states)
+        cells += counted * SUB_COLUMNS
     counts = np.asarray(item_counts, dtype=float)
     out = np.where(counts > 0, cells / np.maximum(counts, 1), np.inf)
     out[VOID - 1] = np.inf

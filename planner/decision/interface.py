@@ -1,8 +1,11 @@
 """The decision managers' interface: tracked items, robot state, context, choice, protocols.
 
 A decision manager takes the items tracked on the belt (position at the decision time and class
-probabilities over void/paper/plastic/aluminium), the robot's state and a context (belt speed,
-bins, values, cycle-time model, reachable window) and returns the next item to pick, or None.
+probabilities over void and the materials: paper, plastic, aluminium by default, or a
+catalogue's own), the robot's state and a context (belt speed, one bin and one value per
+material, cycle-time model, reachable window) and returns the next item to pick, or None.
+Material class ids are 2, 3, ... in the materials' order (1 is void); the context's `bins` and
+`values` follow that order.
 
 Expected value: an item goes to the bin of its most probable material class c; it earns the
 value of c only when its true class is c (a wrong bin earns nothing), so its expected value is
@@ -19,9 +22,8 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 from perception.codes import (
-    CLASS_NAMES,
     MATERIALS,
-    N_STATES,
+    MAX_MATERIALS,
     THESIS_VALUES_EUR,
 )
 from planner.decision.energy_cost import EnergyPrice
@@ -54,18 +56,21 @@ class TrackedItem:
         item_id: Identifier, unique within an episode.
         x: Position along the belt at the decision time [m].
         y: Position across the belt [m].
-        class_probs: (4,) probabilities over void, paper, plastic, aluminium (sum 1).
+        class_probs: (1 + m,) probabilities over void and the m materials (sum 1): void,
+            paper, plastic, aluminium for the thesis's.
     """
 
     item_id: int
     x: float
     y: float
-    class_probs: tuple[float, float, float, float]
+    class_probs: tuple[float, ...]
 
     def __post_init__(self):
         probs = np.asarray(self.class_probs, dtype=float)
-        if probs.shape != (N_STATES,) or not np.all(np.isfinite(probs)) or np.any(probs < 0):
-            raise PlannerInputError("class_probs", "4 finite probabilities >= 0", self.class_probs)
+        ok = probs.ndim == 1 and 2 <= len(probs) <= MAX_MATERIALS + 1
+        if not ok or not np.all(np.isfinite(probs)) or np.any(probs < 0):
+            allowed = f"2..{MAX_MATERIALS + 1} finite probabilities >= 0 (void, materials)"
+            raise PlannerInputError("class_probs", allowed, self.class_probs)
         if abs(probs.sum() - 1.0) > 1e-6:
             raise PlannerInputError("class_probs", "probabilities summing to 1", probs.sum())
         if not (math.isfinite(self.x) and math.isfinite(self.y)):
@@ -73,22 +78,24 @@ class TrackedItem:
         probs_t = tuple(float(p) for p in probs)
         object.__setattr__(self, "class_probs", probs_t)
         materials = probs_t[1:]
-        object.__setattr__(self, "_bin_class", MATERIALS[materials.index(max(materials))])
+        object.__setattr__(self, "_bin_class", 2 + materials.index(max(materials)))
 
     @classmethod
-    def certain(cls, item_id: int, x: float, y: float, class_code: int) -> TrackedItem:
-        """An item of known class (truth mode); `class_code` 1..4 as in perception.codes."""
-        if class_code not in (1, *MATERIALS):
+    def certain(
+        cls, item_id: int, x: float, y: float, class_code: int, n_materials: int = len(MATERIALS)
+    ) -> TrackedItem:
+        """An item of known class (truth mode); `class_code` 1 (void) or 2..1+n_materials."""
+        if not 1 <= class_code <= 1 + n_materials:
             raise PlannerInputError(
-                "class_code", "1..4 (void, paper, plastic, aluminium)", class_code
+                "class_code", f"1..{1 + n_materials} (void, the materials)", class_code
             )
-        probs = [0.0] * N_STATES
+        probs = [0.0] * (1 + n_materials)
         probs[class_code - 1] = 1.0
         return cls(item_id, float(x), float(y), tuple(probs))
 
     @property
     def bin_class(self) -> int:
-        """Most probable material class (2..4): the bin the item goes to."""
+        """Most probable material class (2, 3, ...): the bin the item goes to."""
         return self._bin_class
 
 
@@ -116,8 +123,9 @@ class DecisionContext:
         belt_speed: Belt speed along +x [m/s].
         cycle_model: Cycle-time estimator (the ruckig-fitted model in real runs).
         window: Where the cup can meet an item on the belt.
-        bins: Release points of the paper, plastic and aluminium bins [m], three (x, y, z).
-        values: Value of a paper, plastic and aluminium item [EUR] (thesis table 3.3).
+        bins: Release points of the materials' bins [m], one (x, y, z) per material (paper,
+            plastic, aluminium by default).
+        values: Value of an item of each material [EUR] (thesis table 3.3 by default).
         energy: The price of a pick's motor energy (`planner.decision.energy_cost`); at the
             default price 0 no planner sees it.
     """
@@ -126,20 +134,23 @@ class DecisionContext:
     cycle_model: CycleTimeEstimator
     window: ReachWindow
     bins: tuple[tuple[float, float, float], ...] = DEFAULT_BINS
-    values: tuple[float, float, float] = THESIS_VALUES
+    values: tuple[float, ...] = THESIS_VALUES
     energy: EnergyPrice = EnergyPrice()
 
     def __post_init__(self):
         if not (math.isfinite(self.belt_speed) and self.belt_speed >= 0.0):
             raise PlannerInputError("belt_speed", "a finite speed >= 0 [m/s]", self.belt_speed)
         values = tuple(float(v) for v in self.values)
-        if len(values) != 3 or not all(math.isfinite(v) and v >= 0.0 for v in values):
+        ok = 1 <= len(values) <= MAX_MATERIALS
+        if not ok or not all(math.isfinite(v) and v >= 0.0 for v in values):
             raise PlannerInputError(
-                "values", "three finite values >= 0 [EUR] for paper, plastic, aluminium", values
+                "values", "a finite value >= 0 [EUR] per material (paper, plastic, ...)", values
             )
         bins = tuple(tuple(float(c) for c in b) for b in self.bins)
-        if len(bins) != 3 or any(len(b) != 3 or not all(map(math.isfinite, b)) for b in bins):
-            raise PlannerInputError("bins", "three (x, y, z) release points [m]", self.bins)
+        if len(bins) != len(values) or any(
+            len(b) != 3 or not all(map(math.isfinite, b)) for b in bins
+        ):
+            raise PlannerInputError("bins", "one (x, y, z) release point per value [m]", self.bins)
         if not isinstance(self.energy, EnergyPrice):
             raise PlannerInputError("energy", "an EnergyPrice", type(self.energy).__name__)
         if not isinstance(self.cycle_model, CycleTimeEstimator):
@@ -148,12 +159,18 @@ class DecisionContext:
         object.__setattr__(self, "bins", bins)
 
     def value_of(self, class_code: int) -> float:
-        """Value of one item of material `class_code` (2..4) [EUR]; void is worth 0."""
-        return self.values[MATERIALS.index(class_code)] if class_code in MATERIALS else 0.0
+        """Value of one item of material `class_code` (2, 3, ...) [EUR]; void is worth 0."""
+        k = class_code - 2
+        return self.values[k] if 0 <= k < len(self.values) else 0.0
 
     def bin_of(self, class_code: int) -> tuple[float, float, float]:
-        """Release point of the bin of material `class_code` (2..4) [m]."""
-        return self.bins[MATERIALS.index(class_code)]
+        """Release point of the bin of material `class_code` (2, 3, ...) [m]."""
+        return self.bins[class_code - 2]
+
+    @property
+    def n_materials(self) -> int:
+        """Materials (bins) of the cell."""
+        return len(self.values)
 
     def expected_value(self, item: TrackedItem) -> float:
         """p(bin class) * value(bin class) [EUR]: what dropping the item in its bin earns."""
@@ -167,7 +184,7 @@ class DecisionContext:
             return expected_value
         return expected_value - self.energy.cost_eur(distance_m)
 
-    def with_values(self, values: tuple[float, float, float]) -> DecisionContext:
+    def with_values(self, values: tuple[float, ...]) -> DecisionContext:
         """The same context with other class values [EUR]."""
         return DecisionContext(
             self.belt_speed, self.cycle_model, self.window, self.bins, values, self.energy
@@ -182,7 +199,7 @@ class Choice:
         item_id: The chosen item.
         expected_value: Its expected value [EUR].
         meet_time: Predicted time the cup meets it [s] (clock of RobotState).
-        bin_class: Material class whose bin it goes to (2..4).
+        bin_class: Material class whose bin it goes to (2, 3, ...).
         reason: One line for logs and video overlays.
     """
 
@@ -191,11 +208,6 @@ class Choice:
     meet_time: float
     bin_class: int
     reason: str
-
-    @property
-    def bin_name(self) -> str:
-        """Name of the destination class ('paper', 'plastic', 'aluminium')."""
-        return CLASS_NAMES[self.bin_class - 1]
 
 
 class DecisionManager(Protocol):

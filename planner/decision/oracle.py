@@ -37,7 +37,7 @@ import time
 from dataclasses import dataclass
 
 from planner.decision.candidates import Candidate, candidates, choice_of, exit_time, intercept
-from planner.decision.interface import MATERIALS, Choice, DecisionContext, RobotState, TrackedItem
+from planner.decision.interface import Choice, DecisionContext, RobotState, TrackedItem
 from planner.errors import PlannerInputError
 from planner.motion.cycle_model import CycleTimeModel, jerk_limited_time
 from planner.motion.straight_line_timing import StraightLineCycleModel
@@ -167,7 +167,7 @@ class SequenceSearch:
     Args:
         items: Items on the belt, x at robot.time [m].
         values: What picking each item earns [EUR].
-        bin_classes: Bin each item goes to (2..4).
+        bin_classes: Bin each item goes to (material class 2, 3, ...).
         robot: Start position and time.
         context: Belt speed, timing model, window, bins.
     """
@@ -188,7 +188,7 @@ class SequenceSearch:
         if not (len(values) == len(bin_classes) == n):
             raise PlannerInputError("values, bin_classes", "one per item", (len(values), n))
         self.items, self.values, self.context = items, [float(v) for v in values], context
-        self.bin_index = [MATERIALS.index(c) for c in bin_classes]
+        self.bin_index = [c - 2 for c in bin_classes]
         self.t0, self.start = robot.time, robot.tcp
         self.exits = [exit_time(context, self.t0, it.x, it.y) for it in items]
         self.window = [context.window.bounds(it.y) for it in items]
@@ -450,7 +450,7 @@ def best_sequence(
     Args:
         items: Items on the belt, x at robot.time [m].
         values: What picking each item earns [EUR] (true values for the bound).
-        bin_classes: Bin each item goes to (2..4).
+        bin_classes: Bin each item goes to (material class 2, 3, ...).
         robot: Start position and time.
         context: Belt speed, timing model, window, bins.
         max_nodes: Stop after this many nodes (None: search to the end). A stopped search

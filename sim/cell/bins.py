@@ -16,9 +16,11 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from perception.codes import THESIS_MATERIALS, Materials
 from sim.cell.item_pool import ItemPool
 
-BIN_CLASSES = ("paper", "plastic", "aluminium")
+BIN_CLASSES = THESIS_MATERIALS.names
+"""The thesis's bins (a catalogue's materials name others)."""
 REST_SPEED = 0.02
 """Speed under which an item counts as at rest [m/s]."""
 REST_TIME = 0.1
@@ -27,14 +29,15 @@ REST_TIME = 0.1
 
 @dataclass(frozen=True)
 class Landing:
-    """An item that came to rest: in a bin (`bin` is its class name) or dropped (`bin` None).
+    """An item that came to rest: in a bin (`bin` is its material) or dropped (`bin` None).
 
     Attributes:
         item_id: Flow id.
-        true_class: Class id of the item (2 paper, 3 plastic, 4 aluminium).
-        bin: Class name of the bin it landed in, or None when dropped outside every bin.
+        true_class: Class id of the item (2, 3, ...: its material).
+        bin: Material name of the bin it landed in, or None when dropped outside every bin.
         time: Simulation time it was judged [s].
         position: Where its centre was [m].
+        bin_class: Class id of the bin's material, None when dropped.
     """
 
     item_id: int
@@ -42,26 +45,35 @@ class Landing:
     bin: str | None
     time: float
     position: tuple[float, float, float]
+    bin_class: int | None = None
 
     @property
     def correct(self) -> bool:
         """Landed in the bin of its own class."""
-        return self.bin is not None and BIN_CLASSES.index(self.bin) + 2 == self.true_class
+        return self.bin_class is not None and self.bin_class == self.true_class
 
 
 class Bins:
     """Judges where items come to rest; keeps the records.
 
     Args:
-        model: The cell (bins `bin_paper`, `bin_plastic`, `bin_aluminium`).
+        model: The cell (a bin `bin_<material>` per material: `sim.cell.bin_layout`).
         data: Its data (the bins are static; their interiors are read once).
         pool: The item pool whose items are judged and parked.
+        materials: The cell's materials (the thesis's by default).
     """
 
-    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, pool: ItemPool):
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        data: mujoco.MjData,
+        pool: ItemPool,
+        materials: Materials = THESIS_MATERIALS,
+    ):
         self.pool = pool
+        self.materials = materials
         mujoco.mj_kinematics(model, data)
-        self.interiors = {c: self._interior(model, data, c) for c in BIN_CLASSES}
+        self.interiors = {c: self._interior(model, data, c) for c in materials.names}
         self.lowest_z = min(lo[2] for lo, _ in self.interiors.values())
         self.landed: list[Landing] = []
         self.dropped: list[Landing] = []
@@ -120,7 +132,10 @@ class Bins:
             slot = int(slot)
             where = None if fell_through else self.bin_at(p)
             true_class = pool.item_type(slot).class_id
-            record = Landing(int(pool.item_ids[slot]), true_class, where, t, tuple(map(float, p)))
+            bin_class = None if where is None else self.materials.id_of(where)
+            record = Landing(
+                int(pool.item_ids[slot]), true_class, where, t, tuple(map(float, p)), bin_class
+            )
             (self.landed if where else self.dropped).append(record)
             new.append(record)
             self._rest_since[slot] = np.nan

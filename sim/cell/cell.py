@@ -12,7 +12,6 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from perception.codes import ALUMINIUM, PAPER, PLASTIC
 from planner.motion.kinematics import reachable_mask
 from planner.motion.limits import limits_for_payload
 from planner.motion.reach_window import ReachWindow
@@ -23,9 +22,8 @@ from sim.cell.item_pool import ItemPool
 from sim.cell.mjcf import load_scene
 from sim.cell.riding import wake_line
 from sim.cell.robot import geometry_from_model, tcp_position
-from sim.flow.catalogue import load_catalogue
+from sim.flow.catalogue import Catalogue, load_catalogue
 
-BIN_NAMES = {PAPER: "paper", PLASTIC: "plastic", ALUMINIUM: "aluminium"}
 PICK_Z_NOMINAL = 0.02
 """TCP height of the reachable window the planners use (a typical item top) [m]."""
 DESIGN_PAYLOAD_KG = 1.0
@@ -36,13 +34,17 @@ class Cell:
     """The compiled cell (model, data) and its robot, belt, pool and bins.
 
     Args:
-        model: A compiled cell; `sim.cell.mjcf.load_scene()` when omitted.
+        model: A compiled cell; `sim.cell.mjcf.load_scene()` with one bin per material of
+            `catalogue` when omitted.
+        catalogue: The item catalogue (its materials name the bins); the default one
+            (`sim/data/items.toml`, the thesis's paper, plastic and aluminium) when omitted.
     """
 
-    def __init__(self, model: mujoco.MjModel | None = None):
-        self.model = model if model is not None else load_scene()
+    def __init__(self, model: mujoco.MjModel | None = None, catalogue: Catalogue | None = None):
+        self.catalogue = catalogue if catalogue is not None else load_catalogue()
+        self.materials = self.catalogue.materials
+        self.model = model if model is not None else load_scene(materials=self.materials)
         self.data = mujoco.MjData(self.model)
-        self.catalogue = load_catalogue()
         self.belt = Belt(self.model)
         self.pool = ItemPool(self.model, self.catalogue, self.belt)
         self.geometry = geometry_from_model(self.model)
@@ -55,7 +57,8 @@ class Cell:
         )
         mujoco.mj_forward(self.model, self.data)
         self.drop_xyz = {
-            c: self.data.site(f"bin_{name}_drop").xpos.copy() for c, name in BIN_NAMES.items()
+            c: self.data.site(f"bin_{name}_drop").xpos.copy()
+            for c, name in zip(self.materials.ids, self.materials.names, strict=True)
         }
         self._home_key = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_KEY, "home")
         self.item_radius = max(
@@ -67,8 +70,8 @@ class Cell:
         whose largest item is larger than `item_radius` wakes them that much earlier."""
 
     def bins_tuple(self) -> tuple[tuple[float, float, float], ...]:
-        """Release points of the paper, plastic and aluminium bins, for the planners [m]."""
-        return tuple(tuple(float(v) for v in self.drop_xyz[c]) for c in (PAPER, PLASTIC, ALUMINIUM))
+        """Release points of the materials' bins, in material order, for the planners [m]."""
+        return tuple(tuple(float(v) for v in self.drop_xyz[c]) for c in self.materials.ids)
 
     def reset(self, belt_speed: float) -> None:
         """Park every item, robot to `home`, belt at `belt_speed` [m/s], clock at 0."""

@@ -26,7 +26,7 @@ import mujoco
 import numpy as np
 
 from sim.cell.rendering import quiet_stderr
-from sim.cell.video import CLASS_COLOURS, CLASS_SHORT, Overlay
+from sim.cell.video import Overlay
 from sim.errors import InvalidInput
 
 FRAME_RATE_HZ = 30.0
@@ -208,7 +208,7 @@ class LiveView:
             return
         scene.ngeom = 0
         for track_id, x, y, z, cls, prob in overlay.items[: scene.maxgeom]:
-            rgba = np.array([*CLASS_COLOURS.get(cls, (200, 200, 200)), 255], dtype=float) / 255
+            rgba = np.array([*overlay.colours.get(cls, (200, 200, 200)), 255], dtype=float) / 255
             big = track_id == overlay.next_pick
             radius = ITEM_RADIUS_M * (2.0 if big else 1.0)
             geom = scene.geoms[scene.ngeom]
@@ -220,7 +220,7 @@ class LiveView:
                 np.eye(3).ravel(),
                 rgba.astype(np.float32),
             )
-            name = CLASS_SHORT.get(cls, "?")
+            name = overlay.short.get(cls, "?")
             geom.label = name if prob >= 0.995 else f"{name} {prob:.0%}"
             scene.ngeom += 1
 

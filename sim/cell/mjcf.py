@@ -209,9 +209,28 @@ def compile_spec(
     return model
 
 
-def load_scene(path: str | Path = SCENE_XML) -> mujoco.MjModel:
-    """The sorting cell (`models/cell/scene.xml`): robot, belt, bins, cameras, items."""
-    return load_model(path, CELL_ELEMENTS)
+def cell_elements(materials=None) -> tuple[Element, ...]:
+    """`CELL_ELEMENTS` with the bins of `materials` (the thesis's when None)."""
+    from sim.cell.bin_layout import bin_elements
+
+    if materials is None or tuple(materials.names) == _BINS:
+        return CELL_ELEMENTS
+    thesis_bins = {f"bin_{b}_floor_plate" for b in _BINS} | {f"bin_{b}_drop" for b in _BINS}
+    kept = tuple(e for e in CELL_ELEMENTS if e[1] not in thesis_bins)
+    return kept + bin_elements(materials)
+
+
+def load_scene(path: str | Path = SCENE_XML, materials=None) -> mujoco.MjModel:
+    """The sorting cell (`models/cell/scene.xml`): robot, belt, bins, cameras, items; with one
+    bin per material of `materials` (`perception.codes.Materials`; the file's thesis bins when
+    None or the thesis's materials, `sim.cell.bin_layout`)."""
+    if materials is None or tuple(materials.names) == _BINS:
+        return load_model(path, CELL_ELEMENTS)
+    from sim.cell.bin_layout import lay_out_bins
+
+    spec = load_spec(path, CELL_ELEMENTS)
+    lay_out_bins(spec, materials)
+    return compile_spec(spec, path, cell_elements(materials))
 
 
 def load_robot(path: str | Path = ROBOT_XML) -> mujoco.MjModel:

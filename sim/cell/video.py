@@ -61,6 +61,21 @@ LABEL_OFFSETS = ((4, -4), (4, 12), (-34, -4), (-34, 12), (4, -18), (-34, -18), (
 # BGR-free: frames are RGB; one colour per predicted class (paper, plastic, aluminium).
 CLASS_COLOURS = {2: (230, 170, 60), 3: (80, 200, 255), 4: (235, 235, 235)}
 CLASS_SHORT = {2: "PAP", 3: "PL", 4: "AL"}
+PALETTE = (
+    (230, 170, 60), (80, 200, 255), (235, 235, 235), (120, 230, 120),
+    (255, 120, 200), (255, 230, 90), (170, 140, 255), (255, 140, 90),
+)  # fmt: skip
+"""Label colours of a catalogue's materials, in material order (the first three the thesis's)."""
+_THESIS_SHORT = {"paper": "PAP", "plastic": "PL", "aluminium": "AL"}
+
+
+def class_labels(materials) -> tuple[dict[int, str], dict[int, tuple[int, int, int]]]:
+    """({class id: short label}, {class id: RGB}) of `materials`' classes for the overlays:
+    the thesis's PAP, PL, AL, else the name's first four letters in capitals (PET, HDPE)."""
+    pairs = zip(materials.ids, materials.names, strict=True)
+    short = {c: _THESIS_SHORT.get(n, n[:4].upper()) for c, n in pairs}
+    colours = {c: PALETTE[k % len(PALETTE)] for k, c in enumerate(materials.ids)}
+    return short, colours
 
 
 @dataclass
@@ -76,6 +91,10 @@ class Overlay:
     items: list[tuple[int, float, float, float, int, float]] = field(default_factory=list)
     next_pick: int | None = None
     counters: list[str] = field(default_factory=list)
+    short: dict[int, str] = field(default_factory=lambda: dict(CLASS_SHORT))
+    """Short label of each class id (the materials')."""
+    colours: dict[int, tuple[int, int, int]] = field(default_factory=lambda: dict(CLASS_COLOURS))
+    """RGB of each class id's labels."""
 
 
 def view_camera() -> mujoco.MjvCamera:
@@ -154,11 +173,10 @@ def annotate(frame: np.ndarray, uv: np.ndarray, overlay: Overlay) -> np.ndarray:
         if not (np.isfinite(u) and np.isfinite(v)):
             continue
         p = (int(round(u)), int(round(v)))
-        colour = CLASS_COLOURS.get(cls, (200, 200, 200))
+        colour = overlay.colours.get(cls, (200, 200, 200))
         cv2.circle(frame, p, 3, colour, -1, cv2.LINE_AA)
-        label = (
-            f"{CLASS_SHORT.get(cls, '?')} {prob:.0%}" if prob < 0.995 else CLASS_SHORT.get(cls, "?")
-        )
+        name = overlay.short.get(cls, "?")
+        label = f"{name} {prob:.0%}" if prob < 0.995 else name
         (w, h), _ = cv2.getTextSize(label, font, 0.33, 1)
         corner = place_label(p, (w, h), taken)
         if corner is not None:
@@ -626,23 +644,24 @@ def overlay_of(episode, t: float) -> Overlay:
         cls = tr.predicted_class
         items.append((tr.track_id, tr.x_at(t, episode.speed), tr.y, 0.03, cls, tr.probs[cls - 1]))
     m = episode.metrics
+    short, colours = class_labels(m.materials)
     counters = [
         f"t {t:5.1f} s  x{episode.config.speed_factor:g}  {episode.config.planner}  "
         f"{episode.config.perception}",
         f"entered {m.n_entered}  picked {m.n_picked}  missed {len(m.missed)}",
         f"profit {m.profit:.2f} EUR",
-        "purity " + purity_text(m.binned),
+        "purity " + purity_text(m.binned, short),
     ]
     pick = None if episode.current_pick is None else episode.current_pick.track_id
-    return Overlay(items=items, next_pick=pick, counters=counters)
+    return Overlay(items, pick, counters, short, colours)
 
 
-def purity_text(binned: dict[int, tuple[int, int]]) -> str:
+def purity_text(binned: dict[int, tuple[int, int]], short: dict[int, str] = CLASS_SHORT) -> str:
     """'PAP 1.00  PL 0.95  AL -': each bin's share of items of its own class so far ('-' for
-    an empty bin), from {item: (true class, bin class)}."""
+    an empty bin), from {item: (true class, bin class)}; `short`: each bin's label."""
     parts = []
-    for cls, short in CLASS_SHORT.items():
+    for cls, label in short.items():
         in_bin = [t for t, b in binned.values() if b == cls]
         share = f"{sum(t == cls for t in in_bin) / len(in_bin):.2f}" if in_bin else "-"
-        parts.append(f"{short} {share}")
+        parts.append(f"{label} {share}")
     return "  ".join(parts)

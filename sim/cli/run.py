@@ -98,6 +98,13 @@ def add_episode_arguments(parser: argparse.ArgumentParser) -> None:
         help="varied: item sizes, shapes, colours and gaps vary as on a real belt; uniform: "
         "every item its catalogue type's (default varied; docs/world.md)",
     )
+    parser.add_argument(
+        "--catalogue",
+        default=None,
+        metavar="TOML",
+        help="item catalogue: its materials (one bin each), values and item types "
+        "(default sim/data/items.toml: paper, plastic, aluminium; docs/materials.md)",
+    )
     for name in WORLD_NUMBERS:
         parser.add_argument(
             "--" + name.replace("_", "-"),
@@ -137,7 +144,8 @@ class Progress:
 def _by_class(row: dict, what: str) -> str:
     """'paper 0.9500, plastic -, ...' of the `what`_<class> columns ('-': undefined)."""
     parts = []
-    for name in ("paper", "plastic", "aluminium"):
+    names = [k.removeprefix(f"{what}_") for k in row if k.startswith(f"{what}_")]
+    for name in names:
         value = row[f"{what}_{name}"]
         parts.append(f"{name} " + ("-" if value is None else f"{value:.4f}"))
     return ", ".join(parts)
@@ -146,16 +154,17 @@ def _by_class(row: dict, what: str) -> str:
 def summary(result) -> str:
     """The one-screen summary of an episode."""
     r, c = result.episode_row, result.config
+    names = c.materials.names
+
+    def per_material(what: str) -> str:
+        return ", ".join(f"{n} {r[f'{what}_{n}']}" for n in names)
+
     lines = [
         f"episode: seed {c.seed}, {c.items} items over {c.duration_s:g} s, "
         f"belt x{c.speed_factor:g} ({c.belt_speed_mps:.3f} m/s), planner {c.planner}, "
         f"perception {c.perception}",
-        f"entered the belt (SI)  {r['entered']:>6}   "
-        f"(paper {r['entered_paper']}, plastic {r['entered_plastic']}, "
-        f"aluminium {r['entered_aluminium']})",
-        f"picked into bins (SP)  {r['picked']:>6}   "
-        f"(paper {r['picked_paper']}, plastic {r['picked_plastic']}, "
-        f"aluminium {r['picked_aluminium']})",
+        f"entered the belt (SI)  {r['entered']:>6}   ({per_material('entered')})",
+        f"picked into bins (SP)  {r['picked']:>6}   ({per_material('picked')})",
         f"wrong bin              {r['wrong_bin']:>6}",
         f"missed (left the belt) {r['missed']:>6}",
         f"dropped                {r['dropped']:>6}",
@@ -219,10 +228,11 @@ def check_perception(config) -> None:
     from sim.episode.sensing import hmm_cache_path
     from sim.episode.stripe_hmms import read_cache
 
-    cache = hmm_cache_path()
+    catalogue, mix = config.item_catalogue, config.flow.flow_kwargs()
+    cache = hmm_cache_path(catalogue, mix)
     if cache.exists():
-        read_cache(cache)
-    if config.classifier != "hmm":
+        read_cache(cache, n_states=catalogue.materials.n_states)
+    if config.classifier != "hmm" and not config.catalogue:
         from sim.episode.item_classifier import trained_item_classifier
 
         trained_item_classifier()  # a missing or broken training table, refused now
@@ -238,13 +248,17 @@ def main(args: argparse.Namespace) -> int:
     preflight(config, out, args.video)
     video = None if args.video is None else Path(args.video)
     remove_stale_temporaries(out, CACHE_DIR, *([] if video is None else [video.parent]))
+    from sim.experiments.item_features import prepare_camera
+
+    prepare_camera(config)  # a custom catalogue's item classifier table, recorded once
     from sim.episode.runner import run_episode
 
     progress = None if args.quiet else Progress()
     result = run_episode(config, video_path=video, progress=progress)
     if progress is not None:
         progress.done()
-    outputs.write_episodes(out / "episodes.csv", [result.episode_row])
+    columns = outputs.episode_columns(config.materials)
+    outputs.write_episodes(out / "episodes.csv", [result.episode_row], columns)
     outputs.write_picks(out / "picks.csv", result.pick_rows)
     from sim.episode import manifest
 
@@ -272,5 +286,6 @@ def load_config(args: argparse.Namespace):
         min_class_confidence=args.min_confidence,
         classifier=args.classifier,
         world=args.world,
+        catalogue=args.catalogue,
         **{name: getattr(args, name) for name in WORLD_NUMBERS},
     )

@@ -77,6 +77,14 @@ def main(args: argparse.Namespace) -> int:
     from sim.episode import manifest
 
     manifest.write(args.out, manifest.build("sweep", sweep_manifest_config(config), seeds(config)))
+    from sim.experiments.item_features import prepare_camera
+
+    prepared = set()
+    for spec in config.episodes:  # a custom catalogue's item classifier table, recorded once
+        key = (spec.config.catalogue, repr(spec.config.flow), spec.config.classifier)
+        if key not in prepared and spec.config.perception == "camera":
+            prepared.add(key)
+            prepare_camera(spec.config)
 
     log = logging.getLogger("sim.experiments.sweep")
     # On a terminal a bar with the ETA is redrawn in place (the per-episode lines go to

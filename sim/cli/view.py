@@ -56,10 +56,13 @@ def main(args: argparse.Namespace) -> int:
 
         check_camera_beside_viewer()
     check_perception(config)
+    from sim.experiments.item_features import prepare_camera
+
+    prepare_camera(config)
     from sim.cell.live_view import LiveView, ViewerClosed
     from sim.episode.runner import run_episode, shared_cell
 
-    cell = shared_cell()
+    cell = shared_cell(config.item_catalogue)
     view = LiveView(cell.model, cell.data, args.real_time_factor, panels=args.panels)
     progress = None if args.quiet else Progress()
     try:

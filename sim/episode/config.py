@@ -32,10 +32,20 @@ TOML layout (every key optional; defaults are the headline episode)::
     min_gap_m = 0.0             # least gap between items [m] (uniform: 0.005)
     overlap_share = 0.1         # items allowed to lie partly over a flat neighbour
     overlap_depth_m = 0.02      # how far over it [m]
-    [values]                    # EUR per item (thesis table 3.3)
-    paper = 0.22
-    plastic = 0.25
+    catalogue = ""              # item catalogue TOML (its [[material]] entries name the
+                                # materials, one bin each); "": sim/data/items.toml (the
+                                # thesis's paper, plastic, aluminium). Relative paths are
+                                # taken from the directory the command runs in.
+    [values]                    # EUR per item of a material, or of one item type (which then
+    paper = 0.22                # overrides its material's in the profit); unset: the
+    plastic = 0.25              # catalogue's value_eur (thesis table 3.3 by default)
     aluminium = 0.27
+    [flow]                      # the class mix of the flow (default: the thesis's for its
+    class_priors = [0.29, 0.36, 0.35]   # three materials, equal shares otherwise); one entry
+    transitions = [[0.46, 0.30, 0.24],  # per material in the catalogue's order
+                   [0.22, 0.50, 0.28],
+                   [0.20, 0.28, 0.52]]
+    stripe_priors = [0.16, 0.22, 0.24, 0.22, 0.16]
     [qlearning]                 # the thesis's Q-learning (also read by rollout); seeded by seed
     gamma = 0.9
     iterations = 50
@@ -59,11 +69,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from perception.codes import THESIS_VALUES_EUR
+from perception.codes import Materials
 from planner.decision.registry import ALLOWED as ALLOWED_PLANNERS
 from planner.decision.registry import check_planner
 from planner.motion.belt_speeds import SPEED_RANGE_MPS, SPEED_TOLERANCE_MPS, SPEED_X1_MPS
 from sim.errors import InvalidInput, RefusedInput
+from sim.flow.catalogue import DEFAULT_CATALOGUE, Catalogue, load_catalogue
 from sim.flow.config import FlowConfig
 from sim.flow.world import WorldVariation
 
@@ -101,26 +112,129 @@ def belt_speed_mps(speed_factor: float) -> float:
     return BELT_SPEED_X1_MPS * float(speed_factor)
 
 
+@functools.lru_cache(maxsize=16)
+def _catalogue_at(path: str, mtime_ns: int, size: int) -> Catalogue:
+    return load_catalogue(path)
+
+
+def episode_catalogue(path: str) -> Catalogue:
+    """The item catalogue of a config's `catalogue` key ("": the default), read once per
+    file version; refused in one line (`InvalidInput`) when it cannot be used."""
+    file = Path(path) if path else DEFAULT_CATALOGUE
+    try:
+        stat = file.stat()
+    except OSError as exc:
+        allowed = "an item catalogue TOML file"
+        raise InvalidInput("catalogue", allowed, f"{path}: {exc.strerror}") from None
+    if not file.is_file():
+        raise InvalidInput("catalogue", "an item catalogue TOML file", f"{path}: not a file")
+    try:
+        return _catalogue_at(str(file), stat.st_mtime_ns, stat.st_size)
+    except InvalidInput as exc:
+        field = exc.field if exc.field.startswith("catalogue") else f"catalogue: {exc.field}"
+        raise InvalidInput(field, exc.allowed, exc.got, exc.where or str(file)) from None
+
+
 @dataclass(frozen=True)
 class Values:
-    """Value of an item of each class [EUR] (thesis table 3.3)."""
+    """Value of an item [EUR]: per material (thesis table 3.3 by default), or per item type of
+    the catalogue (which overrides its material's value in the profit). Names not set take
+    the catalogue's `value_eur` of their material.
 
-    paper: float = THESIS_VALUES_EUR[0]
-    plastic: float = THESIS_VALUES_EUR[1]
-    aluminium: float = THESIS_VALUES_EUR[2]
+    Attributes:
+        eur: (name, EUR) pairs as the `[values]` table gives them.
+    """
+
+    eur: tuple[tuple[str, float], ...] = ()
 
     def __post_init__(self) -> None:
-        for name in ("paper", "plastic", "aluminium"):
-            got = getattr(self, name)
-            _check(_number(got) and 0.0 <= got <= 1e6, f"values.{name}", "0..1e6 EUR", got, None)
+        pairs = tuple((k, v) for k, v in self.eur)
+        for name, got in pairs:
+            ok = _number(got) and 0.0 <= got <= 1e6
+            _check(ok, f"values.{name}", "0..1e6 EUR", got, None)
+        object.__setattr__(self, "eur", pairs)
 
-    def by_class(self) -> dict[int, float]:
-        """Value per class id (2 paper, 3 plastic, 4 aluminium) [EUR]."""
-        return {2: float(self.paper), 3: float(self.plastic), 4: float(self.aluminium)}
+    @classmethod
+    def from_table(cls, table: dict[str, Any]) -> Values:
+        """The `[values]` table: {material or item type name: EUR}."""
+        return cls(tuple(table.items()))
 
-    def as_tuple(self) -> tuple[float, float, float]:
-        """(paper, plastic, aluminium) [EUR], the decision managers' order."""
-        return (self.paper, self.plastic, self.aluminium)
+    def given(self) -> dict[str, float]:
+        """{name: EUR} as set."""
+        return {k: float(v) for k, v in self.eur}
+
+    def of_materials(self, materials: Materials) -> tuple[float, ...]:
+        """EUR per material, in the materials' order (the decision managers' order)."""
+        given = self.given()
+        return tuple(
+            given.get(n, d) for n, d in zip(materials.names, materials.values_eur, strict=True)
+        )
+
+    def by_class(self, materials: Materials) -> dict[int, float]:
+        """EUR per material class id (2, 3, ...)."""
+        return dict(zip(materials.ids, self.of_materials(materials), strict=True))
+
+    def of_types(self, catalogue: Catalogue) -> dict[int, float]:
+        """{catalogue type index: EUR} of the item types given a value of their own (their
+        shape variants, a crushed can of a can type, take it too)."""
+        given = self.given()
+        out = {}
+        for k, t in enumerate(catalogue.types):
+            base = t.variant_of or t.name
+            if base in given:
+                out[k] = given[base]
+        return out
+
+    def check_names(self, catalogue: Catalogue, where: str | None) -> None:
+        """Refuse a name that is neither a material nor a base item type of `catalogue`."""
+        names = set(catalogue.materials.names)
+        names |= {t.name for t in catalogue.types if not t.variant_of}
+        for name, _ in self.eur:
+            allowed = "a material (" + ", ".join(catalogue.materials.names) + ") or item type"
+            _check(name in names, f"values.{name}", allowed, None, where)
+
+    def table(self, materials: Materials) -> dict[str, float]:
+        """The resolved `[values]` table: every material's value, then the item types'."""
+        out = dict(zip(materials.names, self.of_materials(materials), strict=True))
+        out.update({k: v for k, v in self.given().items() if k not in out})
+        return out
+
+
+@dataclass(frozen=True)
+class FlowMix:
+    """The flow's class mix (`sim.flow.config.FlowConfig`): None takes the default for the
+    catalogue's materials (the thesis's for paper, plastic and aluminium).
+
+    Attributes:
+        class_priors: P(class) of a stripe's first item, one per material.
+        transitions: P(next class | previous class) within a stripe, one row per material.
+        stripe_priors: P(stripe) of an item, 5 entries.
+    """
+
+    class_priors: tuple[float, ...] | None = None
+    transitions: tuple[tuple[float, ...], ...] | None = None
+    stripe_priors: tuple[float, ...] | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("class_priors", "stripe_priors"):
+            v = getattr(self, name)
+            ok = v is None or (isinstance(v, list | tuple) and all(_number(x) for x in v))
+            _check(ok, f"flow.{name}", "a list of probabilities", v, None)
+            if v is not None:
+                object.__setattr__(self, name, tuple(float(x) for x in v))
+        v = self.transitions
+        ok = v is None or (
+            isinstance(v, list | tuple)
+            and all(isinstance(r, list | tuple) and all(_number(x) for x in r) for r in v)
+        )
+        _check(ok, "flow.transitions", "a list of rows of probabilities", v, None)
+        if v is not None:
+            object.__setattr__(self, "transitions", tuple(tuple(float(x) for x in r) for r in v))
+
+    def flow_kwargs(self) -> dict[str, Any]:
+        """The `FlowConfig` keywords set here."""
+        names = ("class_priors", "transitions", "stripe_priors")
+        return {n: getattr(self, n) for n in names if getattr(self, n) is not None}
 
 
 @dataclass(frozen=True)
@@ -207,7 +321,9 @@ class EpisodeConfig:
     min_gap_m: float | None = None
     overlap_share: float | None = None
     overlap_depth_m: float | None = None
+    catalogue: str = ""
     values: Values = field(default_factory=Values)
+    flow: FlowMix = field(default_factory=FlowMix)
     qlearning: QLearning = field(default_factory=QLearning)
     video: Video = field(default_factory=Video)
     robot: Robot = field(default_factory=Robot)
@@ -259,7 +375,37 @@ class EpisodeConfig:
             _ = self.world_variation
         except InvalidInput as exc:
             raise InvalidInput(exc.field, exc.allowed, exc.got, w) from None
+        ok = isinstance(self.catalogue, str) and "\0" not in self.catalogue
+        _check(ok, "catalogue", "a path to an item catalogue TOML file", self.catalogue, w)
+        try:
+            catalogue = self.item_catalogue
+        except InvalidInput as exc:
+            raise InvalidInput(exc.field, exc.allowed, exc.got, exc.where or w) from None
+        self.values.check_names(catalogue, w)
         self._check_flow()
+
+    @property
+    def item_catalogue(self) -> Catalogue:
+        """The item catalogue (`catalogue`; the default when "")."""
+        return episode_catalogue(self.catalogue)
+
+    @property
+    def materials(self) -> Materials:
+        """The catalogue's materials: the classes, one bin each."""
+        return self.item_catalogue.materials
+
+    def flow_config(self) -> FlowConfig:
+        """The episode's flow settings."""
+        return FlowConfig(
+            n_items=self.items,
+            duration_s=self.duration_s,
+            speed_factor=self.speed_factor,
+            seed=self.seed,
+            observation_period_s=self.observation_period_s,
+            world=self.world_variation,
+            n_materials=self.materials.count,
+            **self.flow.flow_kwargs(),
+        )
 
     @property
     def world_variation(self) -> WorldVariation:
@@ -271,10 +417,20 @@ class EpisodeConfig:
     def _check_flow(self) -> None:
         """The flow's own limits (its density: items per metre of belt), checked now rather
         than when the episode starts."""
+        mix = tuple(sorted(self.flow.flow_kwargs().items()))
         try:
-            _flow_check(self.items, self.duration_s, self.speed_factor, self.observation_period_s)
+            _flow_check(
+                self.items,
+                self.duration_s,
+                self.speed_factor,
+                self.observation_period_s,
+                self.materials.count,
+                mix,
+            )
         except InvalidInput as exc:
             key = {"n_items": "items"}.get(exc.field, exc.field)
+            if key in ("class_priors", "transitions", "stripe_priors"):
+                key = f"flow.{key}"
             raise InvalidInput(key, exc.allowed, exc.got, self.where) from None
 
     @property
@@ -290,21 +446,43 @@ class EpisodeConfig:
         """Plain dict of every setting (TOML layout), for reports and sweep keys."""
         out = dataclasses.asdict(self)
         out.pop("where")
+        out["values"] = self.values.table(self.materials)
+        out["flow"] = {k: _plain(v) for k, v in self.flow.flow_kwargs().items()}
         return out
 
 
+def _plain(value: Any) -> Any:
+    """Tuples as lists (TOML's and JSON's arrays), nested."""
+    return [_plain(v) for v in value] if isinstance(value, tuple | list) else value
+
+
 @functools.lru_cache(maxsize=4096)
-def _flow_check(items: int, duration_s: float, speed_factor: float, period_s: float) -> None:
+def _flow_check(
+    items: int,
+    duration_s: float,
+    speed_factor: float,
+    period_s: float,
+    n_materials: int = 3,
+    mix: tuple = (),
+) -> None:
     """`FlowConfig`'s checks of these settings (cached: a sweep repeats them for every seed)."""
     FlowConfig(
         n_items=items,
         duration_s=duration_s,
         speed_factor=speed_factor,
         observation_period_s=period_s,
+        n_materials=n_materials,
+        **dict(mix),
     )
 
 
-_SECTIONS = {"values": Values, "qlearning": QLearning, "video": Video, "robot": Robot}
+_SECTIONS = {
+    "values": Values,
+    "flow": FlowMix,
+    "qlearning": QLearning,
+    "video": Video,
+    "robot": Robot,
+}
 _SCALARS = {f.name for f in dataclasses.fields(EpisodeConfig)} - set(_SECTIONS) - {"where"}
 
 
@@ -324,6 +502,9 @@ def _from_dict(data: dict[str, Any], where: str | None) -> EpisodeConfig:
         if key in _SECTIONS:
             cls = _SECTIONS[key]
             _check(isinstance(value, dict), key, "a table [" + key + "]", value, where)
+            if cls is Values:
+                kwargs[key] = Values.from_table(value)
+                continue
             names = {f.name for f in dataclasses.fields(cls)}
             for sub in value:
                 _check(

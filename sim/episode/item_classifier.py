@@ -14,6 +14,7 @@ import functools
 import hashlib
 import os
 import pickle
+from pathlib import Path
 
 import numpy as np
 import sklearn
@@ -50,9 +51,48 @@ def _cache_path(path) -> object:
     return CACHE_DIR / f"item_classifier-{digest.hexdigest()[:12]}.pkl"
 
 
-@functools.lru_cache(maxsize=2)
-def trained_item_classifier(path=TRAINING_TABLE) -> ItemClassifier:
-    """The item classifier fitted on the training table (from the cache when there)."""
+CUSTOM_TRAIN_SEEDS = tuple(range(100, 106))
+CUSTOM_SPEED_FACTORS = (1.0, 1.5)
+"""The training flows recorded for a catalogue other than the default (12 flows of 100 items;
+the shipped table of the default catalogue has 36): seeds disjoint from every evaluation's."""
+
+
+def is_default_catalogue(catalogue) -> bool:
+    """The shipped catalogue (`sim/data/items.toml`), whose training table is shipped too."""
+    from sim.flow.catalogue import load_catalogue
+
+    return catalogue is None or catalogue.digest == load_catalogue().digest
+
+
+def catalogue_table(catalogue, mix: dict | None = None) -> Path:
+    """Where the training table of `catalogue` (and its class `mix`) is kept (runs/cache, named
+    by content): recorded once through the camera perception by
+    `sim.experiments.item_features.ensure_catalogue_table`, which `sortsim run`, `sweep` and
+    `view` call before a camera episode on another catalogue than the default."""
+    key = hashlib.sha1(catalogue.digest.encode())
+    key.update(repr(sorted((mix or {}).items())).encode())
+    return CACHE_DIR / f"item_features-{key.hexdigest()[:12]}.npz"
+
+
+def trained_item_classifier(catalogue=None, mix: dict | None = None) -> ItemClassifier:
+    """The item classifier of `catalogue` (the default one when None): fitted on the shipped
+    training table for the default catalogue, on a table recorded for any other
+    (`catalogue_table`); from the cache when there."""
+    if is_default_catalogue(catalogue):
+        return _fitted(TRAINING_TABLE, (2, 3, 4))
+    path = catalogue_table(catalogue, mix)
+    if not path.exists():
+        allowed = (
+            "the item classifier's training table of this catalogue, recorded by "
+            "`sortsim run` (or sim.experiments.item_features.ensure_catalogue_table)"
+        )
+        raise InvalidInput("item table", allowed, "missing", str(path))
+    return _fitted(path, catalogue.materials.ids)
+
+
+@functools.lru_cache(maxsize=4)
+def _fitted(path, material_ids: tuple[int, ...]) -> ItemClassifier:
+    """The item classifier fitted on the table at `path` (from the cache when there)."""
     if not path.exists():
         allowed = "the item classifier's training table (python -m sim.experiments.item_features)"
         raise InvalidInput("item table", allowed, "missing", str(path))
@@ -61,7 +101,9 @@ def trained_item_classifier(path=TRAINING_TABLE) -> ItemClassifier:
         with open(cache, "rb") as f:
             return pickle.load(f)
     table = load_table(path)
-    classifier = ItemClassifier(table["features"], table["class_id"], seed=FIT_SEED)
+    classifier = ItemClassifier(
+        table["features"], table["class_id"], seed=FIT_SEED, material_ids=material_ids
+    )
     cache.parent.mkdir(parents=True, exist_ok=True)
     tmp = cache.with_name(f".{cache.stem}.{os.getpid()}.pkl")
     with open(tmp, "wb") as f:

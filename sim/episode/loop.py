@@ -25,7 +25,7 @@ import numpy as np
 from planner.decision.energy_cost import EnergyPrice
 from planner.decision.interface import Choice, DecisionContext, RobotState, TrackedItem
 from planner.decision.registry import make_planner
-from sim.cell.bins import BIN_CLASSES, Bins
+from sim.cell.bins import Bins
 from sim.cell.cell import PICK_Z_NOMINAL, Cell
 from sim.cell.depth_noise import ZED_CLASS
 from sim.cell.monitors.energy import EnergyMeter
@@ -41,7 +41,8 @@ from sim.episode.metrics import EpisodeMetrics, PickRecord
 from sim.episode.pick_control import PRESS_DEPTH_M, PickController, PickOutcome
 from sim.episode.sensing import CAMERA_SIZE, CameraPerception, TruthPerception
 from sim.episode.tracking import Tracker
-from sim.flow.config import X_INFEED, FlowConfig
+from sim.errors import InvalidInput
+from sim.flow.config import X_INFEED
 from sim.flow.generator import generate_flow
 from sim.flow.ground_truth import yaw_from_xmat
 
@@ -128,21 +129,28 @@ class Episode:
         cell = self.cell
         self.speed = config.belt_speed_mps
         cell.reset(self.speed)
-        flow_config = FlowConfig(
-            n_items=config.items,
-            duration_s=config.duration_s,
-            speed_factor=config.speed_factor,
-            seed=config.seed,
-            observation_period_s=config.observation_period_s,
-            world=config.world_variation,
-        )
-        self.flow = generate_flow(flow_config, cell.catalogue, cell.pool.size)
+        if cell.catalogue.digest != config.item_catalogue.digest:
+            raise InvalidInput(
+                "catalogue", "the catalogue the cell was built from", config.catalogue or "default"
+            )
+        self.flow = generate_flow(config.flow_config(), cell.catalogue, cell.pool.size)
         self.t_last_spawn = float(self.flow.t_spawn[-1]) if len(self.flow) else 0.0
         self.x_discard = float(np.nanmax(cell.window.x_exit)) + DISCARD_MARGIN_M
         # When the last item has passed the robot (the end of a normal episode) and a cap.
         self.t_end = self.t_last_spawn + (self.x_discard - X_INFEED) / self.speed + SETTLE_S
         self.t_cap = self.t_end + 10.0
-        self.metrics = EpisodeMetrics(config.values.by_class(), config.energy_price_eur_per_kwh)
+        materials = cell.materials
+        type_values = config.values.of_types(cell.catalogue)
+        self.metrics = EpisodeMetrics(
+            config.values.by_class(materials),
+            config.energy_price_eur_per_kwh,
+            materials,
+            item_values={
+                i: type_values[int(k)]
+                for i, k in enumerate(self.flow.type_index.tolist())
+                if int(k) in type_values
+            },
+        )
         self.tracker = Tracker(self.speed)
         self.planner.reset()
         pauses = config.robot
@@ -153,7 +161,7 @@ class Episode:
             pauses.place_pause_s,
             items=self.flow.item_types(cell.catalogue),
         )
-        self.bins = Bins(self.model, self.data, cell.pool)
+        self.bins = Bins(self.model, self.data, cell.pool, materials)
         # Riders wake upstream of the robot by the largest item's radius (`sim.cell.riding`).
         radius = max(
             (float(cell.pool.props(int(k), f)["geom_rbound"]) for k, f in
@@ -190,7 +198,7 @@ class Episode:
             ),
             window=cell.window,
             bins=cell.bins_tuple(),
-            values=config.values.as_tuple(),
+            values=config.values.of_materials(materials),
             energy=EnergyPrice(config.energy_price_eur_per_kwh),
         )
         period = config.observation_period_s
@@ -207,6 +215,7 @@ class Episode:
                 classifier=config.classifier,
                 depth_noise=ZED_CLASS if config.depth_noise else None,
                 seed=config.seed,
+                mix=config.flow.flow_kwargs(),
             )
         # Scheduled events: the next drop, observation, item check and decision [s].
         self.next_spawn = 0
@@ -473,8 +482,7 @@ class Episode:
                 # reached a bin otherwise (knocked off the belt) is dropped.
                 self.metrics.on_dropped(landing.item_id)
             else:
-                bin_class = BIN_CLASSES.index(landing.bin) + 2
-                self.metrics.on_binned(landing.item_id, landing.true_class, bin_class)
+                self.metrics.on_binned(landing.item_id, landing.true_class, landing.bin_class)
             self.tracker.remove_true(landing.item_id)
         self._book_unsure(self.tracker.prune(t, self.x_discard))
         self.riding.update(data, held, robot_busy=self.robot.busy)

@@ -68,17 +68,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from perception.codes import ALUMINIUM, CLASS_NAMES, PAPER, PLASTIC
+from perception.codes import ALUMINIUM, PAPER, PLASTIC, THESIS_MATERIALS, Materials
 from sim.cell.monitors.energy import JOULES_PER_KWH
 
 ITEM_CLASSES = (PAPER, PLASTIC, ALUMINIUM)
+"""The thesis's material classes (a catalogue's materials may be others)."""
 
 
-def class_name(class_id: int | None) -> str:
+def class_name(class_id: int | None, materials: Materials = THESIS_MATERIALS) -> str:
     """Name of a class id ('paper', ...), 'none' for None or 0."""
-    if not class_id:
-        return "none"
-    return CLASS_NAMES[int(class_id) - 1]
+    return materials.name_of(class_id)
 
 
 @dataclass(frozen=True)
@@ -97,15 +96,15 @@ class PickRecord:
     energy_elec_j: float = 0.0
     sealed: bool = True  # False: the cup never sealed, it carried no item (not in picks.csv)
 
-    def row(self) -> dict[str, object]:
-        """The picks.csv row of this attempt."""
+    def row(self, materials: Materials = THESIS_MATERIALS) -> dict[str, object]:
+        """The picks.csv row of this attempt (class names those of `materials`)."""
         return {
             "t_start_s": self.t_start_s,
             "t_end_s": self.t_end_s,
             "item_id": self.item_id,
-            "true_class": class_name(self.true_class),
-            "predicted_class": class_name(self.predicted_class),
-            "bin": class_name(self.bin),
+            "true_class": class_name(self.true_class, materials),
+            "predicted_class": class_name(self.predicted_class, materials),
+            "bin": class_name(self.bin, materials),
             "success": self.success,
             "cycle_s": self.t_end_s - self.t_start_s,
             "travel_m": self.travel_m,
@@ -118,16 +117,27 @@ class EpisodeMetrics:
     """Accumulates what happens to the items and the robot during one episode.
 
     Args:
-        values: Value per class id [EUR] (2 paper, 3 plastic, 4 aluminium).
+        values: Value per material class id [EUR] (2 paper, 3 plastic, 4 aluminium).
         energy_price: Price of the motors' electrical energy [EUR/kWh].
+        materials: The cell's materials (the columns `picked_<name>` ... follow them).
+        item_values: Value of single items [EUR] ({item id: EUR}) where their type has its
+            own value (`[values]` of an item type); the others are worth their class's.
     """
 
-    def __init__(self, values: dict[int, float], energy_price: float = 0.0):
+    def __init__(
+        self,
+        values: dict[int, float],
+        energy_price: float = 0.0,
+        materials: Materials = THESIS_MATERIALS,
+        item_values: dict[int, float] | None = None,
+    ):
         self.values = dict(values)
+        self.materials = materials
+        self.item_values = dict(item_values or {})
         self.energy_price = float(energy_price)
         self.energy_mech_j = 0.0  # the robot's motor energy over the episode so far [J]
         self.energy_elec_j = 0.0
-        self.entered = {c: 0 for c in ITEM_CLASSES}
+        self.entered = {c: 0 for c in materials.ids}
         self.entered_ids: set[int] = set()
         self.detected: set[int] = set()  # items some track was attributed to
         self.left_unsure = 0  # tracks the confidence rule kept from the decision manager
@@ -202,7 +212,8 @@ class EpisodeMetrics:
     @property
     def profit(self) -> float:
         """Value of the items in their own class's bin [EUR]."""
-        return sum(self.values[t] for t, b in self.binned.values() if t == b)
+        worth = self.item_values
+        return sum(worth.get(i, self.values[t]) for i, (t, b) in self.binned.items() if t == b)
 
     def picked_of(self, class_id: int) -> int:
         """Items of true class `class_id` placed into a bin."""
@@ -242,11 +253,10 @@ class EpisodeMetrics:
         """The episode's counters as episodes.csv columns (config and timing added by caller)."""
         n_in = self.n_entered
         cycles = [p.t_end_s - p.t_start_s for p in self.picks if p.success]
+        names = dict(zip(self.materials.ids, self.materials.names, strict=True))
         return {
             "picked": self.n_picked,
-            "picked_paper": self.picked_of(PAPER),
-            "picked_plastic": self.picked_of(PLASTIC),
-            "picked_aluminium": self.picked_of(ALUMINIUM),
+            **{f"picked_{names[c]}": self.picked_of(c) for c in self.materials.ids},
             "wrong_bin": sum(1 for t, b in self.binned.values() if t != b),
             "missed": len(self.missed),
             "accuracy": self.n_picked / n_in if n_in else 0.0,
@@ -256,9 +266,7 @@ class EpisodeMetrics:
             "attempts": len(self.picks),
             "failed_picks": sum(1 for p in self.picks if not p.success),
             "dropped": len(self.dropped),
-            "entered_paper": self.entered[PAPER],
-            "entered_plastic": self.entered[PLASTIC],
-            "entered_aluminium": self.entered[ALUMINIUM],
+            **{f"entered_{names[c]}": self.entered[c] for c in self.materials.ids},
             "mujoco_warnings": self.mujoco_warnings,
             "thrown_off": len(self.thrown_off),
             "energy_mech_j": self.energy_mech_j,
@@ -271,10 +279,10 @@ class EpisodeMetrics:
     def quality_row(self) -> dict[str, object]:
         """The sorting-quality columns (purity and recovery are None where undefined)."""
         row: dict[str, object] = {}
-        for c in ITEM_CLASSES:
-            row[f"purity_{class_name(c)}"] = self.purity(c)
-        for c in ITEM_CLASSES:
-            row[f"recovery_{class_name(c)}"] = self.recovery(c)
+        for c in self.materials.ids:
+            row[f"purity_{self.materials.name_of(c)}"] = self.purity(c)
+        for c in self.materials.ids:
+            row[f"recovery_{self.materials.name_of(c)}"] = self.recovery(c)
         row["never_detected"] = self.n_never_detected
         row["empty_picks"] = self.n_empty_picks
         row["left_unsure"] = self.left_unsure
@@ -303,7 +311,7 @@ class EpisodeMetrics:
         if missed & dropped:
             fails.append(f"missed&dropped overlap: {sorted(missed & dropped)}")
         for what in ("entered", "picked"):
-            parts = sum(row[f"{what}_{c}"] for c in ("paper", "plastic", "aluminium"))
+            parts = sum(row[f"{what}_{c}"] for c in self.materials.names)
             if parts != row[what]:
                 fails.append(f"{what} {row[what]} != sum by class {parts}")
         carried = row["attempts"] - row["failed_picks"]
@@ -325,8 +333,8 @@ class EpisodeMetrics:
         fails = []
         own = row["picked"] - row["wrong_bin"]
         by_bin = by_class = 0.0
-        for c in ITEM_CLASSES:
-            name = class_name(c)
+        for c in self.materials.ids:
+            name = self.materials.name_of(c)
             purity, recovery = row[f"purity_{name}"], row[f"recovery_{name}"]
             if (purity is None) != (self.in_bin(c) == 0):
                 fails.append(f"purity_{name} {purity} but {self.in_bin(c)} items in the bin")
@@ -354,4 +362,5 @@ class EpisodeMetrics:
 
     def pick_rows(self) -> list[dict[str, object]]:
         """picks.csv rows, in the order the attempts started."""
-        return [p.row() for p in sorted(self.picks, key=lambda p: (p.t_start_s, p.item_id))]
+        rows = sorted(self.picks, key=lambda p: (p.t_start_s, p.item_id))
+        return [p.row(self.materials) for p in rows]

@@ -23,6 +23,7 @@ import os
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
+from perception.codes import THESIS_MATERIALS, Materials
 from sim.errors import InvalidInput
 from sim.paths import temporary_path
 
@@ -86,6 +87,34 @@ PICK_COLUMNS = (
     "energy_elec_j",
 )
 WALL_COLUMNS = ("wall_s", "real_time_factor")
+PER_MATERIAL = ("picked", "entered", "purity", "recovery")
+"""Column groups with one column per material (`picked_<material>` ...)."""
+
+
+def episode_columns(materials: Materials = THESIS_MATERIALS) -> tuple[str, ...]:
+    """`EPISODE_COLUMNS` with the per-material columns of `materials` in place of the thesis's
+    (the same tuple for paper, plastic and aluminium)."""
+    out = []
+    for column in EPISODE_COLUMNS:
+        group, _, material = column.partition("_")
+        if group in PER_MATERIAL and material in THESIS_MATERIALS.names:
+            if material == THESIS_MATERIALS.names[0]:
+                out.extend(f"{group}_{m}" for m in materials.names)
+            continue
+        out.append(column)
+    return tuple(out)
+
+
+def sweep_episode_columns(materials_list) -> tuple[str, ...]:
+    """The episode columns of a sweep whose episodes sort `materials_list` (their union, in
+    first-seen order)."""
+    names: list[str] = []
+    for materials in materials_list:
+        names += [n for n in materials.names if n not in names]
+    if tuple(names) == THESIS_MATERIALS.names:
+        return EPISODE_COLUMNS
+    return episode_columns(Materials(tuple(names), (0.0,) * len(names)))
+
 
 # Decimals per float column; anything not listed is written with str().
 _DECIMALS = {
@@ -106,22 +135,19 @@ _DECIMALS = {
     "energy_price_eur_per_kwh": 4,
     "energy_cost_eur": 6,
     "net_profit_eur": 4,
-    "purity_paper": 4,
-    "purity_plastic": 4,
-    "purity_aluminium": 4,
-    "recovery_paper": 4,
-    "recovery_plastic": 4,
-    "recovery_aluminium": 4,
     "min_class_confidence": 4,
 }
+_DECIMAL_GROUPS = {"purity": 4, "recovery": 4}
+"""Decimals of the per-material float columns (`purity_<material>`, ...)."""
 
 
 def format_value(column: str, value: object) -> str:
     """The text of one CSV cell: fixed decimals for float columns, str() otherwise."""
     if value is None:
         return ""
-    if column in _DECIMALS and not isinstance(value, str):
-        return f"{float(value):.{_DECIMALS[column]}f}"
+    decimals = _DECIMALS.get(column) or _DECIMAL_GROUPS.get(column.partition("_")[0])
+    if decimals is not None and not isinstance(value, str):
+        return f"{float(value):.{decimals}f}"
     if isinstance(value, bool):
         return "1" if value else "0"
     if isinstance(value, float):

@@ -46,7 +46,7 @@ class EpisodeResult:
     latencies: dict[str, list[float]] = field(default_factory=dict)
 
 
-_CELLS: dict[int, Cell] = {}
+_CELLS: dict[tuple[int, str], Cell] = {}
 
 
 def planner_name(planner) -> str:
@@ -54,12 +54,17 @@ def planner_name(planner) -> str:
     return str(getattr(planner, "name", None) or type(planner).__name__)
 
 
-def shared_cell() -> Cell:
-    """This process's cell (compiled once, reused by every episode run here)."""
-    pid = os.getpid()
-    if pid not in _CELLS:
-        _CELLS[pid] = Cell()
-    return _CELLS[pid]
+def shared_cell(catalogue=None) -> Cell:
+    """This process's cell for `catalogue` (the default one when None): compiled once, with one
+    bin per material of the catalogue, and reused by every episode run here on it."""
+    if catalogue is None:
+        from sim.flow.catalogue import load_catalogue
+
+        catalogue = load_catalogue()
+    key = (os.getpid(), catalogue.digest)
+    if key not in _CELLS:
+        _CELLS[key] = Cell(catalogue=catalogue)
+    return _CELLS[key]
 
 
 def run_episode(
@@ -88,7 +93,7 @@ def run_episode(
     if recorder is not None and video_path is not None:
         raise ValueError("run_episode takes a video_path or a recorder, not both")
     wall0, cpu0 = time.perf_counter(), time.process_time()
-    cell = cell if cell is not None else shared_cell()
+    cell = cell if cell is not None else shared_cell(config.item_catalogue)
     video = recorder
     if video_path is not None:
         from sim.cell.video import VideoRecorder

@@ -104,9 +104,9 @@ class ReportedItem:
     classifier_probs: np.ndarray | None
 
 
-def one_hot(class_id: int) -> tuple[float, ...]:
-    """Class probabilities (void, paper, plastic, aluminium) of a certain class."""
-    probs = [0.0] * N_STATES
+def one_hot(class_id: int, n_states: int = N_STATES) -> tuple[float, ...]:
+    """Class probabilities (void, *materials) of a certain class."""
+    probs = [0.0] * n_states
     probs[int(class_id) - 1] = 1.0
     return tuple(probs)
 
@@ -120,6 +120,7 @@ class TruthPerception:
         self, data: mujoco.MjData, pool: ItemPool, flow: Flow, belt_speed: float, period_s: float
     ):
         self.data, self.pool, self.flow = data, pool, flow
+        self.n_states = pool.catalogue.materials.n_states
         self.rows = self.unobserved = 0
 
     def observe(self, t: float) -> list[Detection]:
@@ -132,32 +133,47 @@ class TruthPerception:
             resting = -0.05 < z < self.pool.item_type(int(slot)).rest_height + ON_BELT_TOL_M
             if X_CAMERA <= x and resting and abs(y) <= BELT_HALF_WIDTH:
                 cls = int(self.flow.class_id[item_id])
-                out.append(Detection(t, float(x), float(y), one_hot(cls), true_id=item_id))
+                probs = one_hot(cls, self.n_states)
+                out.append(Detection(t, float(x), float(y), probs, true_id=item_id))
         return out
 
     def close(self) -> None:
         """Nothing to free."""
 
 
-def hmm_cache_path() -> Path:
+def hmm_cache_path(catalogue=None, mix: dict | None = None) -> Path:
     """Cache file of the trained stripe HMMs, named after what the training depends on (the
-    catalogue, the flow generator, the recordings and the training code), so a change to any
-    of them trains afresh instead of reusing stale models."""
+    catalogue's content, the flow's class mix, the flow generator, the recordings and the
+    training code), so a change to any of them trains afresh instead of reusing stale models.
+    The default catalogue and mix keep the name they always had."""
     digest = hashlib.sha1()
     for rel in _HMM_INPUTS:
         digest.update((REPO_ROOT / rel).read_bytes())
+    if catalogue is not None and not (catalogue.materials.is_thesis and _is_default(catalogue)):
+        digest.update(catalogue.digest.encode())
+    if mix:
+        digest.update(repr(sorted(mix.items())).encode())
     return HMM_CACHE_DIR / f"stripe_hmms-{digest.hexdigest()[:12]}.npz"
 
 
-def stripe_models(catalogue):
-    """(stripe HMMs, cells per item): trained once, cached in runs/cache (written atomically)."""
+def _is_default(catalogue) -> bool:
+    from sim.flow.catalogue import load_catalogue
+
+    return catalogue.digest == load_catalogue().digest
+
+
+def stripe_models(catalogue, mix: dict | None = None):
+    """(stripe HMMs, cells per item): trained once per catalogue and class mix, cached in
+    runs/cache (written atomically)."""
     from perception.hmm.storage import save_models
     from sim.episode.stripe_hmms import trained_models
 
-    path = hmm_cache_path()
+    path = hmm_cache_path(catalogue, mix)
     if path.exists():
         return trained_models(catalogue, cache=path)
-    models, sizes = trained_models(catalogue, cache=None)
+    if not (catalogue.materials.is_thesis and _is_default(catalogue)) or mix:
+        log.info("training the stripe HMMs for this catalogue and class mix (once; cached)")
+    models, sizes = trained_models(catalogue, cache=None, mix=mix)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.stem}.{os.getpid()}.npz")
     save_models(tmp, models, sizes)
@@ -181,6 +197,7 @@ class CameraPerception:
         classifier: str = "fused",
         depth_noise: StereoDepthNoise | None = ZED_CLASS,
         seed: int = 0,
+        mix: dict | None = None,
     ):
         from perception.camera.grid import BeltGrid
         from sim.cell.camera import BeltCamera, camera_pipeline
@@ -189,7 +206,9 @@ class CameraPerception:
             raise InvalidInput("classifier", " | ".join(CLASSIFIER_MODES), classifier)
         self.data, self.speed, self.period = data, float(belt_speed), float(period_s)
         self.mode = classifier
-        self.item_classifier = None if classifier == "hmm" else trained_item_classifier()
+        self.item_classifier = (
+            None if classifier == "hmm" else trained_item_classifier(catalogue, mix)
+        )
         self.depth_noise = depth_noise
         # The camera's own random stream (depth noise), apart from the flow's and the planner's.
         self.rng = np.random.default_rng([int(seed), 0x5E4])
@@ -198,12 +217,12 @@ class CameraPerception:
         self.pipeline = camera_pipeline(model, data, CAMERA_SIZE, grid)
         self._own_camera = camera is None
         self.camera = BeltCamera(model, *CAMERA_SIZE) if camera is None else camera
-        models, self.cells_per_item = stripe_models(catalogue)
+        models, self.cells_per_item = stripe_models(catalogue, mix)
         self.hmm = OnlineStripeHmms(models)
-        stripes = models.pi.shape[0]
+        stripes, n_states = models.pi.shape
         self.classes = np.full((WINDOW_ROWS, stripes), VOID, dtype=np.int64)
-        self.posteriors = np.zeros((WINDOW_ROWS, stripes, N_STATES))
-        self.predicted = np.zeros((WINDOW_ROWS, stripes, N_STATES))
+        self.posteriors = np.zeros((WINDOW_ROWS, stripes, n_states))
+        self.predicted = np.zeros((WINDOW_ROWS, stripes, n_states))
         self.pixels = [[np.zeros(0)] * stripes for _ in range(WINDOW_ROWS)]
         self.pixel_y = [[np.zeros(0)] * stripes for _ in range(WINDOW_ROWS)]
         self.pixel_height = [[np.zeros(0)] * stripes for _ in range(WINDOW_ROWS)]
@@ -318,7 +337,8 @@ class CameraPerception:
         weights = np.bincount(stripes[first], minlength=self.predicted.shape[1])
         prior = weights @ self.predicted[int(rows.min()), :, 1:]
         total = prior.sum()
-        return prior / total if total > 0 else np.full(3, 1.0 / 3.0)
+        n = self.predicted.shape[2] - 1
+        return prior / total if total > 0 else np.full(n, 1.0 / n)
 
     def close(self) -> None:
         """Free the camera's renderer (unless it was lent by the caller)."""

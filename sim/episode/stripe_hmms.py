@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from perception.codes import N_STATES
 from perception.errors import PerceptionInputError
 from perception.hmm.storage import load_cells_per_item, load_models, save_models
 from perception.hmm.stripes import StripeHmms
@@ -24,16 +25,18 @@ TRAIN_SEEDS = tuple(range(12))
 EXTRA_SEEDS = tuple(range(200, 212))
 
 
-def item_sizes(recordings: list[Recording]) -> np.ndarray:
-    """(4,) expected expanded cells per item of each class in labelled recordings."""
-    counts = np.zeros(4)
+def item_sizes(recordings: list[Recording], n_states: int = N_STATES) -> np.ndarray:
+    """(N,) expected expanded cells per item of each class in labelled recordings."""
+    counts = np.zeros(n_states)
     for rec in recordings:
         inside = rec.item_cell[:, 0] < rec.classes.shape[0]
-        counts += np.bincount(rec.item_class[inside] - 1, minlength=4)
+        counts += np.bincount(rec.item_class[inside] - 1, minlength=n_states)
     return cells_per_item([r.classes for r in recordings], counts)
 
 
-def read_cache(path: Path | str, coupled: bool | None = False) -> tuple[StripeHmms, np.ndarray]:
+def read_cache(
+    path: Path | str, coupled: bool | None = False, n_states: int = N_STATES
+) -> tuple[StripeHmms, np.ndarray]:
     """(models, cells per item) of a cache file, refused in one line if it is not a valid one.
 
     Raises:
@@ -41,8 +44,8 @@ def read_cache(path: Path | str, coupled: bool | None = False) -> tuple[StripeHm
             non-finite numbers or lacks cells_per_item; the message says to delete it.
     """
     try:
-        models = load_models(path, coupled=coupled)
-        sizes = load_cells_per_item(path)
+        models = load_models(path, states=n_states, coupled=coupled)
+        sizes = load_cells_per_item(path, n_states)
         if sizes is None:
             raise PerceptionInputError(f"hmm file {path}", "a file with cells_per_item")
     except PerceptionInputError as exc:
@@ -57,19 +60,23 @@ def trained_models(
     cache: Path | str | None = None,
     train_seeds=TRAIN_SEEDS,
     extra_seeds=EXTRA_SEEDS,
+    mix: dict | None = None,
 ) -> tuple[StripeHmms, np.ndarray]:
-    """(models, cells per item): read from `cache` when it holds valid ones, else trained.
+    """(models, cells per item): read from `cache` when it holds valid ones, else trained on
+    flows of `catalogue` (with the class `mix` of `FlowConfig`'s keys when given).
 
     A cache file that is unreadable or of another shape is refused (PerceptionInputError), not
     silently overwritten; delete it to retrain.
     """
     config = TrainConfig() if config is None else config
+    n_states = catalogue.materials.n_states
     if cache is not None and Path(cache).exists():
-        return read_cache(cache, config.coupled)
-    labelled = [record(s, catalogue) for s in train_seeds]
-    extra = [record(s, catalogue).codes for s in extra_seeds]
-    _, models = train([r.classes for r in labelled], [r.codes for r in labelled], extra, config)
-    sizes = item_sizes(labelled)
+        return read_cache(cache, config.coupled, n_states)
+    labelled = [record(s, catalogue, mix) for s in train_seeds]
+    extra = [record(s, catalogue, mix).codes for s in extra_seeds]
+    classes, codes = [r.classes for r in labelled], [r.codes for r in labelled]
+    _, models = train(classes, codes, extra, config, n_states)
+    sizes = item_sizes(labelled, n_states)
     if cache is not None:
         save_models(cache, models, sizes)
     return models, sizes

@@ -38,7 +38,7 @@ class FlowReplay:
     @classmethod
     def start(cls, config: FlowConfig, catalogue) -> FlowReplay:
         """The cell at its `home` keyframe with the belt at the flow's speed, nothing spawned."""
-        model = load_scene()
+        model = load_scene(materials=catalogue.materials)
         data = mujoco.MjData(model)
         mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
         belt = Belt(model)
@@ -48,7 +48,7 @@ class FlowReplay:
         mujoco.mj_forward(model, data)
         return cls(config, catalogue, model, data, pool, flow)
 
-    def camera_perception(self, depth_noise=ZED_CLASS):
+    def camera_perception(self, depth_noise=ZED_CLASS, mix: dict | None = None):
         """The episode's camera perception looking at this flow (`hmm` mode: the recorders
         keep the HMMs' classes and the items' features apart), its depth noise seeded by the
         flow's seed. Close it when done."""
@@ -56,7 +56,7 @@ class FlowReplay:
 
         return CameraPerception(
             self.model, self.data, self.catalogue, self.speed, self.config.observation_period_s,
-            classifier="hmm", depth_noise=depth_noise, seed=self.config.seed,
+            classifier="hmm", depth_noise=depth_noise, seed=self.config.seed, mix=mix,
         )  # fmt: skip
 
     @property

@@ -19,6 +19,8 @@ flow in `--cache` (default runs/cache/item_features), named after the flow's set
 from __future__ import annotations
 
 import argparse
+import logging
+import os
 import sys
 import time
 from pathlib import Path
@@ -29,7 +31,15 @@ from perception.codes import CLASS_NAMES
 from perception.items.classifier import MATERIAL_IDS, ItemClassifier, fuse
 from perception.items.features import N_FEATURES
 from sim.cell.depth_noise import ZED_CLASS, StereoDepthNoise
-from sim.episode.item_classifier import FIT_SEED, TRAINING_TABLE, load_table
+from sim.episode.item_classifier import (
+    CUSTOM_SPEED_FACTORS,
+    CUSTOM_TRAIN_SEEDS,
+    FIT_SEED,
+    TRAINING_TABLE,
+    catalogue_table,
+    is_default_catalogue,
+    load_table,
+)
 from sim.episode.sensing import WINDOW_ROWS
 from sim.experiments.flow_replay import FlowReplay
 from sim.flow.catalogue import load_catalogue
@@ -37,6 +47,7 @@ from sim.flow.config import FlowConfig
 from sim.flow.ground_truth import flow_rows
 from sim.paths import REPO_ROOT
 
+log = logging.getLogger(__name__)
 MATCH_M = 0.03
 """A report is labelled with the nearest true item within this distance of its centroid [m]."""
 DEFAULT_CACHE = REPO_ROOT / "runs" / "cache" / "item_features"
@@ -50,16 +61,27 @@ def record(
     n_items: int = 100,
     duration_s: float = 90.0,
     depth_noise: StereoDepthNoise | None = ZED_CLASS,
+    catalogue=None,
+    mix: dict | None = None,
 ) -> dict:
-    """Runs one flow past the camera perception; returns its labelled items (arrays)."""
+    """Runs one flow past the camera perception; returns its labelled items (arrays).
+
+    `catalogue` (the default one when None) and its class `mix` (`FlowConfig`'s class_priors,
+    transitions, stripe_priors) set what the flow carries."""
     start = time.process_time()
-    catalogue = load_catalogue()
+    catalogue = load_catalogue() if catalogue is None else catalogue
+    n_materials = catalogue.materials.count
     config = FlowConfig(
-        n_items=n_items, duration_s=duration_s, speed_factor=speed_factor, seed=seed
+        n_items=n_items,
+        duration_s=duration_s,
+        speed_factor=speed_factor,
+        seed=seed,
+        n_materials=n_materials,
+        **(mix or {}),
     )
     replay = FlowReplay.start(config, catalogue)
     pool, data = replay.pool, replay.data
-    perception = replay.camera_perception(depth_noise)
+    perception = replay.camera_perception(depth_noise, mix)
     keys = ("features", "hmm", "hmm_prior", "class_id", "type", "dist")
     rows: dict[str, list] = {k: [] for k in keys}
     try:
@@ -86,8 +108,8 @@ def record(
     n = len(rows["class_id"])
     return {
         "features": np.array(rows["features"], dtype=np.float64).reshape(n, N_FEATURES),
-        "hmm": np.array(rows["hmm"], dtype=np.float64).reshape(n, 3),
-        "hmm_prior": np.array(rows["hmm_prior"], dtype=np.float64).reshape(n, 3),
+        "hmm": np.array(rows["hmm"], dtype=np.float64).reshape(n, n_materials),
+        "hmm_prior": np.array(rows["hmm_prior"], dtype=np.float64).reshape(n, n_materials),
         "class_id": np.array(rows["class_id"], dtype=np.int64),
         "type_index": np.array(rows["type"], dtype=np.int64),
         "dist_m": np.array(rows["dist"], dtype=np.float64),
@@ -97,25 +119,56 @@ def record(
     }
 
 
-def load_or_record(cache: Path, speed_factor: float, seed: int) -> dict:
+def load_or_record(
+    cache: Path, speed_factor: float, seed: int, catalogue=None, mix: dict | None = None
+) -> dict:
     """One flow's labelled items, from `cache` when there, else recorded and stored."""
     path = cache / f"items-x{speed_factor:g}-seed{seed}.npz"
     if path.exists():
         with np.load(path) as f:
             return {k: f[k] for k in f.files}
-    out = record(speed_factor, seed)
+    out = record(speed_factor, seed, catalogue=catalogue, mix=mix)
     cache.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.tmp.npz")
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.npz")
     np.savez_compressed(tmp, **out)
     tmp.replace(path)
     return out
 
 
-def gather(cache: Path, seeds, speed_factors) -> dict:
+def gather(cache: Path, seeds, speed_factors, catalogue=None, mix: dict | None = None) -> dict:
     """The labelled items of every (seed, speed factor), concatenated."""
-    parts = [load_or_record(cache, f, s) for s in seeds for f in speed_factors]
+    parts = [load_or_record(cache, f, s, catalogue, mix) for s in seeds for f in speed_factors]
     keys = [k for k in parts[0] if k != "cpu_s" and all(k in p for p in parts)]
     return {k: np.concatenate([p[k] for p in parts]) for k in keys}
+
+
+def ensure_catalogue_table(catalogue, mix: dict | None = None) -> Path:
+    """The item classifier's training table of a catalogue other than the default (and its
+    class `mix`): recorded once from `CUSTOM_TRAIN_SEEDS` at `CUSTOM_SPEED_FACTORS` through the
+    camera perception and kept at `sim.episode.item_classifier.catalogue_table`."""
+    path = catalogue_table(catalogue, mix)
+    if path.exists():
+        return path
+    flows = len(CUSTOM_TRAIN_SEEDS) * len(CUSTOM_SPEED_FACTORS)
+    log.info("recording the item classifier's %d training flows for this catalogue (once)", flows)
+    cache = path.parent / "item_features" / path.stem.removeprefix("item_features-")
+    table = gather(cache, CUSTOM_TRAIN_SEEDS, CUSTOM_SPEED_FACTORS, catalogue, mix)
+    keep = table["class_id"] > 0
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.npz")
+    np.savez_compressed(tmp, **{k: v[keep] for k, v in table.items()})
+    os.replace(tmp, path)
+    return path
+
+
+def prepare_camera(config) -> None:
+    """Before a camera episode (`EpisodeConfig`) on another catalogue than the default with an
+    item classifier: its training table, recorded once (minutes of CPU the first time)."""
+    if config.perception != "camera" or config.classifier == "hmm":
+        return
+    if is_default_catalogue(config.item_catalogue):
+        return
+    ensure_catalogue_table(config.item_catalogue, config.flow.flow_kwargs())
 
 
 def accuracy_table(table: dict, classifier: ItemClassifier) -> list[str]:

@@ -271,6 +271,8 @@ LATER_KEYS = {
     **{name: None for name in episode_config.WORLD_NUMBERS},
     "classifier": "hmm",
     "depth_noise": False,
+    "catalogue": "",
+    "flow": {},
 }
 """Episode-config keys added after sweeps were first identified, with the value that gives the
 behaviour from before they existed (not their default): a grid point at that value is left out

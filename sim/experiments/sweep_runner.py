@@ -138,8 +138,10 @@ def _start(sweep: SweepConfig, out: Path) -> None:
 
 
 def episode_columns(sweep: SweepConfig) -> tuple[str, ...]:
-    """The columns of a sweep's episodes.csv: a run's, then its variants' settings."""
-    return outputs.EPISODE_COLUMNS + sweep.variant_columns
+    """The columns of a sweep's episodes.csv: a run's (with the columns of every material its
+    episodes sort), then its variants' settings."""
+    materials = (spec.config.materials for spec in sweep.episodes)
+    return outputs.sweep_episode_columns(materials) + sweep.variant_columns
 
 
 def pick_columns(sweep: SweepConfig) -> tuple[str, ...]:
@@ -209,15 +211,11 @@ def _ray(specs: list[EpisodeSpec], address: str, workers: int, on_row: RowCallba
     class EpisodeActor:
         """Keeps the compiled model and renderer alive between episodes."""
 
-        def __init__(self):
-            from sim.episode.runner import Cell
-
-            self.cell = Cell()
-
         def run(self, spec: EpisodeSpec) -> tuple[str, tuple[dict, list[dict]]]:
             from sim.episode.runner import run_episode
 
-            result = run_episode(spec.config, variant=spec.variant, cell=self.cell)
+            # the actor's process keeps one cell per catalogue (`shared_cell`)
+            result = run_episode(spec.config, variant=spec.variant)
             return spec.key, (result.episode_row, result.pick_rows)
 
     ray.init(address=None if address in ("", "local") else address, ignore_reinit_error=True)

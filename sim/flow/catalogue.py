@@ -10,6 +10,8 @@ cylinder), a disc (standing cylinder) or a stadium (lying capsule) in the body's
 from __future__ import annotations
 
 import dataclasses
+import functools
+import hashlib
 import math
 import tomllib
 from dataclasses import dataclass
@@ -17,11 +19,12 @@ from pathlib import Path
 
 import numpy as np
 
-from perception.codes import CLASS_NAMES, COLOURS
+from perception.codes import COLOURS, THESIS_MATERIALS, Materials
 from sim.errors import InvalidInput
 from sim.paths import DATA_DIR
 
-MATERIALS = CLASS_NAMES[1:]
+MATERIALS = THESIS_MATERIALS.names
+"""The default catalogue's materials (the thesis's); a catalogue may name its own."""
 SHAPE_POSES = {"box": ("flat",), "cylinder": ("standing", "lying"), "capsule": ("lying",)}
 SIZE_LEN = {"box": 3, "cylinder": 2, "capsule": 2}
 LYING_QUAT = (math.sqrt(0.5), 0.0, math.sqrt(0.5), 0.0)
@@ -38,7 +41,8 @@ class ItemType:
 
     Attributes:
         name: Unique name, e.g. "pet_bottle_0l5".
-        material: "paper", "plastic" or "aluminium".
+        material: Its material: one of the catalogue's `[[material]]` names ("paper",
+            "plastic" or "aluminium" in the default catalogue).
         shape: MuJoCo geom type: "box", "cylinder" or "capsule".
         pose: "flat", "standing" or "lying" (see the module docstring).
         size: MuJoCo geom size [m]: box half-sizes (3); cylinder (radius, half-height);
@@ -63,6 +67,8 @@ class ItemType:
     colour_probs: tuple[float, ...]
     variant_of: str = ""
     kind: str = ""
+    class_id: int = 0
+    """Class id of its material in its catalogue (2, 3, ...; set by `Catalogue`)."""
 
     def __post_init__(self):
         where = f"item {self.name!r}"
@@ -70,8 +76,8 @@ class ItemType:
             raise InvalidInput(
                 "kind", "/".join(VARIANT_KINDS) + " with variant_of", self.kind, where
             )
-        if self.material not in MATERIALS:
-            raise InvalidInput("material", "/".join(MATERIALS), self.material, where)
+        if not isinstance(self.material, str) or not self.material:
+            raise InvalidInput("material", "a material name", self.material, where)
         if self.shape not in SHAPE_POSES:
             raise InvalidInput("shape", "/".join(SHAPE_POSES), self.shape, where)
         if self.pose not in SHAPE_POSES[self.shape]:
@@ -130,11 +136,6 @@ class ItemType:
         else:
             size = (self.size[0] * fy, self.size[1] * fx)
         return dataclasses.replace(self, size=size, mass=self.mass * fx * fy * fz)
-
-    @property
-    def class_id(self) -> int:
-        """Class code of table 3.1 (2 paper, 3 plastic, 4 aluminium)."""
-        return CLASS_NAMES.index(self.material) + 1
 
     @property
     def footprint(self) -> tuple[str, float, float]:
@@ -197,10 +198,13 @@ class Catalogue:
     Attributes:
         types: Item types, in file order (a type's index is its id in flows).
         rgba: RGBA of each colour of `perception.codes.COLOURS`, same order.
+        materials: The material classes (one bin each) and their default values; the thesis's
+            paper, plastic and aluminium unless the file has `[[material]]` entries.
     """
 
     types: tuple[ItemType, ...]
     rgba: tuple[tuple[float, float, float, float], ...]
+    materials: Materials = THESIS_MATERIALS
 
     def __post_init__(self):
         if not self.types:
@@ -208,9 +212,23 @@ class Catalogue:
         names = [t.name for t in self.types]
         if len(set(names)) != len(names):
             raise InvalidInput("item.name", "unique names", names)
-        missing = [m for m in MATERIALS if not any(t.material == m for t in self.types)]
+        known = self.materials.names
+        for t in self.types:
+            if t.material not in known:
+                allowed = "one of the materials " + "/".join(known)
+                raise InvalidInput("material", allowed, t.material, f"item {t.name!r}")
+        missing = [m for m in known if not any(t.material == m for t in self.types)]
         if missing:
-            raise InvalidInput("item.material", f"every material of {MATERIALS}", missing)
+            raise InvalidInput(
+                "item.material", f"at least one item of every material {known}", missing
+            )
+        typed = tuple(
+            t
+            if t.class_id == self.materials.id_of(t.material)
+            else dataclasses.replace(t, class_id=self.materials.id_of(t.material))
+            for t in self.types
+        )
+        object.__setattr__(self, "types", typed)
         if len(self.rgba) != len(COLOURS):
             raise InvalidInput("colours", f"one RGBA per colour of {COLOURS}", len(self.rgba))
         seen_variant = False
@@ -232,6 +250,14 @@ class Catalogue:
                 raise InvalidInput(
                     "kind", "one variant of each kind per base type", item_type.kind, where
                 )
+
+    @functools.cached_property
+    def digest(self) -> str:
+        """SHA-256 (16 hex characters) of the catalogue's content (types, colours, materials):
+        the key under which what is trained or recorded from it is cached."""
+        return hashlib.sha256(repr((self.types, self.rgba, self.materials)).encode()).hexdigest()[
+            :16
+        ]
 
     def index(self, name: str) -> int:
         """Index of the item type called `name`."""
@@ -343,7 +369,34 @@ def _item_type(entry: object, index: int, path: Path, bases: dict[str, ItemType]
         raise InvalidInput(exc.field, exc.allowed, exc.got, where) from None
 
 
-def load_catalogue(path: Path | str = DATA_DIR / "items.toml") -> Catalogue:
+def _materials(entries: object, path: Path) -> Materials:
+    """The `[[material]]` entries (name, value_eur), in file order; the thesis's when absent."""
+    if entries is None:
+        return THESIS_MATERIALS
+    if not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
+        raise InvalidInput("material", "an array of tables [[material]]", None, str(path))
+    for k, entry in enumerate(entries):
+        where = f"{path}, material {k}"
+        extra = set(entry) - {"name", "value_eur"}
+        if extra or set(entry) != {"name", "value_eur"}:
+            got = sorted(extra) if extra else sorted(entry)
+            raise InvalidInput("material", "the keys name and value_eur", got, where)
+        if not _finite(entry["value_eur"]) or not 0 <= entry["value_eur"] <= 1e6:
+            raise InvalidInput("material.value_eur", "0..1e6 EUR", entry["value_eur"], where)
+    try:
+        return Materials(
+            tuple(e["name"] for e in entries), tuple(float(e["value_eur"]) for e in entries)
+        )
+    except ValueError as exc:
+        allowed = str(exc).split("allowed ", 1)[-1]
+        raise InvalidInput("material.name", allowed, None, str(path)) from None
+
+
+DEFAULT_CATALOGUE = DATA_DIR / "items.toml"
+"""The thesis's catalogue: paper, plastic and aluminium."""
+
+
+def load_catalogue(path: Path | str = DEFAULT_CATALOGUE) -> Catalogue:
     """Reads and validates an item catalogue.
 
     Args:
@@ -380,9 +433,11 @@ def load_catalogue(path: Path | str = DATA_DIR / "items.toml") -> Catalogue:
     items = data.get("item", [])
     if not isinstance(items, list):
         raise InvalidInput("item", "an array of tables [[item]]", type(items).__name__, str(path))
-    extra = set(data) - {"colours", "item"}
+    extra = set(data) - {"colours", "item", "material"}
     if extra:
-        raise InvalidInput(sorted(extra)[0], "only [colours] and [[item]]", None, str(path))
+        allowed = "only [colours], [[material]] and [[item]]"
+        raise InvalidInput(sorted(extra)[0], allowed, None, str(path))
+    materials = _materials(data.get("material"), path)
     bases: dict[str, ItemType] = {}
     types = []
     for i, entry in enumerate(items):
@@ -392,6 +447,6 @@ def load_catalogue(path: Path | str = DATA_DIR / "items.toml") -> Catalogue:
         types.append(item_type)
     types = tuple(types)
     try:
-        return Catalogue(types=types, rgba=tuple(rgba))
+        return Catalogue(types=types, rgba=tuple(rgba), materials=materials)
     except InvalidInput as exc:
         raise InvalidInput(exc.field, exc.allowed, exc.got, str(path)) from None

@@ -46,6 +46,29 @@ DEFAULT_TRANSITIONS = (
 # Near the stationary distribution of DEFAULT_TRANSITIONS, and near the thesis's table 4.3
 # (35 paper, 42 plastic, 41 aluminium of 118 items).
 DEFAULT_CLASS_PRIORS = (0.29, 0.36, 0.35)
+CLUMPING = 0.5
+"""P(next item of a stripe has the previous one's class) of the default transitions of a
+catalogue with other than the thesis's three materials (the rest spread evenly)."""
+
+
+def default_class_priors(n_materials: int) -> tuple[float, ...]:
+    """The thesis's priors for three materials; equal shares for any other number."""
+    if n_materials == 3:
+        return DEFAULT_CLASS_PRIORS
+    return tuple([1.0 / n_materials] * n_materials)
+
+
+def default_transitions(n_materials: int) -> tuple[tuple[float, ...], ...]:
+    """The thesis-like clumped transitions for three materials; for n others, `CLUMPING` on
+    the diagonal and the rest spread evenly (one material alone: always itself)."""
+    if n_materials == 3:
+        return DEFAULT_TRANSITIONS
+    if n_materials == 1:
+        return ((1.0,),)
+    off = (1.0 - CLUMPING) / (n_materials - 1)
+    return tuple(
+        tuple(CLUMPING if i == j else off for j in range(n_materials)) for i in range(n_materials)
+    )
 
 
 def stripe_of(y: np.ndarray | float) -> np.ndarray:
@@ -75,24 +98,28 @@ class FlowConfig:
         speed_factor: Belt speed over x1 = 0.185 m/s; any speed inside the conveyor's range
             0.135..0.277 m/s (x1, x1.2 and x1.5 are the thesis's).
         stripe_priors: Probability that an item falls in each of the 5 stripes.
-        transitions: 3x3 row-stochastic matrix P(next class | previous class) along the belt
-            within a stripe, classes ordered paper, plastic, aluminium.
-        class_priors: Class probabilities of the first item of each stripe.
+        transitions: n x n row-stochastic matrix P(next class | previous class) along the
+            belt within a stripe, classes in the catalogue's material order (paper, plastic,
+            aluminium by default); None: `default_transitions(n_materials)`.
+        class_priors: Class probabilities of the first item of each stripe (n); None:
+            `default_class_priors(n_materials)`.
         seed: Seed of `numpy.random.default_rng`.
         observation_period_s: Grid row period T [s].
         world: How items vary from their catalogue types (sizes, variants, colours, gaps);
             `WorldVariation.uniform()` for the uniform world.
+        n_materials: Material classes of the catalogue the flow is drawn from (n).
     """
 
     n_items: int = 100
     duration_s: float = 90.0
     speed_factor: float = 1.0
     stripe_priors: tuple[float, ...] = DEFAULT_STRIPE_PRIORS
-    transitions: tuple[tuple[float, ...], ...] = DEFAULT_TRANSITIONS
-    class_priors: tuple[float, ...] = DEFAULT_CLASS_PRIORS
+    transitions: tuple[tuple[float, ...], ...] | None = None
+    class_priors: tuple[float, ...] | None = None
     seed: int = 0
     observation_period_s: float = OBSERVATION_PERIOD_S
     world: WorldVariation = field(default_factory=WorldVariation)
+    n_materials: int = 3
 
     def __post_init__(self):
         n = self.n_items
@@ -108,9 +135,18 @@ class FlowConfig:
                 f"at {BELT_SPEED_X1_MPS} m/s per x1)"
             )
             raise InvalidInput("speed_factor", allowed, self.speed_factor)
+        m = self.n_materials
+        if isinstance(m, bool) or not isinstance(m, int | np.integer) or not 1 <= m <= 8:
+            raise InvalidInput("n_materials", "an integer 1..8", m)
         stripes = _probabilities("stripe_priors", self.stripe_priors, (N_STRIPES,))
-        transitions = _probabilities("transitions", self.transitions, (3, 3))
-        classes = _probabilities("class_priors", self.class_priors, (3,))
+        given = self.transitions
+        transitions = _probabilities(
+            "transitions", default_transitions(m) if given is None else given, (m, m)
+        )
+        given = self.class_priors
+        classes = _probabilities(
+            "class_priors", default_class_priors(m) if given is None else given, (m,)
+        )
         # Plain tuples (e.g. from TOML lists), so configs hash and compare by value.
         object.__setattr__(self, "stripe_priors", tuple(stripes.tolist()))
         object.__setattr__(self, "transitions", tuple(tuple(r) for r in transitions.tolist()))

@@ -28,7 +28,6 @@ from sim.errors import InvalidInput
 from sim.flow.catalogue import Catalogue, ItemType
 from sim.flow.config import (
     BELT_HALF_WIDTH,
-    ITEM_CLASSES,
     MAX_ITEMS_PER_METRE,
     N_STRIPES,
     STRIPE_WIDTH,
@@ -150,16 +149,17 @@ def max_items_on_belt(flow: Flow) -> int:
 
 
 def _draw_classes(config: FlowConfig, stripes: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """Class index 0..2 of each item: a Markov chain per stripe, in arrival order."""
+    """Material index 0..n-1 of each item: a Markov chain per stripe, in arrival order."""
     prior_cdf = np.cumsum(config.class_priors)
     prior_cdf /= prior_cdf[-1]
     step_cdf = np.cumsum(np.asarray(config.transitions, dtype=float), axis=1)
     step_cdf /= step_cdf[:, -1:]
     out = np.empty(len(stripes), dtype=np.int64)
+    top = len(prior_cdf) - 1
     last = [-1] * N_STRIPES
     for i, (stripe, draw) in enumerate(zip(stripes.tolist(), u.tolist(), strict=True)):
         cdf = prior_cdf if last[stripe] < 0 else step_cdf[last[stripe]]
-        last[stripe] = out[i] = min(int(np.searchsorted(cdf, draw, side="right")), 2)
+        last[stripe] = out[i] = min(int(np.searchsorted(cdf, draw, side="right")), top)
     return out
 
 
@@ -192,8 +192,12 @@ def generate_flow(config: FlowConfig, catalogue: Catalogue, pool_size: int | Non
     slot = float(config.duration_s) / n
     t_slot = (np.arange(n) + rng.random(n)) * slot
     stripes = rng.choice(N_STRIPES, size=n, p=np.asarray(config.stripe_priors, dtype=float))
+    materials = catalogue.materials
+    if config.n_materials != materials.count:
+        allowed = f"the catalogue's {materials.count} materials ({'/'.join(materials.names)})"
+        raise InvalidInput("n_materials", allowed, config.n_materials)
     classes = _draw_classes(config, stripes, rng.random(n))
-    type_groups = [np.array(catalogue.of_material(m)) for m in ("paper", "plastic", "aluminium")]
+    type_groups = [np.array(catalogue.of_material(m)) for m in materials.names]
     type_weights = [np.array([catalogue.types[i].weight for i in g]) for g in type_groups]
     within = _draw_within(type_weights, classes, rng.random(n))
     type_index = np.array([type_groups[c][k] for c, k in zip(classes, within, strict=True)])
@@ -263,7 +267,7 @@ def generate_flow(config: FlowConfig, catalogue: Catalogue, pool_size: int | Non
         y=y[order],
         yaw=yaw[order],
         type_index=type_index[order].astype(np.int64),
-        class_id=np.asarray(ITEM_CLASSES)[classes[order]],
+        class_id=np.asarray(materials.ids)[classes[order]],
         colour=colours[order].astype(np.int64),
         stripe=stripes[order].astype(np.int64),
         variant=varied.variant[order].astype(np.int64),

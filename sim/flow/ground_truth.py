@@ -62,7 +62,7 @@ def grid_truth(
     Args:
         x, y, yaw: Item centres [m] and headings [rad] in one belt-plane frame.
         type_index: Catalogue index of each item.
-        class_id: Class of each item (2..4).
+        class_id: Class of each item (2, 3, ...: the catalogue's materials).
         colour: Colour index of each item (`perception.codes.COLOURS`).
         catalogue: Where the footprints come from.
         x_first: x of row 0's centre [m]; row k is centred at x_first - k * pitch.
@@ -72,7 +72,8 @@ def grid_truth(
             catalogue's type of `type_index`.
     """
     shape = (n_rows, N_STRIPES)
-    by_class = np.zeros((n_rows, N_STRIPES, 5))
+    # index = class id (0 unused, 1 void, 2.. the materials)
+    by_class = np.zeros((n_rows, N_STRIPES, catalogue.materials.n_states + 1))
     best = np.zeros(shape)
     best_colour = np.zeros(shape, dtype=np.int64)
     dominant = np.full(shape, -1, dtype=np.int64)

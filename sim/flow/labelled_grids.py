@@ -27,11 +27,11 @@ class Recording:
         seed: Seed of the flow.
         speed_factor: Belt speed over x1.
         row_pitch_m: Belt travel per row [m].
-        classes: (rows, 5) true classes 1..4.
+        classes: (rows, 5) true classes 1.. (1 void, 2.. materials).
         codes: (rows, 5) observation codes 1..19.
         item_b: (n,) belt coordinate of each item's centre, v x (time it crosses the camera) [m].
         item_y: (n,) lateral position of each item's centre [m].
-        item_class: (n,) 2..4.
+        item_class: (n,) material class ids 2, 3, ...
         item_cell: (n, 2) (row, stripe) of each item's centre.
         refused_rows: Rows whose camera frame the pipeline refused (camera mode).
     """
@@ -53,15 +53,25 @@ def conditions(seed: int) -> tuple[float, int]:
     return SPEED_FACTORS[seed % 3], DENSITIES[(seed // 3) % 4]
 
 
-def record(seed: int, catalogue) -> Recording:
+def record(seed: int, catalogue, mix: dict | None = None) -> Recording:
     """Generate the flow of `seed` and its labelled grid (true codes; the camera's recordings
-    of the same flows are `sim.experiments.camera_recordings.camera_recording`)."""
+    of the same flows are `sim.experiments.camera_recordings.camera_recording`).
+
+    `mix`: the flow's class mix (`FlowConfig`'s stripe_priors, transitions, class_priors) when
+    not the default of the catalogue's materials."""
     from sim.flow.config import stripe_of
     from sim.flow.generator import FlowConfig, generate_flow
     from sim.flow.ground_truth import flow_truth
 
     speed, n_items = conditions(seed)
-    config = FlowConfig(n_items=n_items, duration_s=DURATION_S, speed_factor=speed, seed=seed)
+    config = FlowConfig(
+        n_items=n_items,
+        duration_s=DURATION_S,
+        speed_factor=speed,
+        seed=seed,
+        n_materials=catalogue.materials.count,
+        **(mix or {}),
+    )
     flow = generate_flow(config, catalogue)
     v = config.belt_speed_mps
     classes, codes = flow_truth(flow, catalogue)

@@ -71,7 +71,7 @@ from planner.decision.batch_grid import (
     grid_row,
 )
 from planner.decision.candidates import candidates, choice_of, exit_time
-from planner.decision.interface import MATERIALS, Choice, DecisionContext, RobotState, TrackedItem
+from planner.decision.interface import Choice, DecisionContext, RobotState, TrackedItem
 from planner.errors import PlannerInputError
 
 
@@ -325,7 +325,7 @@ class QLearningPlanner:
         bins_xy = np.array([context.bin_of(it.bin_class)[:2] for it in batch]).reshape(-1, 2)
         starts = np.array([robot.tcp[:2], *(b[:2] for b in context.bins)])
         rewards = rewards_from(points, values, bins_xy, starts, cfg.objective, context.energy)
-        next_state = np.array([1 + MATERIALS.index(it.bin_class) for it in batch], dtype=int)
+        next_state = np.array([it.bin_class - 1 for it in batch], dtype=int)
         learned = learn(
             rewards,
             next_state,

@@ -45,7 +45,7 @@ from planner.decision.batch_grid import (
     grid_column,
 )
 from planner.decision.candidates import Candidate, candidates, choice_of
-from planner.decision.interface import MATERIALS, Choice, DecisionContext, RobotState, TrackedItem
+from planner.decision.interface import Choice, DecisionContext, RobotState, TrackedItem
 from planner.decision.managers.rollout_episodes import episode_q
 from planner.errors import PlannerInputError
 
@@ -127,7 +127,8 @@ def q_values(
 def weights(
     cands: list[Candidate], robot: RobotState, context: DecisionContext, objective: str
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(4, n) weights from the robot and from each bin, and each item's next row (its bin)."""
+    """(1 + m, n) weights from the robot and from each of the m bins, and each item's next
+    row (its bin)."""
     starts = np.array([robot.tcp[:2], *(b[:2] for b in context.bins)])
     meet = np.array([c.meet_xy for c in cands])
     dest = np.array([context.bin_of(c.bin_class)[:2] for c in cands])
@@ -140,7 +141,7 @@ def weights(
         w = 1.0 / d
     else:
         w = v[None, :] / d
-    next_state = np.array([1 + MATERIALS.index(c.bin_class) for c in cands])
+    next_state = np.array([c.bin_class - 1 for c in cands])
     return w, next_state
 
 
