@@ -21,6 +21,7 @@ import time
 from dataclasses import dataclass, field
 
 from sim.cell.cell import Cell
+from sim.cell.scene_edits import CellSettings
 from sim.episode.config import EpisodeConfig
 from sim.episode.loop import Episode, make_decision_manager
 
@@ -46,7 +47,7 @@ class EpisodeResult:
     latencies: dict[str, list[float]] = field(default_factory=dict)
 
 
-_CELLS: dict[int, Cell] = {}
+_CELLS: dict[tuple[int, CellSettings], Cell] = {}
 
 
 def planner_name(planner) -> str:
@@ -54,12 +55,14 @@ def planner_name(planner) -> str:
     return str(getattr(planner, "name", None) or type(planner).__name__)
 
 
-def shared_cell() -> Cell:
-    """This process's cell (compiled once, reused by every episode run here)."""
-    pid = os.getpid()
-    if pid not in _CELLS:
-        _CELLS[pid] = Cell()
-    return _CELLS[pid]
+def shared_cell(settings: CellSettings | None = None) -> Cell:
+    """This process's cell of `settings` (an episode config's `cell_settings`; the scene's when
+    None): compiled once per process and settings, reused by every episode run here with them,
+    so a sweep over the cup's diameter or the belt's length gets each its own model."""
+    key = (os.getpid(), settings or CellSettings())
+    if key not in _CELLS:
+        _CELLS[key] = Cell(settings=key[1])
+    return _CELLS[key]
 
 
 def run_episode(
@@ -76,7 +79,8 @@ def run_episode(
     Args:
         config: The episode's configuration.
         variant: Name of the sweep variant (a column of episodes.csv).
-        cell: The compiled cell to run on; this process's shared one when omitted.
+        cell: The compiled cell to run on (compiled with the config's `cell_settings`); this
+            process's shared one of those settings when omitted.
         video_path: Where to write the MP4, or None.
         progress: Called with (fraction, status line) while it runs.
         planner: A decision manager object (`choose`, `reset`) to use instead of the config's;
@@ -88,7 +92,7 @@ def run_episode(
     if recorder is not None and video_path is not None:
         raise ValueError("run_episode takes a video_path or a recorder, not both")
     wall0, cpu0 = time.perf_counter(), time.process_time()
-    cell = cell if cell is not None else shared_cell()
+    cell = cell if cell is not None else shared_cell(config.cell_settings)
     video = recorder
     if video_path is not None:
         from sim.cell.video import VideoRecorder

@@ -207,17 +207,13 @@ def _ray(specs: list[EpisodeSpec], address: str, workers: int, on_row: RowCallba
 
     @ray.remote
     class EpisodeActor:
-        """Keeps the compiled model and renderer alive between episodes."""
-
-        def __init__(self):
-            from sim.episode.runner import Cell
-
-            self.cell = Cell()
+        """Keeps the compiled models and renderers alive between episodes: the actor's
+        process caches one cell per model settings (`sim.episode.runner.shared_cell`)."""
 
         def run(self, spec: EpisodeSpec) -> tuple[str, tuple[dict, list[dict]]]:
             from sim.episode.runner import run_episode
 
-            result = run_episode(spec.config, variant=spec.variant, cell=self.cell)
+            result = run_episode(spec.config, variant=spec.variant)
             return spec.key, (result.episode_row, result.pick_rows)
 
     ray.init(address=None if address in ("", "local") else address, ignore_reinit_error=True)
