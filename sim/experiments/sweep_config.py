@@ -271,6 +271,10 @@ LATER_KEYS = {
     **{name: None for name in episode_config.WORLD_NUMBERS},
     "classifier": "hmm",
     "depth_noise": False,
+    **{
+        name: dataclasses.asdict(episode_config._SECTIONS[name]())
+        for name in ("camera", "cup", "belt")
+    },
 }
 """Episode-config keys added after sweeps were first identified, with the value that gives the
 behaviour from before they existed (not their default): a grid point at that value is left out
