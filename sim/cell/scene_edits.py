@@ -18,8 +18,9 @@ Everything else that depends on these numbers reads them back from the compiled 
 cup's radius, area and seal margin (`sim.cell.suction`), the clearance of a pick's path and the
 riders it wakes (`sim.episode.pick_control`, `sim.episode.loop`), the belt's discharge end
 (`sim.cell.conveyor.BeltGeometry`: items past it are missed, `ItemPool.park_missed`), the
-throw and bin checks. `sim.cell.cell.Cell` widens the riders' wake distance by a larger cup's
-extra radius.
+throw and bin checks. A cup larger than the scene's reaches farther around the TCP by its extra
+radius (`Cell.cup_extra_m`): riders wake that much earlier (`Cell.wake_x`) and unpicked items
+are discarded that much later (`sim.episode.loop`).
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ if TYPE_CHECKING:
     import mujoco
 
 CUP_DIAMETER_M = 0.06
-"""The scene's cup: `cup_collision`'s radius 0.03 m (`tests/test_mjcf_facts.py` checks it)."""
+"""The scene's cup: `cup_collision`'s radius 0.03 m (`tests/test_cell_settings.py` checks it)."""
 CUP_DIAMETER_RANGE_M = (0.02, 0.12)
 """Cup diameters accepted [m]: 20 mm (the smallest bellows cups of a picker) to 120 mm (wider
 than most items the catalogue holds: their outline must carry the lip)."""
