@@ -24,6 +24,7 @@ from sim.cell.conveyor import Belt
 from sim.cell.executor import TrajectoryExecutor
 from sim.cell.item_pool import ItemPool
 from sim.cell.robot import geometry_from_model, tcp_position
+from sim.cell.scene_edits import CellSettings, compile_scene
 from sim.cell.suction import SuctionConfig, SuctionCup, SuctionEvent
 from sim.errors import InvalidInput
 from sim.flow.catalogue import load_catalogue
@@ -56,8 +57,10 @@ class PickRun:
     planned_load: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
-def make_cell(factor: float = 1.5, config: SuctionConfig | None = None) -> Cell:
-    model = mujoco.MjModel.from_xml_path(str(SCENE_XML))
+def make_cell(
+    factor: float = 1.5, config: SuctionConfig | None = None, model: mujoco.MjModel | None = None
+) -> Cell:
+    model = model if model is not None else mujoco.MjModel.from_xml_path(str(SCENE_XML))
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
     mujoco.mj_forward(model, data)
@@ -225,3 +228,21 @@ def test_undersized_cup_loses_one_kilogram_exactly_as_the_budget_predicts(ratio)
         assert run.events[1].time == pytest.approx(expected, abs=0.005)
     else:
         assert kinds == ["sealed", "released"]
+
+
+@pytest.mark.parametrize(("diameter", "held"), [(0.03, False), (0.08, True)])
+def test_the_configured_cup_diameter_decides_whether_one_kilogram_holds(diameter, held):
+    """The cup compiled into the model (`[cup] diameter_m`): a 30 mm lip holds a quarter of the
+    60 mm lip's 226 N, less than the 1 kg payload's peak load, and loses it; an 80 mm lip at
+    50 kPa holds 251 N and carries it to the bin."""
+    vacuum = 80e3 if diameter < 0.06 else 50e3
+    model = compile_scene(CellSettings(cup_diameter_m=diameter))
+    cell = make_cell(1.5, SuctionConfig(vacuum=vacuum), model=model)
+    assert cell.cup.force_budget == pytest.approx(math.pi * (diameter / 2) ** 2 * vacuum)
+    slot = spawn(cell, "carton_box_small", yaw=0.0)
+    make_payload(cell, slot, PAYLOAD_KG)
+    run = pick_and_place(cell, slot, "plastic", payload=PAYLOAD_KG, hold=0.3)
+    peak = run.planned_load[:, 1].max()
+    assert (cell.cup.force_budget > 1.2 * peak) if held else (cell.cup.force_budget < 0.8 * peak)
+    kinds = [e.kind for e in run.events]
+    assert kinds == (["sealed", "released"] if held else ["sealed", "lost"])

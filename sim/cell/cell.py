@@ -19,9 +19,9 @@ from planner.motion.ruckig_trajectory import RuckigTrajectoryGenerator
 from sim.cell.conveyor import Belt
 from sim.cell.executor import TrajectoryExecutor, lumped_dynamics
 from sim.cell.item_pool import ItemPool
-from sim.cell.mjcf import load_scene
 from sim.cell.riding import wake_line
 from sim.cell.robot import geometry_from_model, tcp_position
+from sim.cell.scene_edits import CUP_DIAMETER_M, CellSettings, compile_scene
 from sim.flow.catalogue import Catalogue, load_catalogue
 
 PICK_Z_NOMINAL = 0.02
@@ -34,16 +34,29 @@ class Cell:
     """The compiled cell (model, data) and its robot, belt, pool and bins.
 
     Args:
-        model: A compiled cell; `sim.cell.mjcf.load_scene()` with one bin per material of
-            `catalogue` when omitted.
+        model: A compiled cell; `models/cell/scene.xml` compiled with `settings` and one bin
+            per material of `catalogue` when omitted.
+        settings: The cup's diameter and the belt's length (`sim.cell.scene_edits`); the
+            scene's own when None. Only with `model` omitted.
         catalogue: The item catalogue (its materials name the bins); the default one
             (`sim/data/items.toml`, the thesis's paper, plastic and aluminium) when omitted.
     """
 
-    def __init__(self, model: mujoco.MjModel | None = None, catalogue: Catalogue | None = None):
+    def __init__(
+        self,
+        model: mujoco.MjModel | None = None,
+        settings: CellSettings | None = None,
+        catalogue: Catalogue | None = None,
+    ):
+        if model is not None and settings is not None:
+            raise ValueError("Cell takes a compiled model or the settings to compile, not both")
         self.catalogue = catalogue if catalogue is not None else load_catalogue()
         self.materials = self.catalogue.materials
-        self.model = model if model is not None else load_scene(materials=self.materials)
+        self.settings = settings or CellSettings()
+        """What the model was compiled with (a given `model`: the defaults, as far as known)."""
+        self.model = (
+            model if model is not None else compile_scene(self.settings, materials=self.materials)
+        )
         self.data = mujoco.MjData(self.model)
         self.belt = Belt(self.model)
         self.pool = ItemPool(self.model, self.catalogue, self.belt)
@@ -65,9 +78,21 @@ class Cell:
             float(self.pool.props(k)["geom_rbound"]) for k in range(len(self.catalogue.types))
         )
         """Largest bounding radius of a catalogue type at its nominal size [m]."""
-        self.wake_x = wake_line(lambda p: reachable_mask(self.geometry, p), self.item_radius)
+        self.cup_radius = float(self.model.geom("cup_collision").size[0])
+        """Radius of the cup's lip [m] (the model's)."""
+        self.wake_x = wake_line(
+            lambda p: reachable_mask(self.geometry, p), self.item_radius + self.cup_extra_m
+        )
         """Settled items riding the belt wake before this x (`sim.cell.riding`) [m]; an episode
-        whose largest item is larger than `item_radius` wakes them that much earlier."""
+        whose largest item is larger than `item_radius` wakes them that much earlier, a cup
+        larger than the scene's by its extra radius."""
+
+    @property
+    def cup_extra_m(self) -> float:
+        """How much farther a larger cup than the scene's reaches around the TCP [m] (0 for the
+        scene's cup or a smaller one): the distances that allow for the cup's radius (riders'
+        wake line, where an unpicked item is out of reach) widen by it."""
+        return max(self.cup_radius - 0.5 * CUP_DIAMETER_M, 0.0)
 
     def bins_tuple(self) -> tuple[tuple[float, float, float], ...]:
         """Release points of the materials' bins, in material order, for the planners [m]."""
@@ -87,7 +112,10 @@ class Cell:
         """The belt camera's renderer at `size`, created once and kept for later episodes."""
         from sim.cell.camera import BeltCamera
 
-        if getattr(self, "_camera", None) is None or self._camera.size != tuple(size):
+        camera = getattr(self, "_camera", None)
+        if camera is None or camera.size != tuple(size):
+            if camera is not None:
+                camera.close()  # one renderer (GL context) per cell
             self._camera = BeltCamera(self.model, *size)
         return self._camera
 

@@ -41,7 +41,8 @@ class SortingCellEnv(gym.Env):
         if self.episode is not None:
             self.episode.close()
         episode_seed = int(self.np_random.integers(0, 2**31 - 1))
-        self.episode = Episode(self.config, shared_cell(self.config.item_catalogue))
+        cell = shared_cell(self.config.cell_settings, self.config.item_catalogue)
+        self.episode = Episode(self.config, cell)
         self.episode.reset(seed=episode_seed)
         self._profit = 0.0
         self._advance()

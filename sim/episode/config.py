@@ -58,6 +58,14 @@ TOML layout (every key optional; defaults are the headline episode)::
     fps = 10.0                  # frames per simulated second
     width = 640
     height = 360
+    [camera]                    # the belt camera's frames [px], 16:9 like its calibration
+    width = 640                 # 384..1920, a multiple of 16 (the calibration is scaled to it)
+    height = 360                # width x 9/16
+    [cup]                       # the vacuum cup
+    diameter_m = 0.06           # lip diameter 0.02..0.12 m (recompiles the cell's model)
+    vacuum_pa = 80000.0         # vacuum below atmosphere, 1000..101325 Pa; holds area x vacuum
+    [belt]
+    length_m = 4.5              # 4..20 m from the infeed; the discharge end moves (recompiles)
 """
 
 from __future__ import annotations
@@ -73,6 +81,13 @@ from perception.codes import Materials
 from planner.decision.registry import ALLOWED as ALLOWED_PLANNERS
 from planner.decision.registry import check_planner
 from planner.motion.belt_speeds import SPEED_RANGE_MPS, SPEED_TOLERANCE_MPS, SPEED_X1_MPS
+from sim.cell.scene_edits import (
+    BELT_LENGTH_M,
+    BELT_LENGTH_RANGE_M,
+    CUP_DIAMETER_M,
+    CUP_DIAMETER_RANGE_M,
+    CellSettings,
+)
 from sim.errors import InvalidInput, RefusedInput
 from sim.flow.catalogue import DEFAULT_CATALOGUE, Catalogue, load_catalogue
 from sim.flow.config import FlowConfig
@@ -294,6 +309,73 @@ class Video:
             _check(ok, f"video.{name}", "64..1920, a multiple of 8", v, where)
 
 
+CAMERA_ASPECT = (16, 9)
+"""Aspect ratio of the belt camera's calibration (`models/cell/belt_camera_calibration.json`,
+1280 x 720): a resolution of another shape would need its own calibration."""
+CAMERA_WIDTH_RANGE = (384, 1920)
+"""Frame widths accepted [px]. The pipeline finds the belt from its 4 cm corner markers: at
+320 x 180 they are 8 px across, no longer fill the check patch around their place, and every
+frame is refused. On the short uniform flow of `tests/test_cell_settings.py` the codes agree
+with the truth's 97.1 % at 352 x 198, 97.6 % at 384 x 216, 98.8 % at 640 x 360 and 99.2 % at
+960 x 540 and 1920 x 1080. 1920 x 1080 is a stereo camera's largest video mode."""
+VACUUM_RANGE_PA = (1e3, 101325.0)
+"""Vacuum levels accepted [Pa]: 1 kPa (a blower) to a perfect vacuum (1 atm below)."""
+
+
+@dataclass(frozen=True)
+class Camera:
+    """The belt camera's frame size [px]: the calibration is scaled to it, the stereo depth
+    (and its noise, correlated over pixels) comes at it, so coarser frames see coarser items."""
+
+    width: int = 640
+    height: int = 360
+
+    def __post_init__(self) -> None:
+        lo, hi = CAMERA_WIDTH_RANGE
+        aw, ah = CAMERA_ASPECT
+        w, h = self.width, self.height
+        ok = _integer(w) and lo <= w <= hi and w % aw == 0
+        _check(ok, "camera.width", f"{lo}..{hi} px, a multiple of {aw}", w, None)
+        allowed = f"width x {ah}/{aw} (the calibration's {aw}:{ah}): {w * ah // aw} px"
+        _check(_integer(h) and h * aw == w * ah, "camera.height", allowed, h, None)
+
+    @property
+    def size(self) -> tuple[int, int]:
+        """(width, height) [px]."""
+        return (self.width, self.height)
+
+
+@dataclass(frozen=True)
+class Cup:
+    """The vacuum cup: its lip's diameter (a model setting: the cell is compiled with it) and
+    the vacuum it holds with; the holding force is lip area x vacuum (`sim.cell.suction`)."""
+
+    diameter_m: float = CUP_DIAMETER_M
+    vacuum_pa: float = 80e3
+
+    def __post_init__(self) -> None:
+        lo, hi = CUP_DIAMETER_RANGE_M
+        d = self.diameter_m
+        _check(_number(d) and lo <= d <= hi, "cup.diameter_m", f"{lo}..{hi} m", d, None)
+        lo, hi = VACUUM_RANGE_PA
+        v = self.vacuum_pa
+        ok = _number(v) and lo <= v <= hi
+        _check(ok, "cup.vacuum_pa", f"{lo:g}..{hi:g} Pa (1 atm)", v, None)
+
+
+@dataclass(frozen=True)
+class Belt:
+    """The belt's length from its infeed [m] (a model setting: the cell is compiled with it);
+    its discharge end moves, the camera and the robot stay."""
+
+    length_m: float = BELT_LENGTH_M
+
+    def __post_init__(self) -> None:
+        lo, hi = BELT_LENGTH_RANGE_M
+        n = self.length_m
+        _check(_number(n) and lo <= n <= hi, "belt.length_m", f"{lo}..{hi} m", n, None)
+
+
 @dataclass(frozen=True)
 class EpisodeConfig:
     """One episode of the sorting cell; validated on construction."""
@@ -327,6 +409,9 @@ class EpisodeConfig:
     qlearning: QLearning = field(default_factory=QLearning)
     video: Video = field(default_factory=Video)
     robot: Robot = field(default_factory=Robot)
+    camera: Camera = field(default_factory=Camera)
+    cup: Cup = field(default_factory=Cup)
+    belt: Belt = field(default_factory=Belt)
     where: str | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -382,6 +467,10 @@ class EpisodeConfig:
         except InvalidInput as exc:
             raise InvalidInput(exc.field, exc.allowed, exc.got, exc.where or w) from None
         self.values.check_names(catalogue, w)
+        # Every material's value written out (the catalogue's where not given), so configs
+        # compare equal by what they run with, and a manifest's table reads back the same.
+        resolved = Values.from_table(self.values.table(catalogue.materials))
+        object.__setattr__(self, "values", resolved)
         self._check_flow()
 
     @property
@@ -434,6 +523,12 @@ class EpisodeConfig:
             raise InvalidInput(key, exc.allowed, exc.got, self.where) from None
 
     @property
+    def cell_settings(self) -> CellSettings:
+        """What the cell's model is compiled with (cup diameter, belt length): episodes of
+        different settings run on different compiled cells (`sim.episode.runner.shared_cell`)."""
+        return CellSettings(self.cup.diameter_m, self.belt.length_m)
+
+    @property
     def belt_speed_mps(self) -> float:
         """Belt speed of this episode [m/s]."""
         return belt_speed_mps(self.speed_factor)
@@ -482,6 +577,9 @@ _SECTIONS = {
     "qlearning": QLearning,
     "video": Video,
     "robot": Robot,
+    "camera": Camera,
+    "cup": Cup,
+    "belt": Belt,
 }
 _SCALARS = {f.name for f in dataclasses.fields(EpisodeConfig)} - set(_SECTIONS) - {"where"}
 

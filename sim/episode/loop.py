@@ -32,6 +32,7 @@ from sim.cell.monitors.energy import EnergyMeter
 from sim.cell.monitors.mj_warnings import WarningCounter
 from sim.cell.monitors.thrown import ThrowWatch
 from sim.cell.riding import ItemRiding
+from sim.cell.suction import SuctionConfig
 from sim.cell.video import overlay_of
 from sim.episode.attribution import attributed_item
 from sim.episode.confidence import is_unsure, sure_items
@@ -39,7 +40,7 @@ from sim.episode.config import EpisodeConfig
 from sim.episode.cycle_timing import cell_cycle_model
 from sim.episode.metrics import EpisodeMetrics, PickRecord
 from sim.episode.pick_control import PRESS_DEPTH_M, PickController, PickOutcome
-from sim.episode.sensing import CAMERA_SIZE, CameraPerception, TruthPerception
+from sim.episode.sensing import CameraPerception, TruthPerception
 from sim.episode.tracking import Tracker
 from sim.errors import InvalidInput
 from sim.flow.config import X_INFEED
@@ -67,10 +68,23 @@ BELOW_BELT_Z = -0.1
 """An item whose centre is this far below the belt surface has left it [m]."""
 DISCARD_MARGIN_M = 0.15
 """An item this far past the reachable window's downstream edge is out of the robot's reach
-(the cup's radius and the item's half length included) [m]."""
+(the scene's cup radius and the item's half length included; a larger cup adds its extra
+radius, `Cell.cup_extra_m`) [m]."""
 SETTLE_S = 2.0
 """Time after the last item left before the episode may end (falls into bins) [s]."""
 _OBJECTIVES = {"value_over_distance": "v/d", "value_only": "d=1", "distance_only": "v=1"}
+
+
+def _check_cell(cell: Cell, config: EpisodeConfig) -> None:
+    """Refuse a cell compiled with other model settings than the config's (cup, belt)."""
+    got, want = cell.settings, config.cell_settings
+    for key, have, asked in (
+        ("cup.diameter_m", got.cup_diameter_m, want.cup_diameter_m),
+        ("belt.length_m", got.belt_length_m, want.belt_length_m),
+    ):
+        if have != asked:
+            allowed = f"the cell's {have:g} m (a Cell(settings=config.cell_settings) for {asked:g})"
+            raise InvalidInput(key, allowed, asked)
 
 
 def make_decision_manager(config: EpisodeConfig):
@@ -127,6 +141,7 @@ class Episode:
         config = self.config if seed is None else replace(self.config, seed=int(seed))
         self.config = config
         cell = self.cell
+        _check_cell(cell, config)
         self.speed = config.belt_speed_mps
         cell.reset(self.speed)
         if cell.catalogue.digest != config.item_catalogue.digest:
@@ -135,7 +150,7 @@ class Episode:
             )
         self.flow = generate_flow(config.flow_config(), cell.catalogue, cell.pool.size)
         self.t_last_spawn = float(self.flow.t_spawn[-1]) if len(self.flow) else 0.0
-        self.x_discard = float(np.nanmax(cell.window.x_exit)) + DISCARD_MARGIN_M
+        self.x_discard = float(np.nanmax(cell.window.x_exit)) + DISCARD_MARGIN_M + cell.cup_extra_m
         # When the last item has passed the robot (the end of a normal episode) and a cap.
         self.t_end = self.t_last_spawn + (self.x_discard - X_INFEED) / self.speed + SETTLE_S
         self.t_cap = self.t_end + 10.0
@@ -160,6 +175,7 @@ class Episode:
             pauses.pick_pause_s,
             pauses.place_pause_s,
             items=self.flow.item_types(cell.catalogue),
+            suction=SuctionConfig(vacuum=float(config.cup.vacuum_pa)),
         )
         self.bins = Bins(self.model, self.data, cell.pool, materials)
         # Riders wake upstream of the robot by the largest item's radius (`sim.cell.riding`).
@@ -211,11 +227,12 @@ class Episode:
                 cell.catalogue,
                 self.speed,
                 period,
-                camera=cell.belt_camera(CAMERA_SIZE),
+                camera=cell.belt_camera(config.camera.size),
                 classifier=config.classifier,
                 depth_noise=ZED_CLASS if config.depth_noise else None,
                 seed=config.seed,
                 mix=config.flow.flow_kwargs(),
+                size=config.camera.size,
             )
         # Scheduled events: the next drop, observation, item check and decision [s].
         self.next_spawn = 0

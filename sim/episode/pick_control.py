@@ -36,7 +36,7 @@ from planner.motion.trajectory import State
 from sim.cell.cell import Cell
 from sim.cell.conveyor import rail_top_z
 from sim.cell.executor import Playback
-from sim.cell.suction import SuctionCup
+from sim.cell.suction import SuctionConfig, SuctionCup
 from sim.flow.catalogue import Catalogue, ItemType
 
 PRESS_DEPTH_M = 0.003
@@ -115,6 +115,7 @@ class PickController:
         pick_pause: Extra dwell after the seal, riding with the item [s].
         place_pause: Extra dwell over the bin after the release [s].
         items: The episode's items (scaled types), so the lift clears the tallest of them.
+        suction: The cup's vacuum settings; `SuctionConfig()` when None.
     """
 
     def __init__(
@@ -124,6 +125,7 @@ class PickController:
         pick_pause: float = 0.0,
         place_pause: float = 0.0,
         items: Iterable[ItemType] = (),
+        suction: SuctionConfig | None = None,
     ):
         self.cell = cell
         self.belt_speed = float(belt_speed)
@@ -135,7 +137,7 @@ class PickController:
             seal_time=base.seal_time + pick_pause,
             release_time=base.release_time + place_pause,
         )
-        self.suction = SuctionCup(cell.model, cell.pool)
+        self.suction = SuctionCup(cell.model, cell.pool, suction)
         mujoco.mj_forward(cell.model, cell.data)
         self.rest = cell.tcp()
         self.axis4 = float(cell.data.joint("axis4_joint").qpos[0])

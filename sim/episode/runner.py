@@ -21,6 +21,7 @@ import time
 from dataclasses import dataclass, field
 
 from sim.cell.cell import Cell
+from sim.cell.scene_edits import CellSettings
 from sim.episode.config import EpisodeConfig
 from sim.episode.loop import Episode, make_decision_manager
 
@@ -46,7 +47,7 @@ class EpisodeResult:
     latencies: dict[str, list[float]] = field(default_factory=dict)
 
 
-_CELLS: dict[tuple[int, str], Cell] = {}
+_CELLS: dict[tuple[int, CellSettings, str], Cell] = {}
 
 
 def planner_name(planner) -> str:
@@ -54,16 +55,18 @@ def planner_name(planner) -> str:
     return str(getattr(planner, "name", None) or type(planner).__name__)
 
 
-def shared_cell(catalogue=None) -> Cell:
-    """This process's cell for `catalogue` (the default one when None): compiled once, with one
-    bin per material of the catalogue, and reused by every episode run here on it."""
+def shared_cell(settings: CellSettings | None = None, catalogue=None) -> Cell:
+    """This process's cell of `settings` (an episode config's `cell_settings`; the scene's when
+    None) and `catalogue` (the default one when None; its materials name the bins): compiled
+    once per process, settings and catalogue, reused by every episode run here with them, so a
+    sweep over the cup's diameter, the belt's length or the catalogue gets each its own model."""
     if catalogue is None:
         from sim.flow.catalogue import load_catalogue
 
         catalogue = load_catalogue()
-    key = (os.getpid(), catalogue.digest)
+    key = (os.getpid(), settings or CellSettings(), catalogue.digest)
     if key not in _CELLS:
-        _CELLS[key] = Cell(catalogue=catalogue)
+        _CELLS[key] = Cell(settings=key[1], catalogue=catalogue)
     return _CELLS[key]
 
 
@@ -81,7 +84,8 @@ def run_episode(
     Args:
         config: The episode's configuration.
         variant: Name of the sweep variant (a column of episodes.csv).
-        cell: The compiled cell to run on; this process's shared one when omitted.
+        cell: The compiled cell to run on (compiled with the config's `cell_settings`); this
+            process's shared one of those settings when omitted.
         video_path: Where to write the MP4, or None.
         progress: Called with (fraction, status line) while it runs.
         planner: A decision manager object (`choose`, `reset`) to use instead of the config's;
@@ -93,7 +97,7 @@ def run_episode(
     if recorder is not None and video_path is not None:
         raise ValueError("run_episode takes a video_path or a recorder, not both")
     wall0, cpu0 = time.perf_counter(), time.process_time()
-    cell = cell if cell is not None else shared_cell(config.item_catalogue)
+    cell = cell if cell is not None else shared_cell(config.cell_settings, config.item_catalogue)
     video = recorder
     if video_path is not None:
         from sim.cell.video import VideoRecorder

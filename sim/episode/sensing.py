@@ -43,6 +43,7 @@ from perception.items.features import item_features
 from perception.items.split import SplitSettings
 from sim.cell.depth_noise import ZED_CLASS, StereoDepthNoise
 from sim.cell.item_pool import ItemPool
+from sim.episode.config import Camera
 from sim.episode.item_classifier import trained_item_classifier
 from sim.episode.tracking import Detection
 from sim.errors import InvalidInput
@@ -67,7 +68,8 @@ _HMM_INPUTS = (
     "perception/hmm/training.py",
     "perception/hmm/stripes.py",
 )
-CAMERA_SIZE = (640, 360)
+CAMERA_SIZE = Camera().size
+"""The belt camera's default frame size [px] (the episode config's `[camera]`)."""
 WINDOW_ROWS = 12
 COMPLETE_ROW = WINDOW_ROWS - 2
 """Window row whose item regions are reported: complete, the newest row did not add to them."""
@@ -198,6 +200,7 @@ class CameraPerception:
         depth_noise: StereoDepthNoise | None = ZED_CLASS,
         seed: int = 0,
         mix: dict | None = None,
+        size: tuple[int, int] = CAMERA_SIZE,
     ):
         from perception.camera.grid import BeltGrid
         from sim.cell.camera import BeltCamera, camera_pipeline
@@ -214,9 +217,12 @@ class CameraPerception:
         self.rng = np.random.default_rng([int(seed), 0x5E4])
         self.reported: list[ReportedItem] = []
         grid = BeltGrid(x_line=X_CAMERA, period_s=period_s)
-        self.pipeline = camera_pipeline(model, data, CAMERA_SIZE, grid)
+        size = (int(size[0]), int(size[1]))
+        if camera is not None and tuple(camera.size) != size:
+            raise InvalidInput("camera", f"a camera of {size[0]} x {size[1]} px", camera.size)
+        self.pipeline = camera_pipeline(model, data, size, grid)
         self._own_camera = camera is None
-        self.camera = BeltCamera(model, *CAMERA_SIZE) if camera is None else camera
+        self.camera = BeltCamera(model, *size) if camera is None else camera
         models, self.cells_per_item = stripe_models(catalogue, mix)
         self.hmm = OnlineStripeHmms(models)
         stripes, n_states = models.pi.shape

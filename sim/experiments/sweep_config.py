@@ -273,6 +273,10 @@ LATER_KEYS = {
     "depth_noise": False,
     "catalogue": "",
     "flow": {},
+    **{
+        name: dataclasses.asdict(episode_config._SECTIONS[name]())
+        for name in ("camera", "cup", "belt")
+    },
 }
 """Episode-config keys added after sweeps were first identified, with the value that gives the
 behaviour from before they existed (not their default): a grid point at that value is left out

@@ -209,7 +209,8 @@ def _ray(specs: list[EpisodeSpec], address: str, workers: int, on_row: RowCallba
 
     @ray.remote
     class EpisodeActor:
-        """Keeps the compiled model and renderer alive between episodes."""
+        """Keeps the compiled models and renderers alive between episodes: the actor's
+        process caches one cell per model settings (`sim.episode.runner.shared_cell`)."""
 
         def run(self, spec: EpisodeSpec) -> tuple[str, tuple[dict, list[dict]]]:
             from sim.episode.runner import run_episode

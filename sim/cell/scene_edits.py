@@ -1,0 +1,160 @@
+"""The cell's physical settings that change its compiled model, applied to `models/cell/scene.xml`.
+
+`CellSettings` holds what a user may vary in the model itself: the vacuum cup's diameter and
+the belt's length. The defaults are the scene file's own numbers, and a cell with default
+settings is compiled from the file as it is (`compile_scene`), so its model is the file's to
+the bit. Any other value is written into the file's `MjSpec` before it is compiled, by pure
+functions `(spec, value) -> None` that find the elements by name:
+
+- `set_cup_diameter`: the cup's lip (`cup_collision`, the geom that seals, `sim.cell.suction`)
+  and its bellows (`cup_bellows`, drawn, keeping its overhang over the lip). The cup link's
+  inertia is given explicitly in the robot's file, so the robot's dynamics do not change.
+- `set_belt_length`: the belt (`belt`), its frame (`belt_frame`) and side rails (`rail_left`,
+  `rail_right`) keep their upstream (infeed) end and end at the new discharge; the discharge
+  legs move with it and a longer belt gets more legs (drawn only). The camera, its markers,
+  the robot, the cage and the bins stay where they are.
+
+Everything else that depends on these numbers reads them back from the compiled model: the
+cup's radius, area and seal margin (`sim.cell.suction`), the clearance of a pick's path and the
+riders it wakes (`sim.episode.pick_control`, `sim.episode.loop`), the belt's discharge end
+(`sim.cell.conveyor.BeltGeometry`: items past it are missed, `ItemPool.park_missed`), the
+throw and bin checks. A cup larger than the scene's reaches farther around the TCP by its extra
+radius (`Cell.cup_extra_m`): riders wake that much earlier (`Cell.wake_x`) and unpicked items
+are discarded that much later (`sim.episode.loop`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from sim.errors import InvalidInput
+from sim.paths import SCENE_XML
+
+if TYPE_CHECKING:
+    import mujoco
+
+CUP_DIAMETER_M = 0.06
+"""The scene's cup: `cup_collision`'s radius 0.03 m (`tests/test_cell_settings.py` checks it)."""
+CUP_DIAMETER_RANGE_M = (0.02, 0.12)
+"""Cup diameters accepted [m]: 20 mm (the smallest bellows cups of a picker) to 120 mm (wider
+than most items the catalogue holds: their outline must carry the lip)."""
+BELT_LENGTH_M = 4.5
+"""The scene's belt: `belt`'s half length 2.25 m, from x = -3.0 m to the discharge at +1.5 m."""
+BELT_LENGTH_RANGE_M = (4.0, 20.0)
+"""Belt lengths accepted [m]. At 4 m the discharge is at x = +1.0 m: an unpicked item is
+discarded once its centre passes 0.77 m (the robot's reach ends at 0.62 m, `sim.episode.loop`)
+and the largest item reaches 0.21 m beyond its centre, so none tips over the end before. 20 m:
+a long sorting line."""
+LEG_SPACING_M = 2.4
+"""Longest gap between the belt's leg pairs (the scene's middle and discharge legs) [m]."""
+_BELT_RUN = ("belt", "belt_frame", "rail_left", "rail_right")
+_DISCHARGE_LEGS = ("belt_leg_discharge_left", "belt_leg_discharge_right")
+_MIDDLE_LEGS = ("belt_leg_middle_left", "belt_leg_middle_right")
+
+
+def _finite_in(value: object, lo: float, hi: float) -> bool:
+    number = isinstance(value, int | float) and not isinstance(value, bool)
+    return number and math.isfinite(value) and lo <= value <= hi
+
+
+@dataclass(frozen=True)
+class CellSettings:
+    """What changes the compiled cell; hashable, so compiled cells are cached by it.
+
+    Attributes:
+        cup_diameter_m: Diameter of the vacuum cup's lip [m].
+        belt_length_m: Length of the belt, infeed (x = -3.0 m) to discharge [m].
+    """
+
+    cup_diameter_m: float = CUP_DIAMETER_M
+    belt_length_m: float = BELT_LENGTH_M
+
+    def __post_init__(self) -> None:
+        lo, hi = CUP_DIAMETER_RANGE_M
+        if not _finite_in(self.cup_diameter_m, lo, hi):
+            raise InvalidInput("cup.diameter_m", f"{lo}..{hi} m", self.cup_diameter_m)
+        lo, hi = BELT_LENGTH_RANGE_M
+        if not _finite_in(self.belt_length_m, lo, hi):
+            raise InvalidInput("belt.length_m", f"{lo}..{hi} m", self.belt_length_m)
+        # 0.06 and 0.060000000001 compile alike: one cache key per model.
+        object.__setattr__(self, "cup_diameter_m", float(self.cup_diameter_m))
+        object.__setattr__(self, "belt_length_m", float(self.belt_length_m))
+
+    @property
+    def is_default(self) -> bool:
+        """Whether these are the scene file's own numbers."""
+        return self == CellSettings()
+
+
+def set_cup_diameter(spec: mujoco.MjSpec, diameter_m: float) -> None:
+    """The cup's lip (`cup_collision`) `diameter_m` [m] across; the bellows keep their overhang."""
+    lip, bellows = spec.geom("cup_collision"), spec.geom("cup_bellows")
+    overhang = float(bellows.size[0] - lip.size[0])
+    lip.size[0] = 0.5 * diameter_m
+    bellows.size[0] = 0.5 * diameter_m + overhang
+
+
+def set_belt_length(spec: mujoco.MjSpec, length_m: float) -> None:
+    """The belt `length_m` [m] long from its infeed end, which stays (see the module docstring)."""
+    belt = spec.geom("belt")
+    x_infeed = float(belt.pos[0] - belt.size[0])
+    shift = (x_infeed + length_m) - float(belt.pos[0] + belt.size[0])
+    for name in _BELT_RUN:
+        geom = spec.geom(name)
+        lo, hi = float(geom.pos[0] - geom.size[0]), float(geom.pos[0] + geom.size[0]) + shift
+        geom.pos[0], geom.size[0] = 0.5 * (lo + hi), 0.5 * (hi - lo)
+    for name in _DISCHARGE_LEGS:
+        spec.geom(name).pos[0] += shift
+    # Legs under a longer belt, evenly between the middle and the discharge pair (drawn only).
+    start, end = (
+        float(spec.geom(_MIDDLE_LEGS[0]).pos[0]),
+        float(spec.geom(_DISCHARGE_LEGS[0]).pos[0]),
+    )
+    gaps = math.ceil((end - start) / LEG_SPACING_M - 1e-9)
+    for k in range(1, gaps):
+        x = start + k * (end - start) / gaps
+        for middle in _MIDDLE_LEGS:
+            template = spec.geom(middle)
+            pos = template.pos.copy()
+            pos[0] = x
+            spec.worldbody.add_geom(
+                template.classname,
+                name=middle.replace("middle", f"extra_{k}"),
+                type=template.type,
+                size=template.size.copy(),
+                pos=pos,
+                material=template.material,
+            )
+
+
+def apply_settings(spec: mujoco.MjSpec, settings: CellSettings) -> None:
+    """Every setting of `settings` written into `spec`."""
+    set_cup_diameter(spec, settings.cup_diameter_m)
+    set_belt_length(spec, settings.belt_length_m)
+
+
+def compile_scene(
+    settings: CellSettings | None = None, path=SCENE_XML, materials=None
+) -> mujoco.MjModel:
+    """The cell of `path` compiled with `settings` and one bin per material of `materials`
+    (`sim.cell.bin_layout`; the file's thesis bins when None): the file as it is for the
+    defaults, else its `MjSpec` edited (`apply_settings`, `lay_out_bins`) and compiled, checked
+    as `sim.cell.mjcf` checks a file.
+
+    Raises:
+        ModelFileError: the file is refused (`sim.cell.mjcf.load_model`).
+    """
+    from sim.cell.bin_layout import lay_out_bins
+    from sim.cell.mjcf import CELL_ELEMENTS, cell_elements, compile_spec, load_scene, load_spec
+
+    settings = settings or CellSettings()
+    thesis_bins = materials is None or materials.is_thesis
+    if settings.is_default and thesis_bins:
+        return load_scene(path)
+    spec = load_spec(path, CELL_ELEMENTS)
+    apply_settings(spec, settings)
+    if not thesis_bins:
+        lay_out_bins(spec, materials)
+    return compile_spec(spec, path, cell_elements(materials))
