@@ -8,11 +8,13 @@ import subprocess
 import sys
 
 import mujoco
+import pytest
 
 import sim
 from sim.cli.sweep import seeds, sweep_manifest_config
 from sim.episode import config as episode_config
 from sim.episode import manifest
+from sim.errors import InvalidInput
 from sim.experiments import sweep_config
 from sim.paths import REPO_ROOT
 from tests.test_cli_run import run_dir  # noqa: F401  (the module's `sortsim run` fixture)
@@ -55,3 +57,36 @@ def test_version_option():
     )
     assert proc.returncode == 0
     assert proc.stdout.strip() == f"sortsim {sim.__version__}"
+
+
+def test_a_run_repeats_byte_for_byte_from_its_manifest(tmp_path):
+    """`sortsim run --config <folder>/manifest.json` runs the same episode again: the CSVs are
+    the same bytes (the wall-clock columns aside), with a custom catalogue, class mix and
+    values; a manifest whose catalogue file changed since is refused in one line."""
+    import shutil
+
+    from sim.cli.main import main
+    from sim.episode import outputs
+    from sim.paths import REPO_ROOT
+
+    catalogue = tmp_path / "pet_hdpe.toml"
+    shutil.copy(REPO_ROOT / "experiments" / "catalogues" / "pet_hdpe.toml", catalogue)
+    config = tmp_path / "four.toml"
+    text = (REPO_ROOT / "experiments" / "four_materials.toml").read_text()
+    config.write_text(text.replace("experiments/catalogues/pet_hdpe.toml", str(catalogue)))
+    first, again = tmp_path / "first", tmp_path / "again"
+    common = ["--perception", "truth", "--items", "12", "--duration", "12", "--quiet"]
+    assert main(["run", "--config", str(config), "--seed", "7", "--out", str(first), *common]) == 0
+    assert main(["run", "--config", str(first / "manifest.json"), "--out", str(again)]) == 0
+    for name in ("episodes.csv", "picks.csv"):
+        a, b = (outputs.strip_wall_clock((d / name).read_text()) for d in (first, again))
+        assert a == b, name
+    assert (first / "picks.csv").read_bytes() == (again / "picks.csv").read_bytes()
+    assert (
+        json.loads((again / "manifest.json").read_text())["config"]
+        == json.loads((first / "manifest.json").read_text())["config"]
+    )
+    catalogue.write_text(catalogue.read_text().replace("value_eur = 0.30", "value_eur = 0.31"))
+    with pytest.raises(InvalidInput) as err:
+        episode_config.load(first / "manifest.json")
+    assert err.value.field == "catalogue" and "changed since" in str(err.value)

@@ -42,7 +42,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def add_episode_arguments(parser: argparse.ArgumentParser) -> None:
     """The options that make the episode's config (`load_config`), shared by `sortsim view`."""
-    parser.add_argument("--config", type=Path, help="TOML file; command-line options override it")
+    parser.add_argument(
+        "--config",
+        type=Path,
+        help="TOML file, or a run folder's manifest.json to repeat that run; command-line "
+        "options override it",
+    )
     parser.add_argument("--seed", type=int, default=None, help="random seed (default 0)")
     parser.add_argument(
         "--items", type=int, default=None, help="items in the episode (default 100)"
@@ -262,7 +267,9 @@ def main(args: argparse.Namespace) -> int:
     outputs.write_picks(out / "picks.csv", result.pick_rows)
     from sim.episode import manifest
 
-    manifest.write(out, manifest.build("run", config.to_dict(), [config.seed]))
+    record = manifest.build("run", config.to_dict(), [config.seed])
+    record["catalogue_digest"] = config.item_catalogue.digest  # checked when repeated
+    manifest.write(out, record)
     print(summary(result))
     written = [out / "episodes.csv", out / "picks.csv", out / manifest.MANIFEST_FILE]
     written += [args.video] if args.video else []

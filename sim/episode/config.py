@@ -616,6 +616,41 @@ def _from_dict(data: dict[str, Any], where: str | None) -> EpisodeConfig:
     return EpisodeConfig(where=where, **kwargs)
 
 
+def read_config_file(path: Path) -> dict[str, Any]:
+    """The settings of a config file: a TOML file, or a run folder's `manifest.json` (its
+    resolved `config`), so that `sortsim run --config runs/x/manifest.json` repeats that run.
+    A manifest whose catalogue's content has changed since is refused (`catalogue_digest`)."""
+    path = Path(path)
+    if path.suffix.lower() != ".json":
+        return read_toml(path)
+    import json
+
+    try:
+        manifest = json.loads(path.read_bytes().decode("utf-8"))
+    except OSError as exc:
+        reason = exc.strerror or type(exc).__name__
+        raise InvalidInput(
+            "config", "a readable TOML file or manifest.json", reason, str(path)
+        ) from None
+    except (UnicodeDecodeError, ValueError) as exc:
+        reason = " ".join(str(exc).split())[:120]
+        raise InvalidInput("config", "a run's manifest.json (JSON)", reason, str(path)) from None
+    ok = isinstance(manifest, dict) and manifest.get("kind") == "run"
+    if not ok or not isinstance(manifest.get("config"), dict):
+        got = manifest.get("kind") if isinstance(manifest, dict) else type(manifest).__name__
+        allowed = "a run's manifest.json (kind run, with its config); a sweep is repeated "
+        allowed += "from its TOML"
+        raise InvalidInput("config", allowed, got, str(path))
+    data = manifest["config"]
+    digest = manifest.get("catalogue_digest")
+    if digest is not None:
+        now = episode_catalogue(str(data.get("catalogue", ""))).digest
+        if now != digest:
+            allowed = f"the catalogue the run had (content digest {digest})"
+            raise InvalidInput("catalogue", allowed, f"changed since (now {now})", str(path))
+    return data
+
+
 def read_toml(path: Path) -> dict[str, Any]:
     """Parsed TOML of `path`; a missing, unreadable, non-UTF-8 or malformed file is refused in
     one line naming the file."""
@@ -637,7 +672,7 @@ def read_toml(path: Path) -> dict[str, Any]:
 
 def load(path: Path | None = None, **overrides: Any) -> EpisodeConfig:
     """The episode config of TOML `path` (or defaults) with non-None `overrides` applied."""
-    data = read_toml(path) if path is not None else {}
+    data = read_config_file(path) if path is not None else {}
     where = str(path) if path is not None else None
     config = from_dict(data, where)
     changes = {k: v for k, v in overrides.items() if v is not None}
