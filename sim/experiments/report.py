@@ -38,10 +38,9 @@ METRICS = (
     ("missed", "missed", "{:.1f}"),
     ("failed_picks", "failed picks", "{:.1f}"),
     ("energy_per_pick_j", "energy per pick [J]", "{:.0f}"),
-    ("purity_paper", "purity paper", "{:.3f}"),
-    ("purity_plastic", "purity plastic", "{:.3f}"),
-    ("purity_aluminium", "purity aluminium", "{:.3f}"),
 )
+PURITY_PREFIX = "purity_"
+"""Each material's bin purity (`purity_<material>`: the catalogue's materials) is a metric too."""
 FIGURES = (
     ("profit_eur", "profit [EUR]"),
     ("accuracy", "accuracy SP/SI"),
@@ -89,7 +88,8 @@ def derived(row: dict) -> dict[str, float]:
     """The metrics of one episodes.csv row that are present (picks per minute and energy per
     pick derived from their columns)."""
     out = {}
-    for key, _, _ in METRICS:
+    keys = [key for key, _, _ in METRICS] + [k for k in row if k.startswith(PURITY_PREFIX)]
+    for key in keys:
         value = _number(row.get(key))
         if value is not None:
             out[key] = value
@@ -169,9 +169,20 @@ def summarise(rows: list[dict]) -> dict[tuple, dict[str, Estimate]]:
     }
 
 
+def metrics_present(summary: dict[tuple, dict[str, Estimate]]) -> list[tuple[str, str, str]]:
+    """(column, label, format) of the metrics some group has: `METRICS`, then every material's
+    purity in the order the episodes.csv columns gave them."""
+    present = [m for m in METRICS if any(m[0] in s for s in summary.values())]
+    purities: list[str] = []
+    for metrics in summary.values():
+        purities += [k for k in metrics if k.startswith(PURITY_PREFIX) and k not in purities]
+    labels = [(k, "purity " + k.removeprefix(PURITY_PREFIX), "{:.3f}") for k in purities]
+    return present + labels
+
+
 def markdown(summary: dict[tuple, dict[str, Estimate]]) -> str:
     """The means ± 95 % half-widths as a markdown table (columns: the metrics present)."""
-    present = [m for m in METRICS if any(m[0] in s for s in summary.values())]
+    present = metrics_present(summary)
     head = ["variant", "perception", "belt", "items", "planner", "n"] + [m[1] for m in present]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for (variant, perception, speed, items, planner), metrics in summary.items():
