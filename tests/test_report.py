@@ -77,3 +77,25 @@ def test_cli_refuses_a_folder_without_episodes(tmp_path):
     assert proc.returncode == 2
     assert len(proc.stderr.strip().splitlines()) == 1 and "DIR" in proc.stderr
     assert not (tmp_path / "empty" / "report").exists()
+
+
+def test_one_purity_column_per_material_of_the_catalogue(tmp_path):
+    """A sweep of a four-material catalogue: the table has each material's purity, in the
+    CSV's order, with its mean over the seeds."""
+    path = tmp_path / "four"
+    path.mkdir()
+    header = "seed,planner,speed_factor,n_items,picked,profit_eur,sim_s,perception,variant,"
+    header += "purity_paper,purity_pet,purity_hdpe,purity_aluminium\n"
+    rows = "0,qlearning,1.000,100,98,25.0,100.0,camera,base,1.0000,0.9500,0.9000,\n"
+    rows += "1,qlearning,1.000,100,97,24.0,100.0,camera,base,1.0000,0.9700,0.8000,1.0000\n"
+    (path / "episodes.csv").write_text(header + rows)
+    write_report([path], tmp_path / "out")
+    text = (tmp_path / "out" / "report.md").read_text()
+    head = next(line for line in text.splitlines() if line.startswith("| variant"))
+    cols = [c.strip() for c in head.strip("|").split("|")]
+    purity = [c for c in cols if c.startswith("purity")]
+    assert purity == ["purity paper", "purity pet", "purity hdpe", "purity aluminium"]
+    row = next(line for line in text.splitlines() if line.startswith("| base"))
+    cells = [c.strip() for c in row.strip("|").split("|")]
+    assert cells[cols.index("purity pet")].startswith("0.960")
+    assert cells[cols.index("purity aluminium")] == "1.000"  # one episode had an empty bin
