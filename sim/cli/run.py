@@ -122,10 +122,11 @@ def add_episode_arguments(parser: argparse.ArgumentParser) -> None:
 class Progress:
     """A one-line progress bar on stderr (redrawn in place on a terminal, else every 10 %)."""
 
-    def __init__(self, stream=sys.stderr, width: int = 30):
-        self.stream = stream
+    def __init__(self, stream=None, width: int = 30):
+        # stderr as it is now (not when this module was imported: a test harness swaps it)
+        self.stream = sys.stderr if stream is None else stream
         self.width = width
-        self.tty = stream.isatty()
+        self.tty = self.stream.isatty()
         self._last_decile = -1
 
     def __call__(self, fraction: float, text: str) -> None:
