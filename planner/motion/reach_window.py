@@ -56,6 +56,15 @@ class ReachWindow:
         half = np.sqrt(np.maximum(radius**2 - y**2, 0.0))
         return cls(y, -half, half, pick_z)
 
+    def shifted(self, dx: float) -> ReachWindow:
+        """The same window moved `dx` [m] along the belt (the window of a robot of a line whose
+        base stands `dx` downstream of this one's)."""
+        if not math.isfinite(dx):
+            raise PlannerInputError("dx", "a finite shift [m]", dx)
+        x_entry = np.asarray(self.x_entry, float) + dx
+        x_exit = np.asarray(self.x_exit, float) + dx
+        return ReachWindow(np.asarray(self.y, float), x_entry, x_exit, self.pick_z)
+
     @classmethod
     def from_reachable(
         cls, reachable, pick_z: float, extent: float = 0.7, samples: int = 161, step: float = 0.002

@@ -1,0 +1,131 @@
+"""Coordination of a line of robots over one belt: which items a free robot may choose among.
+
+A line has robots 0..N-1 in series along the belt (0 upstream). Each robot has its own decision
+manager and context (its reachable window, its bins); the items are tracked once for the line.
+When a robot is free, the coordination hands its decision manager the items it may take:
+
+- `independent`: every tracked item no other robot holds or is picking (each robot picks on
+  its own; the upstream robots take what they like first).
+- `coordinated` (this project's rule, not the thesis's: the thesis plans for one robot, and
+  names the line's planner as future work, 5.2): what a downstream robot can still take, the
+  upstream one leaves. The downstream robots' next picks are predicted by list scheduling in
+  order of the items' deadlines (their exit from each robot's window): the most downstream
+  robot first, each free again one cycle (`pick_time_s`) after each predicted pick, taking the
+  items it can still meet inside its window before they leave it. The free robot is offered
+  the items no downstream robot is predicted to take; when every item is claimed, it is
+  offered them all (a robot that would idle frees a later pick downstream instead).
+
+Pure functions of the tracked items and the robots' windows, times and belt speed; SI units
+(m, s).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from planner.decision.interface import DecisionContext, TrackedItem
+from planner.errors import PlannerInputError
+
+COORDINATIONS = ("independent", "coordinated")
+
+
+@dataclass(frozen=True, eq=False)
+class LineRobot:
+    """One robot of the line as the coordination sees it.
+
+    Attributes:
+        context: Its decision context (belt speed, its reachable window, its bins, values).
+        free_at: When it is free to start its next pick [s] (now for a free robot).
+    """
+
+    context: DecisionContext
+    free_at: float
+
+    def __post_init__(self):
+        if not isinstance(self.context, DecisionContext):
+            raise PlannerInputError("context", "a DecisionContext", type(self.context).__name__)
+        if not math.isfinite(self.free_at):
+            raise PlannerInputError("free_at", "a finite time [s]", self.free_at)
+
+
+def window_times(
+    context: DecisionContext, t: float, item: TrackedItem
+) -> tuple[float, float] | None:
+    """(entry, exit) times [s] of `item` (at its position at `t`) through the robot's window,
+    None when the cup never reaches its lateral position or the belt stands still."""
+    bounds = context.window.bounds(item.y)
+    v = context.belt_speed
+    if bounds is None or v <= 0.0:
+        return None
+    x_in, x_out = bounds
+    return t + (x_in - item.x) / v, t + (x_out - item.x) / v
+
+
+def downstream_claims(
+    items: Sequence[TrackedItem],
+    robots: Sequence[LineRobot],
+    robot: int,
+    t: float,
+    pick_time_s: float,
+    lead_s: float = 0.0,
+) -> set[int]:
+    """Ids of the items the robots downstream of `robot` are predicted to take.
+
+    Args:
+        items: The tracked items not held or under way, positions at `t`.
+        robots: Every robot of the line, upstream first.
+        robot: The index of the free robot asking.
+        t: Now [s].
+        pick_time_s: A pick's duration, from the meet to the next meet [s] (> 0).
+        lead_s: Time from a robot's start until its cup meets an item [s] (>= 0).
+    """
+    if not pick_time_s > 0.0 or not lead_s >= 0.0:
+        raise PlannerInputError("pick_time_s, lead_s", "> 0 and >= 0 [s]", (pick_time_s, lead_s))
+    claimed: set[int] = set()
+    for k in range(len(robots) - 1, robot, -1):
+        context = robots[k].context
+        free = max(robots[k].free_at, t)
+        timed = []
+        for item in items:
+            if item.item_id in claimed or context.expected_value(item) <= 0.0:
+                continue
+            times = window_times(context, t, item)
+            if times is not None and times[1] > t:
+                timed.append((times[1], times[0], item.item_id))
+        for deadline, entry, item_id in sorted(timed):
+            meet = max(free + lead_s, entry)
+            if meet <= deadline:
+                claimed.add(item_id)
+                free = meet + pick_time_s - lead_s
+    return claimed
+
+
+def offered_items(
+    coordination: str,
+    items: Sequence[TrackedItem],
+    robots: Sequence[LineRobot],
+    robot: int,
+    t: float,
+    pick_time_s: float,
+    lead_s: float = 0.0,
+) -> list[TrackedItem]:
+    """The items the free `robot` may choose among under `coordination` (see the module
+    docstring); `items` are those no robot holds or is picking."""
+    if coordination not in COORDINATIONS:
+        raise PlannerInputError("coordination", " | ".join(COORDINATIONS), coordination)
+    if not 0 <= robot < len(robots):
+        raise PlannerInputError("robot", f"0..{len(robots) - 1}", robot)
+    items = list(items)
+    if coordination == "independent" or robot == len(robots) - 1:
+        return items
+    claimed = downstream_claims(items, robots, robot, t, pick_time_s, lead_s)
+    left = [it for it in items if it.item_id not in claimed]
+    reachable = [it for it in left if _still_reachable(robots[robot].context, t, it)]
+    return reachable if reachable else items
+
+
+def _still_reachable(context: DecisionContext, t: float, item: TrackedItem) -> bool:
+    times = window_times(context, t, item)
+    return times is not None and times[1] > t

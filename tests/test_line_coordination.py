@@ -1,0 +1,92 @@
+"""The line's coordination: what a free robot is offered, independent and coordinated."""
+
+from __future__ import annotations
+
+import pytest
+
+from planner.decision.interface import DecisionContext, TrackedItem
+from planner.decision.line_coordination import (
+    LineRobot,
+    downstream_claims,
+    offered_items,
+    window_times,
+)
+from planner.errors import PlannerInputError
+from planner.motion.reach_window import ReachWindow
+
+V = 0.2  # belt speed [m/s]
+PITCH = 1.5  # robots 1.5 m apart [m]
+
+
+class _Cycle:
+    def time_to_pick(self, start_xyz, item_xy, belt_speed):
+        return 0.3
+
+    def time_to_place(self, pick_xyz, bin_xyz):
+        return 0.3
+
+
+def _robots(n: int, free_at=None) -> list[LineRobot]:
+    window = ReachWindow.disc(0.5)
+    free_at = free_at or [0.0] * n
+    return [
+        LineRobot(DecisionContext(V, _Cycle(), window.shifted(k * PITCH)), free_at[k])
+        for k in range(n)
+    ]
+
+
+def _item(i: int, x: float, y: float = 0.0) -> TrackedItem:
+    return TrackedItem.certain(i, x, y, 2 + i % 3)
+
+
+def test_a_shifted_window_and_the_window_times():
+    robots = _robots(2)
+    times = window_times(robots[1].context, 0.0, _item(0, 0.0))
+    assert times == pytest.approx(((PITCH - 0.5) / V, (PITCH + 0.5) / V))
+    assert window_times(robots[0].context, 0.0, _item(0, 0.0, y=0.6)) is None
+
+
+def test_independent_offers_every_item():
+    items = [_item(i, -0.3 * i) for i in range(5)]
+    assert offered_items("independent", items, _robots(2), 0, 0.0, 0.7) == items
+
+
+def test_the_upstream_robot_leaves_what_the_idle_downstream_robot_takes():
+    # Two items far apart: the downstream robot, idle, can take both; the upstream robot is
+    # offered none of them ... and so, every item being claimed, all of them.
+    items = [_item(0, -0.2), _item(1, -2.0)]
+    robots = _robots(2)
+    assert downstream_claims(items, robots, 0, 0.0, 0.7) == {0, 1}
+    assert offered_items("coordinated", items, robots, 0, 0.0, 0.7) == items
+
+
+def test_the_overflow_goes_upstream():
+    # Thirty items 21 mm apart on the centre line: item k enters the downstream robot's 1 m
+    # window at 5 + 0.105 k s and leaves it 5 s later. Picking one every 0.75 s from 5 s in
+    # order of deadline, skipping what it can no longer meet, it takes items 0..7 (5 + 0.75 k
+    # <= 10 + 0.105 k), is free again at 11.0 s, then takes item 10 (leaving at 11.05 s), 17
+    # (11.785 s) and 24 (12.52 s). The rest is what the upstream robot is offered.
+    items = [_item(i, -0.021 * i) for i in range(30)]
+    robots = _robots(2)
+    claimed = downstream_claims(items, robots, 0, 0.0, 0.75)
+    assert claimed == {*range(8), 10, 17, 24}
+    offered = offered_items("coordinated", items, robots, 0, 0.0, 0.75)
+    assert [it.item_id for it in offered] == [i for i in range(30) if i not in claimed]
+    # the last robot is offered everything: nobody downstream to leave items to
+    assert offered_items("coordinated", items, robots, 1, 0.0, 0.75) == items
+
+
+def test_a_busy_downstream_robot_claims_less():
+    items = [_item(i, -0.25 * i) for i in range(8)]
+    idle = downstream_claims(items, _robots(2), 0, 0.0, 0.7)
+    busy = downstream_claims(items, _robots(2, free_at=[0.0, 12.0]), 0, 0.0, 0.7)
+    assert len(busy) < len(idle)
+
+
+def test_bad_input_is_refused():
+    with pytest.raises(PlannerInputError):
+        offered_items("greedy", [], _robots(2), 0, 0.0, 0.7)
+    with pytest.raises(PlannerInputError):
+        offered_items("coordinated", [], _robots(2), 2, 0.0, 0.7)
+    with pytest.raises(PlannerInputError):
+        downstream_claims([], _robots(2), 0, 0.0, 0.0)
