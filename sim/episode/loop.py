@@ -87,6 +87,12 @@ def _check_cell(cell: Cell, config: EpisodeConfig) -> None:
             raise InvalidInput(key, allowed, asked)
 
 
+def _prefixed(robot_cell) -> dict:
+    """The name prefix of a line's robot (`prefix=`), nothing for a one-robot cell."""
+    prefix = getattr(robot_cell, "prefix", "")
+    return {"prefix": prefix} if prefix else {}
+
+
 def make_decision_manager(config: EpisodeConfig):
     """The configured planner: qlearning and rollout take the [qlearning] section's parameters
     and the observation period as their grid's row period; qlearning draws its random actions
@@ -104,6 +110,31 @@ def make_decision_manager(config: EpisodeConfig):
             **options,
         )
     return make_planner(config.planner)
+
+
+class RobotStation:
+    """One robot of an episode: its pick controller (executor, cup), motor energy meter,
+    decision context and manager, and the pick under way. A cell has one; a line one per robot
+    (`robot_cells`), all stepped by the one loop.
+
+    Args:
+        index: The robot's index, 0 upstream.
+        robot: Its pick controller.
+        energy: Its motors' energy meter.
+        context: Its decision context (its window, its bins).
+        planner: Its decision manager.
+        path_reach: (around, below) how far the cup, or an item hanging from it, reaches from
+            the cup's centre [m] (riders its planned path passes are woken as a pick starts).
+    """
+
+    def __init__(self, index, robot, energy, context, planner, path_reach):
+        self.index, self.robot, self.energy = index, robot, energy
+        self.context, self.planner, self.path_reach = context, planner, path_reach
+        self.next_decision = 0.0
+        self.current_pick = None  # the track being picked (shown in the video)
+        # (track, choice, energy reading at the start, travel [m]) of the pick under way
+        self.pick_started: tuple | None = None
+        self.cup_events_seen = 0
 
 
 class Episode:
@@ -127,7 +158,37 @@ class Episode:
         self.config, self.cell, self.video, self.progress = config, cell, video, progress
         self.model, self.data = cell.model, cell.data
         self.planner = planner if planner is not None else make_decision_manager(config)
+        self.stations: list[RobotStation] = []
+        self._deciding: RobotStation | None = None
         self._ready = False
+
+    # The single robot's (the first robot's) parts, by their names of a one-robot cell.
+    @property
+    def robot(self) -> PickController:
+        """The pick controller of the robot deciding now (the first robot between decisions)."""
+        return self._station().robot
+
+    @property
+    def context(self) -> DecisionContext:
+        """The decision context of the robot deciding now (the first between decisions)."""
+        return self._station().context
+
+    @property
+    def energy(self) -> EnergyMeter:
+        """The first robot's motor energy meter (the line's: `stations`)."""
+        return self.stations[0].energy
+
+    @property
+    def current_pick(self):
+        """The track the first robot is picking (None when idle)."""
+        return self.stations[0].current_pick if self.stations else None
+
+    def _station(self) -> RobotStation:
+        return self._deciding if self._deciding is not None else self.stations[0]
+
+    def _robot_cells(self) -> list:
+        """The robots' cells: the cell itself for one robot, a line's `robot_cells`."""
+        return list(getattr(self.cell, "robot_cells", None) or [self.cell])
 
     def __enter__(self) -> Episode:
         return self
@@ -167,16 +228,18 @@ class Episode:
             },
         )
         self.tracker = Tracker(self.speed)
-        self.planner.reset()
         pauses = config.robot
-        self.robot = PickController(
-            cell,
-            self.speed,
-            pauses.pick_pause_s,
-            pauses.place_pause_s,
-            items=self.flow.item_types(cell.catalogue),
-            suction=SuctionConfig(vacuum=float(config.cup.vacuum_pa)),
-        )
+        robots = [
+            PickController(
+                robot_cell,
+                self.speed,
+                pauses.pick_pause_s,
+                pauses.place_pause_s,
+                items=self.flow.item_types(cell.catalogue),
+                suction=SuctionConfig(vacuum=float(config.cup.vacuum_pa)),
+            )
+            for robot_cell in self._robot_cells()
+        ]
         self.bins = Bins(self.model, self.data, cell.pool, materials)
         # Riders wake upstream of the robot by the largest item's radius (`sim.cell.riding`).
         radius = max(
@@ -193,30 +256,35 @@ class Episode:
             in_window=config.item_riding == "path",
             check_period=CHECK_PERIOD_S,
         )
-        # How far the cup, or an item hanging from it, reaches around and below its centre [m]
-        # (the riders its planned path passes within this of are woken as a pick starts).
-        self._path_reach = (self.robot.suction.radius + radius, 2.0 * radius)
         # MuJoCo's warning counts start at zero (the reset above clears them).
         self.mj_warnings = WarningCounter(self.data)
         self.throw_watch = ThrowWatch(self.model, cell.pool)
-        self.energy = EnergyMeter(self.model, self.data)
         self._timestep = float(self.model.opt.timestep)  # [s]
-        self._cup_events_seen = 0
-        self.context = DecisionContext(
-            belt_speed=self.speed,
-            cycle_model=cell_cycle_model(
-                limits=cell.limits,
-                pick_z=PICK_Z_NOMINAL,
-                # The lift the robot makes: the held item's bottom to the clear height.
-                lift_height=self.robot.clear_z + PRESS_DEPTH_M,
-                seal_time=self.robot.config.seal_time,
-                release_time=self.robot.config.release_time,
-            ),
-            window=cell.window,
-            bins=cell.bins_tuple(),
-            values=config.values.of_materials(materials),
-            energy=EnergyPrice(config.energy_price_eur_per_kwh),
-        )
+        self.stations = []
+        for k, (robot_cell, robot) in enumerate(zip(self._robot_cells(), robots, strict=True)):
+            context = DecisionContext(
+                belt_speed=self.speed,
+                cycle_model=cell_cycle_model(
+                    limits=robot_cell.limits,
+                    pick_z=PICK_Z_NOMINAL,
+                    # The lift the robot makes: the held item's bottom to the clear height.
+                    lift_height=robot.clear_z + PRESS_DEPTH_M,
+                    seal_time=robot.config.seal_time,
+                    release_time=robot.config.release_time,
+                ),
+                window=robot_cell.window,
+                bins=robot_cell.bins_tuple(),
+                values=config.values.of_materials(materials),
+                energy=EnergyPrice(config.energy_price_eur_per_kwh),
+            )
+            planner = self.planner if k == 0 else make_decision_manager(config)
+            planner.reset()
+            # How far the cup, or an item hanging from it, reaches around and below its centre
+            # [m] (the riders its planned path passes within this of are woken as a pick starts).
+            reach = (robot.suction.radius + radius, 2.0 * radius)
+            energy = EnergyMeter(robot_cell.model, self.data, **_prefixed(robot_cell))
+            self.stations.append(RobotStation(k, robot, energy, context, planner, reach))
+        self._deciding = None
         period = config.observation_period_s
         if config.perception == "truth":
             self.perception = TruthPerception(self.data, cell.pool, self.flow, self.speed, period)
@@ -238,10 +306,6 @@ class Episode:
         self.next_spawn = 0
         self.next_obs = 0.0
         self.next_check = 0.0
-        self.next_decision = 0.0
-        self.current_pick = None  # the track being picked (shown in the video)
-        # (track, choice, energy reading at the start, travel [m]) of the pick under way
-        self._pick_started: tuple | None = None
         self.failures: dict[int, int] = {}  # failed attempts per true item id (truth mode)
         self.not_before: dict[int, float] = {}  # track id -> when it may be offered again [s]
         self.timings = dict.fromkeys(
@@ -273,15 +337,19 @@ class Episode:
         items (`candidates()`, `robot_state()`, `context`); False once the episode has ended."""
         if not self._ready:
             self.reset()
+        self._deciding = None
         while not self._finished():
             t = self.data.time
-            if not self.robot.busy and t + 1e-9 >= self.next_decision:
-                self.next_decision = t + DECIDE_PERIOD_S
-                self._candidates = self._tracked_items(t)
-                if self._candidates:
-                    return True
+            for station in self.stations:
+                if not station.robot.busy and t + 1e-9 >= station.next_decision:
+                    station.next_decision = t + DECIDE_PERIOD_S
+                    self._candidates = self._tracked_items(t)
+                    if self._candidates:
+                        self._deciding = station
+                        return True
             self._step()
-        self.metrics.on_energy(*self.energy.reading())
+        readings = [s.energy.reading() for s in self.stations]
+        self.metrics.on_energy(*(sum(r[i] for r in readings) for i in (0, 1)))
         self._close_out()
         return False
 
@@ -296,7 +364,8 @@ class Episode:
     def choose(self) -> Choice | None:
         """The configured decision manager's choice now (timed for the benchmarks)."""
         t0 = time.perf_counter()
-        choice = self.planner.choose(self._candidates, self.robot_state(), self.context)
+        station = self._station()
+        choice = station.planner.choose(self._candidates, self.robot_state(), station.context)
         dt = time.perf_counter() - t0
         self.timings["decision"] += dt
         self.latencies["decision"].append(dt)
@@ -310,13 +379,15 @@ class Episode:
         t1 = time.perf_counter()
         if choice is None:
             return False
+        station = self._station()
+        robot = station.robot
         if choice.meet_time - t > MAX_LEAD_S:
             # Far upstream: wait where we are and decide again with fresher positions.
-            self.next_decision = t + min(choice.meet_time - t - MAX_LEAD_S, WAIT_STEP_S)
+            station.next_decision = t + min(choice.meet_time - t - MAX_LEAD_S, WAIT_STEP_S)
             return False
         track = self.tracker.get(choice.item_id)
         x = track.x_at(t, self.speed)
-        intercept = self.robot.plan(x, track.y, choice.bin_class)
+        intercept = robot.plan(x, track.y, choice.bin_class)
         self.timings["planning"] += time.perf_counter() - t1
         self.latencies["plan"].append(time.perf_counter() - t1)
         if not intercept.feasible:
@@ -324,20 +395,18 @@ class Episode:
             self.not_before[track.track_id] = t + RETRY_AFTER_S
             return False
         if intercept.meet_time > MAX_LEAD_S + WAIT_STEP_S:
-            self.next_decision = t + WAIT_STEP_S  # the cycle model was optimistic: wait
+            station.next_decision = t + WAIT_STEP_S  # the cycle model was optimistic: wait
             return False
-        self.current_pick = track
-        self.tracker.remove(track.track_id)
+        station.current_pick = track
+        self.tracker.remove(track.track_id)  # no other robot is offered it now
         # The thesis's distance of the pick (rest -> item -> bin, in the belt's plane) [m].
         meet_xy = intercept.pick_xyz[:2]
-        drop_xy = np.asarray(self.cell.drop_xyz[choice.bin_class][:2], dtype=float)
-        travel = float(
-            np.linalg.norm(meet_xy - self.robot.rest[:2]) + np.linalg.norm(drop_xy - meet_xy)
-        )
-        self._pick_started = (track, choice, self.energy.reading(), travel)
-        self.robot.start(intercept, -1 if track.true_id is None else int(track.true_id))
+        drop_xy = np.asarray(station.context.bin_of(choice.bin_class)[:2], dtype=float)
+        travel = float(np.linalg.norm(meet_xy - robot.rest[:2]) + np.linalg.norm(drop_xy - meet_xy))
+        station.pick_started = (track, choice, station.energy.reading(), travel)
+        robot.start(intercept, -1 if track.true_id is None else int(track.true_id))
         if self.riding.in_window:
-            self.riding.wake_along(self.data, intercept.plan.chain, self.speed, *self._path_reach)
+            self.riding.wake_along(self.data, intercept.plan.chain, self.speed, *station.path_reach)
         return True
 
     def run(self) -> None:
@@ -351,19 +420,21 @@ class Episode:
         """The one physics step of the episode: one control period while a pick is under way
         (set-points, step, cup, scheduler, outcome), else one block up to the next scheduled
         event (the robot holds its set-points)."""
-        picking = self.robot.busy
-        if picking:
-            self.robot.before_step()
-        nstep = 1 if picking else self._idle_steps()
+        busy = [s for s in self.stations if s.robot.busy]
+        for station in busy:
+            station.robot.before_step()
+        nstep = 1 if busy else self._idle_steps()
         mujoco.mj_step(self.model, self.data, nstep=nstep)
-        self.energy.add(nstep * self._timestep)
-        if picking:
-            self.robot.after_step()
+        for station in self.stations:
+            station.energy.add(nstep * self._timestep)
+        for station in busy:
+            station.robot.after_step()
         self._after_step()
-        if picking:
-            outcome = self.robot.poll()
-            if outcome is not None:
-                self._finish_pick(outcome)
+        if busy:
+            for station in busy:
+                outcome = station.robot.poll()
+                if outcome is not None:
+                    self._finish_pick(station, outcome)
             return
         t = self.data.time
         if self.progress is not None and t - self._last_report >= 1.0:
@@ -386,12 +457,12 @@ class Episode:
             self.video.capture(self.data, overlay_of(self, t))
             self.timings["video"] += time.perf_counter() - t0
 
-    def _finish_pick(self, outcome: PickOutcome) -> None:
+    def _finish_pick(self, station: RobotStation, outcome: PickOutcome) -> None:
         """Book a finished pick and decide again at once."""
-        track, choice, (mech0, elec0), travel = self._pick_started
-        self._pick_started = None
-        mech, elec = self.energy.reading()
-        self.current_pick = None
+        track, choice, (mech0, elec0), travel = station.pick_started
+        station.pick_started = None
+        mech, elec = station.energy.reading()
+        station.current_pick = None
         if not outcome.held_to_bin and track.true_id is not None:
             self.failures[track.true_id] = self.failures.get(track.true_id, 0) + 1
         if outcome.item_id >= 0:  # the cup may have sealed on a neighbour: forget its track too
@@ -412,9 +483,10 @@ class Episode:
                 energy_mech_j=mech - mech0,
                 energy_elec_j=elec - elec0,
                 sealed=outcome.sealed,
+                robot=station.index,
             )
         )
-        self.next_decision = self.data.time
+        station.next_decision = self.data.time
 
     def _spawn(self) -> None:
         """Hand the due items over to the belt (at its speed, as from an infeed conveyor)."""
@@ -444,9 +516,9 @@ class Episode:
             return
         items_xy, shapes = {}, {}
         if any(track.true_id is None for track in created):
-            pool, held = self.cell.pool, self.robot.suction.held_slot
+            pool, held = self.cell.pool, self._held_slots()
             for slot in pool.active_slots():
-                if slot != held:
+                if slot not in held:
                     body = pool.body_ids[slot]
                     x, y = self.data.xpos[body][:2]
                     item_id = int(pool.item_ids[slot])
@@ -463,16 +535,18 @@ class Episode:
         """Every `CHECK_PERIOD_S`: MuJoCo's new warnings, items thrown off the belt
         (`sim.cell.monitors.thrown`), items past the robot or the belt's end, landings, riding."""
         pool, data = self.cell.pool, self.data
-        cup = self.robot.suction
-        held = cup.held_slot
+        held_slots = self._held_slots()
+        held = held_slots[0] if len(held_slots) == 1 else None
         self.metrics.on_warnings(self.mj_warnings.update())  # a MujocoWarning names them
-        # Items the cup let go of over a bin fall into it: not thrown, never judged as such.
-        for event in cup.events[self._cup_events_seen :]:
-            if event.kind == "released":
-                self.throw_watch.note_released(event.item_id)
-        self._cup_events_seen = len(cup.events)
-        for throw in self.throw_watch.update(data, held):
-            doing = self.robot.activity()
+        # Items a cup let go of over a bin fall into it: not thrown, never judged as such.
+        for station in self.stations:
+            cup = station.robot.suction
+            for event in cup.events[station.cup_events_seen :]:
+                if event.kind == "released":
+                    self.throw_watch.note_released(event.item_id)
+            station.cup_events_seen = len(cup.events)
+        for throw in self.throw_watch.update(data, held_slots if len(held_slots) > 1 else held):
+            doing = "; ".join(s.robot.activity() for s in self.stations)
             self.metrics.on_thrown(throw, doing)
             log.warning(
                 "seed %d, t %.2f s: item %d thrown off the belt (%s) while the robot was at %s",
@@ -483,7 +557,7 @@ class Episode:
                 doing,
             )
         for slot in pool.active_slots():
-            if slot == held:
+            if slot in held_slots:
                 continue
             pos = data.xpos[pool.body_ids[slot]]
             if pos[0] > self.x_discard and pos[2] > BELOW_BELT_Z:  # passed the robot: discarded
@@ -493,7 +567,7 @@ class Episode:
         for item_id in pool.park_missed(data):  # past the belt's end (e.g. pushed along)
             self.metrics.on_missed(item_id)
             self._book_unsure(self.tracker.remove_true(item_id))
-        for landing in self.bins.update(data, held):
+        for landing in self.bins.update(data, held_slots if len(held_slots) > 1 else held):
             if landing.bin is None or landing.item_id not in self.throw_watch.released:
                 # Only what the cup carried and let go of over a bin is picked; an item that
                 # reached a bin otherwise (knocked off the belt) is dropped.
@@ -502,7 +576,13 @@ class Episode:
                 self.metrics.on_binned(landing.item_id, landing.true_class, landing.bin_class)
             self.tracker.remove_true(landing.item_id)
         self._book_unsure(self.tracker.prune(t, self.x_discard))
-        self.riding.update(data, held, robot_busy=self.robot.busy)
+        busy = any(s.robot.busy for s in self.stations)
+        self.riding.update(data, held_slots if len(held_slots) > 1 else held, robot_busy=busy)
+
+    def _held_slots(self) -> list[int]:
+        """The pool slots the robots' cups hold now (sealed), robot by robot."""
+        cups = (s.robot.suction for s in self.stations)
+        return [cup.held_slot for cup in cups if cup.held_slot is not None]
 
     def _tracked_items(self, t: float) -> list[TrackedItem]:
         """The tracked items every decision manager chooses among: the confidence rule
@@ -523,7 +603,7 @@ class Episode:
         self.metrics.on_left_unsure(sum(1 for tr in gone if is_unsure(tr.probs, threshold)))
 
     def _finished(self) -> bool:
-        if self.robot.busy:  # a pick under way is always finished
+        if any(s.robot.busy for s in self.stations):  # a pick under way is always finished
             return False
         t = self.data.time
         if t >= self.t_cap:
@@ -535,7 +615,7 @@ class Episode:
     def _idle_steps(self) -> int:
         """Physics steps until the next event while the robot idles."""
         t, dt = self.data.time, self.model.opt.timestep
-        events = [self.next_obs, self.next_check, self.next_decision]
+        events = [self.next_obs, self.next_check, *(s.next_decision for s in self.stations)]
         if self.next_spawn < len(self.flow):
             events.append(float(self.flow.t_spawn[self.next_spawn]))
         if self.video is not None:

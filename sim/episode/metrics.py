@@ -95,6 +95,7 @@ class PickRecord:
     energy_mech_j: float = 0.0
     energy_elec_j: float = 0.0
     sealed: bool = True  # False: the cup never sealed, it carried no item (not in picks.csv)
+    robot: int = 0  # the robot of a line that made the attempt (0 upstream)
 
     def row(self, materials: Materials = THESIS_MATERIALS) -> dict[str, object]:
         """The picks.csv row of this attempt (class names those of `materials`)."""
