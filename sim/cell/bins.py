@@ -107,13 +107,13 @@ class Bins:
                 return name
         return None
 
-    def update(self, data: mujoco.MjData, held_slot: int | None = None) -> list[Landing]:
+    def update(self, data: mujoco.MjData, held_slot=None) -> list[Landing]:
         """Judges the items that came to rest off the belt; parks them; returns the new records."""
         pool, t = self.pool, float(data.time)
         belt = pool.belt.geometry
         slots = pool.active_slots()
-        slots = slots[slots != (-1 if held_slot is None else held_slot)]
-        if held_slot is not None:
+        if held_slot is not None:  # one slot, or a sequence of them (a line's cups)
+            slots = slots[~np.isin(slots, held_slot)]
             self._rest_since[held_slot] = np.nan
         pos = data.xpos[pool.body_ids[slots]]
         vel = data.qvel[pool.dof_adr[slots, None] + np.arange(3)]

@@ -104,10 +104,9 @@ class ItemRiding:
         """Slots whose item rides now."""
         return np.flatnonzero((self._rider_of >= 0) & (self._rider_of == self.pool.item_ids))
 
-    def update(
-        self, data: mujoco.MjData, held_slot: int | None = None, robot_busy: bool = False
-    ) -> None:
+    def update(self, data: mujoco.MjData, held_slot=None, robot_busy: bool = False) -> None:
         """Switches items to riding or back; call every `check_period` of simulated time.
+        `held_slot`: the slot a cup holds (None: none), or a sequence of them (a line's cups).
         `robot_busy`: a pick is under way (with `in_window`, no item in the window starts
         riding then)."""
         if not self.enabled:
@@ -152,7 +151,7 @@ class ItemRiding:
             settled
             & (data.time - self._born[movers] >= SETTLE_AGE_S)
             & where
-            & (movers != (-1 if held_slot is None else held_slot))
+            & ~np.isin(movers, [] if held_slot is None else held_slot)
         ]
         if not len(candidates):
             return

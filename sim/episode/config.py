@@ -32,6 +32,9 @@ TOML layout (every key optional; defaults are the headline episode)::
     min_gap_m = 0.0             # least gap between items [m] (uniform: 0.005)
     overlap_share = 0.1         # items allowed to lie partly over a flat neighbour
     overlap_depth_m = 0.02      # how far over it [m]
+    robots = 1                  # IRB 360s in series over the belt, 1..4 (a sorting line)
+    coordination = "coordinated"  # a line's: independent | coordinated
+                                # (planner/decision/line_coordination.py)
     catalogue = ""              # item catalogue TOML (its [[material]] entries name the
                                 # materials, one bin each); "": sim/data/items.toml (the
                                 # thesis's paper, plastic, aluminium). Relative paths are
@@ -78,6 +81,7 @@ from pathlib import Path
 from typing import Any
 
 from perception.codes import Materials
+from planner.decision.line_coordination import COORDINATIONS
 from planner.decision.registry import ALLOWED as ALLOWED_PLANNERS
 from planner.decision.registry import check_planner
 from planner.motion.belt_speeds import SPEED_RANGE_MPS, SPEED_TOLERANCE_MPS, SPEED_X1_MPS
@@ -102,6 +106,8 @@ CLASSIFIERS = ("fused", "features", "hmm")
 ITEM_RIDINGS = ("path", "settled", "contact")
 OBJECTIVES = ("value_over_distance", "value_only", "distance_only")
 WORLDS = ("varied", "uniform")
+MAX_ROBOTS = 4
+"""Most robots of a line."""
 WORLD_NUMBERS = tuple(f.name for f in dataclasses.fields(WorldVariation))
 """Keys overriding one number of the `world` preset (`WorldVariation`'s fields)."""
 MAX_ITEMS = 20000
@@ -403,6 +409,8 @@ class EpisodeConfig:
     min_gap_m: float | None = None
     overlap_share: float | None = None
     overlap_depth_m: float | None = None
+    robots: int = 1
+    coordination: str = "coordinated"
     catalogue: str = ""
     values: Values = field(default_factory=Values)
     flow: FlowMix = field(default_factory=FlowMix)
@@ -460,6 +468,10 @@ class EpisodeConfig:
             _ = self.world_variation
         except InvalidInput as exc:
             raise InvalidInput(exc.field, exc.allowed, exc.got, w) from None
+        r = self.robots
+        _check(_integer(r) and 1 <= r <= MAX_ROBOTS, "robots", f"1..{MAX_ROBOTS}", r, w)
+        c = self.coordination
+        _check(c in COORDINATIONS, "coordination", " | ".join(COORDINATIONS), c, w)
         ok = isinstance(self.catalogue, str) and "\0" not in self.catalogue
         _check(ok, "catalogue", "a path to an item catalogue TOML file", self.catalogue, w)
         try:

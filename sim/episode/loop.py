@@ -203,6 +203,10 @@ class Episode:
         self.config = config
         cell = self.cell
         _check_cell(cell, config)
+        n_robots = len(self._robot_cells())
+        if n_robots != config.robots:
+            allowed = f"the {n_robots} robot(s) of the cell it runs on"
+            raise InvalidInput("robots", allowed, config.robots)
         self.speed = config.belt_speed_mps
         cell.reset(self.speed)
         if cell.catalogue.digest != config.item_catalogue.digest:
@@ -578,6 +582,19 @@ class Episode:
         self._book_unsure(self.tracker.prune(t, self.x_discard))
         busy = any(s.robot.busy for s in self.stations)
         self.riding.update(data, held_slots if len(held_slots) > 1 else held, robot_busy=busy)
+
+    def robot_columns(self, sim_s: float) -> dict[str, object]:
+        """A line's episodes.csv columns: robots, coordination, each robot's picks, picks per
+        minute, utilisation and energy (`sim.episode.outputs.line_columns`); none for one."""
+        if len(self.stations) <= 1:
+            return {}
+        out: dict[str, object] = {
+            "robots": len(self.stations),
+            "coordination": self.config.coordination,
+        }
+        for s in self.stations:
+            out |= self.metrics.robot_row(s.index, sim_s, s.energy.reading()[1])
+        return out
 
     def _held_slots(self) -> list[int]:
         """The pool slots the robots' cups hold now (sealed), robot by robot."""

@@ -277,6 +277,21 @@ class EpisodeMetrics:
             **self.quality_row(),
         }
 
+    def robot_row(self, robot: int, sim_s: float, energy_elec_j: float) -> dict[str, object]:
+        """A line's columns of one robot (`robot<k>_...`): its items binned, binned per minute,
+        utilisation (the share of the episode its picks took, from start to release) and its
+        motors' electrical energy [J]."""
+        mine = [p for p in self.picks if p.robot == robot]
+        binned = sum(1 for p in mine if p.success)
+        busy = sum(p.t_end_s - p.t_start_s for p in mine)
+        key = f"robot{robot}_"
+        return {
+            key + "picked": binned,
+            key + "picks_per_min": binned / (sim_s / 60.0) if sim_s > 0 else 0.0,
+            key + "utilisation": busy / sim_s if sim_s > 0 else 0.0,
+            key + "energy_elec_j": float(energy_elec_j),
+        }
+
     def quality_row(self) -> dict[str, object]:
         """The sorting-quality columns (purity and recovery are None where undefined)."""
         row: dict[str, object] = {}

@@ -105,6 +105,18 @@ def episode_columns(materials: Materials = THESIS_MATERIALS) -> tuple[str, ...]:
     return tuple(out)
 
 
+ROBOT_COLUMNS = ("picked", "picks_per_min", "utilisation", "energy_elec_j")
+"""A line's columns per robot k: `robot<k>_picked` ... (`EpisodeMetrics.robot_row`)."""
+
+
+def line_columns(robots: int) -> tuple[str, ...]:
+    """The columns a line of `robots` adds to episodes.csv (none for one robot)."""
+    if robots <= 1:
+        return ()
+    per_robot = tuple(f"robot{k}_{c}" for k in range(robots) for c in ROBOT_COLUMNS)
+    return ("robots", "coordination", *per_robot)
+
+
 def sweep_episode_columns(materials_list) -> tuple[str, ...]:
     """The episode columns of a sweep whose episodes sort `materials_list` (their union, in
     first-seen order)."""
@@ -138,6 +150,8 @@ _DECIMALS = {
     "min_class_confidence": 4,
 }
 _DECIMAL_GROUPS = {"purity": 4, "recovery": 4}
+_DECIMAL_SUFFIXES = {"picks_per_min": 3, "utilisation": 4, "energy_elec_j": 2}
+"""Decimals of a line's per-robot columns (`robot<k>_<suffix>`)."""
 """Decimals of the per-material float columns (`purity_<material>`, ...)."""
 
 
@@ -146,6 +160,8 @@ def format_value(column: str, value: object) -> str:
     if value is None:
         return ""
     decimals = _DECIMALS.get(column) or _DECIMAL_GROUPS.get(column.partition("_")[0])
+    if decimals is None and column.startswith("robot"):
+        decimals = _DECIMAL_SUFFIXES.get(column.partition("_")[2])
     if decimals is not None and not isinstance(value, str):
         return f"{float(value):.{decimals}f}"
     if isinstance(value, bool):

@@ -123,6 +123,7 @@ def run_episode(
         "energy_price_eur_per_kwh": config.energy_price_eur_per_kwh,
         "min_class_confidence": config.min_class_confidence,
         "real_time_factor": sim_s / wall if wall > 0 else 0.0,
+        **episode.robot_columns(sim_s),
     }
     timings = dict(episode.timings)
     # Physics: stepping, the executor's control loop, the cup and bins (everything else).

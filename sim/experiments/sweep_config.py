@@ -273,6 +273,8 @@ LATER_KEYS = {
     "depth_noise": False,
     "catalogue": "",
     "flow": {},
+    "robots": 1,
+    "coordination": "coordinated",
     **{
         name: dataclasses.asdict(episode_config._SECTIONS[name]())
         for name in ("camera", "cup", "belt")

@@ -88,12 +88,13 @@ class ThrowWatch:
         """The cup let go of `item_id` at the drop point: it falls into a bin, not judged."""
         self.released.add(int(item_id))
 
-    def update(self, data: mujoco.MjData, held_slot: int | None = None) -> list[Throw]:
-        """The items newly thrown off since the last call (call every few ms)."""
+    def update(self, data: mujoco.MjData, held_slot=None) -> list[Throw]:
+        """The items newly thrown off since the last call (call every few ms); `held_slot`:
+        the slot a cup holds (None: none), or a sequence of them (a line's robots)."""
         pool = self.pool
         slots = pool.active_slots()
         if held_slot is not None:
-            slots = slots[slots != held_slot]
+            slots = slots[~np.isin(slots, held_slot)]
         if not len(slots):
             return []
         ids = pool.item_ids[slots]
