@@ -61,6 +61,8 @@ class Bins:
         data: Its data (the bins are static; their interiors are read once).
         pool: The item pool whose items are judged and parked.
         materials: The cell's materials (the thesis's by default).
+        prefixes: Name prefixes of the robots whose bins these are ("" for the cell's own;
+            a line's robots each have theirs: `<prefix>bin_<material>`).
     """
 
     def __init__(
@@ -69,27 +71,33 @@ class Bins:
         data: mujoco.MjData,
         pool: ItemPool,
         materials: Materials = THESIS_MATERIALS,
+        prefixes: tuple[str, ...] = ("",),
     ):
         self.pool = pool
         self.materials = materials
         mujoco.mj_kinematics(model, data)
         self.interiors = {c: self._interior(model, data, c) for c in materials.names}
-        self.lowest_z = min(lo[2] for lo, _ in self.interiors.values())
+        # (material, interior) of every robot's bins; the first robot's are `interiors`
+        self._all = [
+            (c, self._interior(model, data, c, prefix)) for prefix in prefixes
+            for c in materials.names
+        ]  # fmt: skip
+        self.lowest_z = min(lo[2] for _, (lo, _) in self._all)
         self.landed: list[Landing] = []
         self.dropped: list[Landing] = []
         self._rest_since = np.full(pool.size, np.nan)
 
     @staticmethod
-    def _interior(model: mujoco.MjModel, data: mujoco.MjData, name: str):
+    def _interior(model: mujoco.MjModel, data: mujoco.MjData, name: str, prefix: str = ""):
         """(low corner, high corner) of a bin's inside [m, world]."""
-        plate = model.geom(f"bin_{name}_floor_plate").id
+        plate = model.geom(f"{prefix}bin_{name}_floor_plate").id
         centre, half = data.geom_xpos[plate], model.geom_size[plate]
         rot = data.geom_xmat[plate].reshape(3, 3)
         extent = np.abs(rot) @ half  # axis-aligned half extents of the plate
         walls = [
             g
             for g in range(model.ngeom)
-            if (model.geom(g).name or "").startswith(f"bin_{name}_wall")
+            if (model.geom(g).name or "").startswith(f"{prefix}bin_{name}_wall")
         ]
         rim = max(
             data.geom_xpos[g][2] + (np.abs(data.geom_xmat[g].reshape(3, 3)) @ model.geom_size[g])[2]
@@ -102,7 +110,7 @@ class Bins:
     def bin_at(self, position) -> str | None:
         """Class name of the bin whose interior holds `position` [m], or None."""
         p = np.asarray(position)
-        for name, (low, high) in self.interiors.items():
+        for name, (low, high) in self._all:
             if np.all(p >= low) and np.all(p <= high):
                 return name
         return None

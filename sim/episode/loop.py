@@ -244,7 +244,8 @@ class Episode:
             )
             for robot_cell in self._robot_cells()
         ]
-        self.bins = Bins(self.model, self.data, cell.pool, materials)
+        prefixes = tuple(getattr(rc, "prefix", "") for rc in self._robot_cells())
+        self.bins = Bins(self.model, self.data, cell.pool, materials, prefixes)
         # Riders wake upstream of the robot by the largest item's radius (`sim.cell.riding`).
         radius = max(
             (float(cell.pool.props(int(k), f)["geom_rbound"]) for k, f in
