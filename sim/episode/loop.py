@@ -24,6 +24,7 @@ import numpy as np
 
 from planner.decision.energy_cost import EnergyPrice
 from planner.decision.interface import Choice, DecisionContext, RobotState, TrackedItem
+from planner.decision.line_coordination import LineRobot, offered_items
 from planner.decision.registry import make_planner
 from sim.cell.bins import Bins
 from sim.cell.cell import PICK_Z_NOMINAL, Cell
@@ -72,6 +73,9 @@ DISCARD_MARGIN_M = 0.15
 radius, `Cell.cup_extra_m`) [m]."""
 SETTLE_S = 2.0
 """Time after the last item left before the episode may end (falls into bins) [s]."""
+LINE_PICK_TIME_S = 0.75
+"""A pick's duration a line's coordination assumes before a robot has picked [s] (the
+headline episode's mean cycle is 0.73 s)."""
 _OBJECTIVES = {"value_over_distance": "v/d", "value_only": "d=1", "distance_only": "v=1"}
 
 
@@ -134,6 +138,7 @@ class RobotStation:
         self.current_pick = None  # the track being picked (shown in the video)
         # (track, choice, energy reading at the start, travel [m]) of the pick under way
         self.pick_started: tuple | None = None
+        self.started_at = 0.0  # when the pick under way started [s]
         self.cup_events_seen = 0
 
 
@@ -348,7 +353,7 @@ class Episode:
             for station in self.stations:
                 if not station.robot.busy and t + 1e-9 >= station.next_decision:
                     station.next_decision = t + DECIDE_PERIOD_S
-                    self._candidates = self._tracked_items(t)
+                    self._candidates = self._offered(station, self._tracked_items(t), t)
                     if self._candidates:
                         self._deciding = station
                         return True
@@ -409,6 +414,7 @@ class Episode:
         drop_xy = np.asarray(station.context.bin_of(choice.bin_class)[:2], dtype=float)
         travel = float(np.linalg.norm(meet_xy - robot.rest[:2]) + np.linalg.norm(drop_xy - meet_xy))
         station.pick_started = (track, choice, station.energy.reading(), travel)
+        station.started_at = t
         robot.start(intercept, -1 if track.true_id is None else int(track.true_id))
         if self.riding.in_window:
             self.riding.wake_along(self.data, intercept.plan.chain, self.speed, *station.path_reach)
@@ -583,6 +589,24 @@ class Episode:
         self._book_unsure(self.tracker.prune(t, self.x_discard))
         busy = any(s.robot.busy for s in self.stations)
         self.riding.update(data, held_slots if len(held_slots) > 1 else held, robot_busy=busy)
+
+    def _offered(self, station: RobotStation, items: list[TrackedItem], t: float):
+        """The items a free robot of a line may choose among (`coordination`); all of them
+        for one robot. A robot's pick is taken to last its mean cycle so far."""
+        if len(self.stations) <= 1 or not items:
+            return items
+        line = []
+        for s in self.stations:
+            free_at = s.started_at + self._pick_time(s) if s.robot.busy else t
+            line.append(LineRobot(s.context, max(free_at, t)))
+        return offered_items(
+            self.config.coordination, items, line, station.index, t, self._pick_time(station)
+        )
+
+    def _pick_time(self, station: RobotStation) -> float:
+        """Mean duration of the robot's picks so far [s] (`LINE_PICK_TIME_S` before any)."""
+        done = [p.t_end_s - p.t_start_s for p in self.metrics.picks if p.robot == station.index]
+        return sum(done) / len(done) if done else LINE_PICK_TIME_S
 
     def robot_columns(self, sim_s: float) -> dict[str, object]:
         """A line's episodes.csv columns: robots, coordination, each robot's picks, picks per
