@@ -97,10 +97,11 @@ def lay_out_bins(spec: mujoco.MjSpec, materials: Materials) -> None:
         )
 
 
-def bin_elements(materials: Materials):
-    """The named elements of the bins the code looks up (for `sim.cell.mjcf.require_elements`)."""
+def bin_elements(materials: Materials, prefix: str = ""):
+    """The named elements of the bins the code looks up (for `sim.cell.mjcf.require_elements`),
+    of the robot whose bins' names start with `prefix` (a sorting line, `sim.cell.line_model`)."""
     out = []
     for name in materials.names:
-        out.append((("geom",), f"bin_{name}_floor_plate"))
-        out.append((("site",), f"bin_{name}_drop"))
+        out.append((("geom",), f"{prefix}bin_{name}_floor_plate"))
+        out.append((("site",), f"{prefix}bin_{name}_drop"))
     return tuple(out)

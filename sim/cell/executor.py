@@ -5,6 +5,10 @@ to motor set-points (with the reference motor speeds as velocity feed-forward, s
 servos act as PD controllers around a moving reference), and the physics is stepped. Records the
 TCP tracking error, the motors' torques (`actuator_force`) against their `forcerange`, and the
 platform's tilt. The planner's trajectory objects are only read (`at_time`, `duration`).
+
+`lumped_dynamics` and `TrajectoryExecutor` take a keyword `prefix` (default "": the robot's own
+names): the name prefix of one robot of a sorting line (`sim.cell.line_model`), which they then
+read and drive, leaving the other robots' actuators alone.
 """
 
 from __future__ import annotations
@@ -79,7 +83,7 @@ class ExecutionLog:
 
 
 def lumped_dynamics(
-    model: mujoco.MjModel, geometry: DeltaGeometry, payload_kg: float = 0.0
+    model: mujoco.MjModel, geometry: DeltaGeometry, payload_kg: float = 0.0, *, prefix: str = ""
 ) -> LumpedDynamics:
     """The delta's lumped-mass model with every figure read from the compiled MJCF.
 
@@ -87,21 +91,22 @@ def lumped_dynamics(
     parallel-axis term, plus the motor's reflected `armature`), half of the two rods at the elbow,
     the other halves with everything under the platform (cup, any payload body), the motor joint
     damping and the motors' `forcerange`. `payload_kg` adds a held load that is not part of
-    the robot's kinematic tree (an item welded to the cup) [kg].
+    the robot's kinematic tree (an item welded to the cup) [kg]. `prefix` names the robot.
     """
-    arm = model.body("upper_arm_1_link")
-    joint = model.joint("motor_1_joint")
+    p = prefix
+    arm = model.body(f"{p}upper_arm_1_link")
+    joint = model.joint(f"{p}motor_1_joint")
     rot = np.zeros(9)
     mujoco.mju_quat2Mat(rot, arm.iquat)
     axis = rot.reshape(3, 3).T @ joint.axis  # motor axis in the principal frame
     com = arm.ipos - joint.pos
     off_axis = com - np.dot(com, joint.axis) * joint.axis
-    rod_mass = float(sum(model.body(f"rod_1{r}_link").mass[0] for r in ("a", "b")))
+    rod_mass = float(sum(model.body(f"{p}rod_1{r}_link").mass[0] for r in ("a", "b")))
     la = geometry.upper_arm
     inertia = float(np.dot(arm.inertia, axis**2) + arm.mass[0] * off_axis @ off_axis)
     inertia += float(model.dof_armature[joint.dofadr[0]]) + 0.5 * rod_mass * la**2
-    platform = model.body("platform_link").id
-    limit = min(model.actuator_forcerange[model.actuator(n).id, 1] for n in MOTOR_ACTUATORS)
+    platform = model.body(f"{p}platform_link").id
+    limit = min(model.actuator_forcerange[model.actuator(p + n).id, 1] for n in MOTOR_ACTUATORS)
     return LumpedDynamics(
         arm_inertia=inertia,
         arm_moment=float(arm.mass[0] * np.linalg.norm(off_axis) + 0.5 * rod_mass * la),
@@ -123,6 +128,7 @@ class TrajectoryExecutor:
         feedforward: Add the lumped-model torque to the servo set-points (as `tau / kp`).
         payload_kg: Load held by the cup outside the robot's tree, for the feed-forward [kg];
             change it with `set_payload` as items are picked and released.
+        prefix: Name prefix of the robot in `model` ("" for the robot's own names).
     """
 
     def __init__(
@@ -133,8 +139,11 @@ class TrajectoryExecutor:
         geometry: DeltaGeometry | None = None,
         feedforward: bool = True,
         payload_kg: float = 0.0,
+        *,
+        prefix: str = "",
     ):
         self.feedforward = feedforward
+        self.prefix = p = prefix
         step = model.opt.timestep
         control_dt = step if control_dt is None else control_dt
         substeps = int(round(control_dt / step))
@@ -145,24 +154,24 @@ class TrajectoryExecutor:
         self.model, self.data = model, data
         self.substeps = substeps
         self.control_dt = substeps * step
-        self.geometry = geometry or geometry_from_model(model)
-        self.dynamics = lumped_dynamics(model, self.geometry)
+        self.geometry = geometry or geometry_from_model(model, prefix=p)
+        self.dynamics = lumped_dynamics(model, self.geometry, prefix=p)
         self.payload_kg = 0.0
         self.set_payload(payload_kg)
-        self._kp = np.array([model.actuator_gainprm[i, 0] for i in self._motor_ids_of(model)])
-        self._motor_ids = [model.actuator(n).id for n in MOTOR_ACTUATORS]
+        self._kp = np.array([model.actuator_gainprm[i, 0] for i in self._motor_ids_of(model, p)])
+        self._motor_ids = [model.actuator(p + n).id for n in MOTOR_ACTUATORS]
         self._limits = np.array([model.actuator_forcerange[i, 1] for i in self._motor_ids])
-        axis4 = model.joint("axis4_joint")
+        axis4 = model.joint(f"{p}axis4_joint")
         self._axis4_qpos = axis4.qposadr[0]
         # Axis 4 turns the cup (and any held item, neglected) about z: inertia, damping, gain.
         self._axis4_inertia = float(
-            model.dof_armature[axis4.dofadr[0]] + model.body("cup_link").inertia[2]
+            model.dof_armature[axis4.dofadr[0]] + model.body(f"{p}cup_link").inertia[2]
         )
         self._axis4_damping = float(model.dof_damping[axis4.dofadr[0]])
-        self._axis4_kp = float(model.actuator("axis4").gainprm[0])
+        self._axis4_kp = float(model.actuator(f"{p}axis4").gainprm[0])
         # Servo commands written in one go: the same law as `sim.cell.robot.set_motor_targets`
         # (set-point led by kv/kp x reference speed), without its per-call name lookups.
-        self._act_ids = np.array(self._motor_ids + [model.actuator("axis4").id])
+        self._act_ids = np.array(self._motor_ids + [model.actuator(f"{p}axis4").id])
         gains = model.actuator_gainprm[self._act_ids, 0]
         self._lead = -model.actuator_biasprm[self._act_ids, 2] / gains
         self._ctrl_lo = model.actuator_ctrlrange[self._act_ids, 0]
@@ -174,8 +183,8 @@ class TrajectoryExecutor:
         self._ctrl_index = (
             slice(first, first + len(self._act_ids)) if consecutive else self._act_ids
         )
-        self._site = model.site("cup_site").id
-        self._platform = model.body("platform_link").id
+        self._site = model.site(f"{p}cup_site").id
+        self._platform = model.body(f"{p}platform_link").id
 
     def set_payload(self, payload_kg: float) -> None:
         """Load now held by the cup outside the robot's tree [kg] (feed-forward only); may be
@@ -186,8 +195,8 @@ class TrajectoryExecutor:
         self.payload_kg = float(payload_kg)
 
     @staticmethod
-    def _motor_ids_of(model):
-        return [model.actuator(n).id for n in MOTOR_ACTUATORS]
+    def _motor_ids_of(model, prefix: str = ""):
+        return [model.actuator(prefix + n).id for n in MOTOR_ACTUATORS]
 
     def references(self, trajectory: Playable, times: np.ndarray):
         """Planned states, motor set-points and feed-forward torques at `times` [s].

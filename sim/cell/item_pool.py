@@ -101,6 +101,7 @@ class ItemPool:
         """(slots, families) geom ids, families in `FAMILIES` order."""
         self.label_ids = np.array(geom_ids)[:, len(FAMILIES)]
         self.grip_ids = np.array(grip_ids)
+        """The weld `item_<n>_grip` of each slot (the single cell's cup), -1 where none."""
         self.tree_ids = model.body_treeid[self.body_ids]
         self.qpos_adr = model.jnt_qposadr[model.body_jntadr[self.body_ids]]
         self.dof_adr = model.jnt_dofadr[model.body_jntadr[self.body_ids]]
@@ -112,6 +113,13 @@ class ItemPool:
         self.active_geom = np.full(len(body_ids), -1)
         """The colliding geom of each slot, -1 when parked."""
         self._types: list[ItemType | None] = [None] * len(body_ids)
+
+    def grip_ids_of(self, prefix: str) -> np.ndarray:
+        """The welds `<prefix>item_<n>_grip` of each slot: robot `prefix`'s cup in a sorting line
+        (`sim.cell.line_model`), -1 where the model has none."""
+        name2id, kind = mujoco.mj_name2id, mujoco.mjtObj.mjOBJ_EQUALITY
+        names = (f"{prefix}item_{n}_grip" for n in range(self.size))
+        return np.array([name2id(self.model, kind, name) for name in names])
 
     @property
     def size(self) -> int:

@@ -31,17 +31,27 @@ def _of(kind: str, *names: str) -> tuple[Element, ...]:
     return tuple(((kind,), name) for name in names)
 
 
-ROBOT_ELEMENTS: tuple[Element, ...] = (
-    *_of("body", "base_link", "platform_link", "cup_link", "rod_1a_link", "rod_1b_link"),
-    *_of("body", *(f"upper_arm_{i}_link" for i in _LEGS)),
-    *_of("joint", *(f"motor_{i}_joint" for i in _LEGS), "axis4_joint", "platform_joint"),
-    *_of("site", "cup_site"),
-    *_of("site", *(f"rod_{i}{r}_tip" for i in _LEGS for r in _RODS)),
-    *_of("site", *(f"platform_{i}{r}" for i in _LEGS for r in _RODS)),
-    *_of("actuator", *(f"motor_{i}" for i in _LEGS), "axis4"),
-    *_of("geom", "cup_collision"),
-    *_of("key", "home"),
-)
+def robot_elements(prefix: str = "") -> tuple[Element, ...]:
+    """Elements of the IRB 360 the code reads by name (`sim.cell.robot`, the executor, the
+    cup), for the robot whose names start with `prefix` (a robot of a sorting line,
+    `sim.cell.line_model`; "" for the robot's own names)."""
+    p = prefix
+    return (
+        *_of("body", *(p + n for n in ("base_link", "platform_link", "cup_link"))),
+        *_of("body", *(f"{p}rod_1{r}_link" for r in _RODS)),
+        *_of("body", *(f"{p}upper_arm_{i}_link" for i in _LEGS)),
+        *_of("joint", *(f"{p}motor_{i}_joint" for i in _LEGS)),
+        *_of("joint", f"{p}axis4_joint", f"{p}platform_joint"),
+        *_of("site", f"{p}cup_site"),
+        *_of("site", *(f"{p}rod_{i}{r}_tip" for i in _LEGS for r in _RODS)),
+        *_of("site", *(f"{p}platform_{i}{r}" for i in _LEGS for r in _RODS)),
+        *_of("actuator", *(f"{p}motor_{i}" for i in _LEGS), f"{p}axis4"),
+        *_of("geom", f"{p}cup_collision"),
+        *_of("key", f"{p}home"),
+    )
+
+
+ROBOT_ELEMENTS: tuple[Element, ...] = robot_elements()
 """Elements of the IRB 360 the code reads by name (`sim.cell.robot`, the executor, the cup)."""
 
 CELL_ELEMENTS: tuple[Element, ...] = (

@@ -3,6 +3,10 @@
 The geometry the planner uses is read here from the compiled MJCF, so the XML is the one source
 of truth. `set_configuration` puts the closed chain (motors, rod hinges, free platform, axis 4)
 into the state the analytic kinematics predicts, so a simulation can start anywhere.
+
+Every function takes a keyword `prefix` (default "": the robot's own names, as in the robot's
+file and the single cell): the name prefix of one robot of a sorting line
+(`sim.cell.line_model`, e.g. "r1_" for `r1_motor_1_joint`, `r1_cup_site`).
 """
 
 from __future__ import annotations
@@ -18,32 +22,34 @@ MOTOR_JOINTS = tuple(f"motor_{i}_joint" for i in LEGS)
 MOTOR_ACTUATORS = tuple(f"motor_{i}" for i in LEGS)
 
 
-def geometry_from_model(model: mujoco.MjModel) -> DeltaGeometry:
+def geometry_from_model(model: mujoco.MjModel, *, prefix: str = "") -> DeltaGeometry:
     """The robot's `DeltaGeometry`, read by element names from the compiled model.
 
     Args:
         model: A model containing the IRB 360 (`base_link`, `upper_arm_*_link`, rods, platform).
+        prefix: Name prefix of the robot in `model` ("" for the robot's own names).
 
     Returns:
         Geometry of the robot as mounted in this model [m, rad].
     """
+    p = prefix
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)  # at qpos0: motors at 0, platform at its body pose
-    base = data.body("base_link").xpos.copy()
+    base = data.body(f"{p}base_link").xpos.copy()
     radii, azimuths, lows, highs = [], [], [], []
     for i in LEGS:
-        offset = data.body(f"upper_arm_{i}_link").xpos - base
+        offset = data.body(f"{p}upper_arm_{i}_link").xpos - base
         radii.append(np.hypot(offset[0], offset[1]))
         azimuths.append(float(np.arctan2(offset[1], offset[0])))
-        lows.append(model.joint(f"motor_{i}_joint").range[0])
-        highs.append(model.joint(f"motor_{i}_joint").range[1])
-    rod_a, rod_b = model.body("rod_1a_link").pos, model.body("rod_1b_link").pos
-    platform_mid = 0.5 * (model.site("platform_1a").pos + model.site("platform_1b").pos)
-    tcp_offset = data.body("platform_link").xpos[2] - data.site("cup_site").xpos[2]
+        lows.append(model.joint(f"{p}motor_{i}_joint").range[0])
+        highs.append(model.joint(f"{p}motor_{i}_joint").range[1])
+    rod_a, rod_b = model.body(f"{p}rod_1a_link").pos, model.body(f"{p}rod_1b_link").pos
+    platform_mid = 0.5 * (model.site(f"{p}platform_1a").pos + model.site(f"{p}platform_1b").pos)
+    tcp_offset = data.body(f"{p}platform_link").xpos[2] - data.site(f"{p}cup_site").xpos[2]
     return DeltaGeometry(
         base_radius=float(np.mean(radii)),
         upper_arm=float(0.5 * (rod_a[0] + rod_b[0])),
-        forearm=float(np.linalg.norm(model.site("rod_1a_tip").pos)),
+        forearm=float(np.linalg.norm(model.site(f"{p}rod_1a_tip").pos)),
         platform_radius=float(np.hypot(platform_mid[0], platform_mid[1])),
         rod_spacing=float(np.linalg.norm(rod_b - rod_a)),
         leg_azimuths=tuple(float(a % (2.0 * np.pi)) for a in azimuths),
@@ -55,39 +61,45 @@ def geometry_from_model(model: mujoco.MjModel) -> DeltaGeometry:
     )
 
 
-def tcp_position(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+def tcp_position(model: mujoco.MjModel, data: mujoco.MjData, *, prefix: str = "") -> np.ndarray:
     """World position of the cup lip centre (`cup_site`) [m]."""
-    return data.site("cup_site").xpos.copy()
+    return data.site(f"{prefix}cup_site").xpos.copy()
 
 
-def motor_qpos(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+def motor_qpos(model: mujoco.MjModel, data: mujoco.MjData, *, prefix: str = "") -> np.ndarray:
     """Motor angles [rad], shape (3,)."""
-    return np.array([data.joint(name).qpos[0] for name in MOTOR_JOINTS])
+    return np.array([data.joint(prefix + name).qpos[0] for name in MOTOR_JOINTS])
 
 
-def motor_qvel(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+def motor_qvel(model: mujoco.MjModel, data: mujoco.MjData, *, prefix: str = "") -> np.ndarray:
     """Motor speeds [rad/s], shape (3,)."""
-    return np.array([data.joint(name).qvel[0] for name in MOTOR_JOINTS])
+    return np.array([data.joint(prefix + name).qvel[0] for name in MOTOR_JOINTS])
 
 
-def platform_tilt(model: mujoco.MjModel, data: mujoco.MjData) -> float:
+def platform_tilt(model: mujoco.MjModel, data: mujoco.MjData, *, prefix: str = "") -> float:
     """Angle between the platform's z axis and world z [rad] (0 = level)."""
-    zz = data.body("platform_link").xmat[8]
+    zz = data.body(f"{prefix}platform_link").xmat[8]
     return float(np.arccos(np.clip(zz, -1.0, 1.0)))
 
 
-def loop_closure_error(model: mujoco.MjModel, data: mujoco.MjData) -> float:
+def loop_closure_error(model: mujoco.MjModel, data: mujoco.MjData, *, prefix: str = "") -> float:
     """Largest gap between the two sites of the robot's connect constraints [m]."""
     worst = 0.0
+    p = prefix
     for i in LEGS:
         for r in RODS:
-            gap = data.site(f"rod_{i}{r}_tip").xpos - data.site(f"platform_{i}{r}").xpos
+            gap = data.site(f"{p}rod_{i}{r}_tip").xpos - data.site(f"{p}platform_{i}{r}").xpos
             worst = max(worst, float(np.linalg.norm(gap)))
     return worst
 
 
 def settle_loop(
-    model: mujoco.MjModel, data: mujoco.MjData, tol: float = 1e-12, max_iter: int = 30
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    tol: float = 1e-12,
+    max_iter: int = 30,
+    *,
+    prefix: str = "",
 ) -> float:
     """Close the six loops by moving only the passive joints (Gauss-Newton on MuJoCo's kinematics).
 
@@ -99,16 +111,18 @@ def settle_loop(
         data: Its data; `qpos` is modified in place and `mj_kinematics` has run on return.
         tol: Stop when the largest site gap is below this [m].
         max_iter: Iteration limit.
+        prefix: Name prefix of the robot in `model`; only its passive joints move.
 
     Returns:
         The remaining largest site gap [m].
     """
-    held = [model.joint(n).dofadr[0] for n in (*MOTOR_JOINTS, "axis4_joint")]
+    p = prefix
+    held = [model.joint(p + n).dofadr[0] for n in (*MOTOR_JOINTS, "axis4_joint")]
     passive = np.ones(model.nv, dtype=bool)
     passive[held] = False
-    robot = _robot_dofs(model)
+    robot = _robot_dofs(model, p)
     cols = np.flatnonzero(passive & robot)
-    pairs = [(f"rod_{i}{r}_tip", f"platform_{i}{r}") for i in LEGS for r in RODS]
+    pairs = [(f"{p}rod_{i}{r}_tip", f"{p}platform_{i}{r}") for i in LEGS for r in RODS]
     jac1, jac2 = np.zeros((3, model.nv)), np.zeros((3, model.nv))
     for _ in range(max_iter):
         mujoco.mj_kinematics(model, data)
@@ -128,12 +142,12 @@ def settle_loop(
         dq[cols] = step
         mujoco.mj_integratePos(model, data.qpos, dq, 1.0)
     mujoco.mj_kinematics(model, data)
-    return loop_closure_error(model, data)
+    return loop_closure_error(model, data, prefix=p)
 
 
-def _robot_dofs(model: mujoco.MjModel) -> np.ndarray:
+def _robot_dofs(model: mujoco.MjModel, prefix: str = "") -> np.ndarray:
     """Mask of the degrees of freedom that belong to the robot's bodies."""
-    roots = {model.body("base_link").id, model.body("platform_link").id}
+    roots = {model.body(f"{prefix}base_link").id, model.body(f"{prefix}platform_link").id}
     mask = np.zeros(model.nv, dtype=bool)
     for dof in range(model.nv):
         body = model.dof_bodyid[dof]
@@ -166,6 +180,8 @@ def set_configuration(
     q_motors,
     axis4: float = 0.0,
     geom: DeltaGeometry | None = None,
+    *,
+    prefix: str = "",
 ) -> None:
     """Place the whole closed chain in the IK-consistent state of motor angles `q_motors`.
 
@@ -178,21 +194,23 @@ def set_configuration(
         q_motors: Motor angles, shape (3,) [rad].
         axis4: Axis 4 angle [rad].
         geom: The model's geometry if already read (saves reading it again).
+        prefix: Name prefix of the robot in `model`; the other robots are left as they are.
     """
-    geom = geometry_from_model(model) if geom is None else geom
+    p = prefix
+    geom = geometry_from_model(model, prefix=p) if geom is None else geom
     q = np.asarray(q_motors, dtype=float).reshape(3)
     platform = forward_kinematics(geom, q) + np.array([0.0, 0.0, geom.tcp_offset])
     for leg, i in enumerate(LEGS):
         swing, tilt = _rod_angles(geom, q, leg, platform)
-        _set_hinge(model, data, f"motor_{i}_joint", q[leg])
+        _set_hinge(model, data, f"{p}motor_{i}_joint", q[leg])
         for r in RODS:
-            _set_hinge(model, data, f"rod_{i}{r}_swing_joint", swing)
-            _set_hinge(model, data, f"rod_{i}{r}_tilt_joint", tilt)
-    free = model.joint("platform_joint")
+            _set_hinge(model, data, f"{p}rod_{i}{r}_swing_joint", swing)
+            _set_hinge(model, data, f"{p}rod_{i}{r}_tilt_joint", tilt)
+    free = model.joint(f"{p}platform_joint")
     data.qpos[free.qposadr[0] : free.qposadr[0] + 7] = np.r_[platform, 1.0, 0.0, 0.0, 0.0]
     data.qvel[free.dofadr[0] : free.dofadr[0] + 6] = 0.0
-    _set_hinge(model, data, "axis4_joint", axis4)
-    set_motor_targets(model, data, q, axis4)
+    _set_hinge(model, data, f"{p}axis4_joint", axis4)
+    set_motor_targets(model, data, q, axis4, prefix=p)
     mujoco.mj_forward(model, data)
 
 
@@ -209,6 +227,8 @@ def set_motor_targets(
     axis4: float = 0.0,
     qdot=None,
     axis4_dot: float = 0.0,
+    *,
+    prefix: str = "",
 ) -> None:
     """Write servo set-points for the three motors and axis 4.
 
@@ -223,8 +243,9 @@ def set_motor_targets(
         axis4: Axis 4 set-point [rad].
         qdot: Reference motor speeds, shape (3,) [rad/s]; None for a fixed set-point.
         axis4_dot: Reference axis 4 speed [rad/s].
+        prefix: Name prefix of the robot in `model`.
     """
-    ids = _servo_ids(model)  # called every control period: no name lookups here
+    ids = _servo_ids(model, prefix)  # called every control period: no name lookups here
     targets = np.empty(4)
     targets[:3], targets[3] = np.asarray(q, dtype=float).reshape(3), axis4
     speeds = np.zeros(4)
@@ -237,13 +258,13 @@ def set_motor_targets(
     data.ctrl[ids] = np.clip(value, ctrlrange[:, 0], ctrlrange[:, 1])
 
 
-_SERVO_IDS: dict[int, tuple[mujoco.MjModel, np.ndarray]] = {}
+_SERVO_IDS: dict[tuple[int, str], tuple[mujoco.MjModel, np.ndarray]] = {}
 
 
-def _servo_ids(model: mujoco.MjModel) -> np.ndarray:
-    """Actuator ids of the three motors and axis 4 (cached per model)."""
-    hit = _SERVO_IDS.get(id(model))
+def _servo_ids(model: mujoco.MjModel, prefix: str = "") -> np.ndarray:
+    """Actuator ids of the three motors and axis 4 (cached per model and robot)."""
+    hit = _SERVO_IDS.get((id(model), prefix))
     if hit is None or hit[0] is not model:
-        ids = np.array([model.actuator(n).id for n in (*MOTOR_ACTUATORS, "axis4")])
-        hit = _SERVO_IDS[id(model)] = (model, ids)
+        ids = np.array([model.actuator(prefix + n).id for n in (*MOTOR_ACTUATORS, "axis4")])
+        hit = _SERVO_IDS[(id(model), prefix)] = (model, ids)
     return hit[1]

@@ -88,9 +88,10 @@ class CellSettings:
         return self == CellSettings()
 
 
-def set_cup_diameter(spec: mujoco.MjSpec, diameter_m: float) -> None:
-    """The cup's lip (`cup_collision`) `diameter_m` [m] across; the bellows keep their overhang."""
-    lip, bellows = spec.geom("cup_collision"), spec.geom("cup_bellows")
+def set_cup_diameter(spec: mujoco.MjSpec, diameter_m: float, *, prefix: str = "") -> None:
+    """The cup's lip (`cup_collision`) `diameter_m` [m] across; the bellows keep their overhang.
+    `prefix` names the robot (one of a sorting line, `sim.cell.line_model`)."""
+    lip, bellows = spec.geom(f"{prefix}cup_collision"), spec.geom(f"{prefix}cup_bellows")
     overhang = float(bellows.size[0] - lip.size[0])
     lip.size[0] = 0.5 * diameter_m
     bellows.size[0] = 0.5 * diameter_m + overhang

@@ -18,6 +18,9 @@ Model (numbers and reasons in docs/suction.md):
   presses the lip on the item with area x vacuum; pull-off uses that up, shear needs friction
   mu_lip on what is left).
 - Release. Vacuum off: the item stays held for `release_time` (35 ms of air), then drops.
+
+A robot of a sorting line (`sim.cell.line_model`) has its own cup: `SuctionCup(..., prefix="r1_")`
+acts through `r1_cup_link`, `r1_cup_site` and the pool's welds `r1_item_<n>_grip`.
 """
 
 from __future__ import annotations
@@ -84,14 +87,25 @@ class SuctionCup:
     """The vacuum cup of the robot in `model`, acting on the items of `pool`.
 
     Call `update(data)` after every physics step (or control period) and switch the vacuum
-    with `vacuum_on` / `vacuum_off`.
+    with `vacuum_on` / `vacuum_off`. `prefix` names the robot whose cup this is ("" for the
+    robot's own names).
     """
 
-    def __init__(self, model: mujoco.MjModel, pool: ItemPool, config: SuctionConfig | None = None):
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        pool: ItemPool,
+        config: SuctionConfig | None = None,
+        *,
+        prefix: str = "",
+    ):
         self.model, self.pool = model, pool
         self.config = config or SuctionConfig()
-        self.body_id = model.body(CUP_BODY).id
-        self.site_id = model.site(CUP_SITE).id
+        self.prefix = prefix
+        self.body_id = model.body(prefix + CUP_BODY).id
+        self.site_id = model.site(prefix + CUP_SITE).id
+        self.grip_ids = pool.grip_ids if prefix == "" else pool.grip_ids_of(prefix)
+        """This cup's weld of each pool slot (-1 where the model has none)."""
         first = model.body_geomadr[self.body_id]
         geoms = np.arange(first, first + model.body_geomnum[self.body_id])
         geoms = geoms[(model.geom_contype[geoms] | model.geom_conaffinity[geoms]) != 0]
@@ -207,7 +221,7 @@ class SuctionCup:
         return bool(math.hypot(beyond, ly) <= b - margin)
 
     def _seal(self, data: mujoco.MjData, slot: int) -> None:
-        eq = self.pool.grip_ids[slot]
+        eq = self.grip_ids[slot]
         if eq < 0:
             raise InvalidInput("items.xml", "a grip weld per item slot", slot)
         b1, b2 = self.body_id, self.pool.body_ids[slot]
@@ -225,7 +239,7 @@ class SuctionCup:
 
     def _drop(self, data: mujoco.MjData, kind: str, t: float, load: float = 0.0) -> SuctionEvent:
         slot = self._held
-        data.eq_active[self.pool.grip_ids[slot]] = 0
+        data.eq_active[self.grip_ids[slot]] = 0
         self._held, self._release_at = None, None
         return SuctionEvent(kind, t, int(self.pool.item_ids[slot]), slot, load)
 

@@ -36,6 +36,7 @@ from planner.motion.trajectory import State
 from sim.cell.cell import Cell
 from sim.cell.conveyor import rail_top_z
 from sim.cell.executor import Playback
+from sim.cell.robot import tcp_position
 from sim.cell.suction import SuctionConfig, SuctionCup
 from sim.flow.catalogue import Catalogue, ItemType
 
@@ -116,6 +117,10 @@ class PickController:
         place_pause: Extra dwell over the bin after the release [s].
         items: The episode's items (scaled types), so the lift clears the tallest of them.
         suction: The cup's vacuum settings; `SuctionConfig()` when None.
+        prefix: Name prefix of the robot in the cell's model whose axis 4, TCP and cup this
+            controller reads ("" for the robot's own names; a robot of a sorting line,
+            `sim.cell.line_model`). The trajectories are still planned and played by the
+            cell's `generator` and `executor`.
     """
 
     def __init__(
@@ -126,8 +131,11 @@ class PickController:
         place_pause: float = 0.0,
         items: Iterable[ItemType] = (),
         suction: SuctionConfig | None = None,
+        *,
+        prefix: str = "",
     ):
         self.cell = cell
+        self.prefix = prefix
         self.belt_speed = float(belt_speed)
         base = PickPlaceConfig()
         # Extra dwell (the thesis's pauses): the cup rides with the item after the seal, and
@@ -137,10 +145,10 @@ class PickController:
             seal_time=base.seal_time + pick_pause,
             release_time=base.release_time + place_pause,
         )
-        self.suction = SuctionCup(cell.model, cell.pool, suction)
+        self.suction = SuctionCup(cell.model, cell.pool, suction, prefix=prefix)
         mujoco.mj_forward(cell.model, cell.data)
-        self.rest = cell.tcp()
-        self.axis4 = float(cell.data.joint("axis4_joint").qpos[0])
+        self.rest = tcp_position(cell.model, cell.data, prefix=prefix)
+        self.axis4 = float(cell.data.joint(f"{prefix}axis4_joint").qpos[0])
         self.plan_failures = 0
         self.raises = 0  # approaches planned again over a neighbour
         self.neighbour_refusals = 0  # picks refused: a neighbour in the cup's way down

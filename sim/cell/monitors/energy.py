@@ -70,6 +70,8 @@ class EnergyMeter:
     Args:
         model, data: The cell's model and data.
         drive: The drives' losses.
+        prefix: Name prefix of the robot metered ("" for the robot's own names; "r1_" for
+            robot `r1_` of a sorting line, `sim.cell.line_model`).
 
     Attributes:
         mechanical_j: Integral of sum |tau omega| so far [J].
@@ -77,10 +79,17 @@ class EnergyMeter:
         signed_j: Net work of the motors so far, driving minus braking [J].
     """
 
-    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, drive: DriveModel | None = None):
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        data: mujoco.MjData,
+        drive: DriveModel | None = None,
+        *,
+        prefix: str = "",
+    ):
         self.data = data
         drive = drive or DriveModel()
-        ids = [model.actuator(name).id for name in ACTUATORS]
+        ids = [model.actuator(prefix + name).id for name in ACTUATORS]
         self._actuators = np.array(ids)
         constants = [drive.arm_motor_constant] * 3 + [drive.axis4_motor_constant]
         self._inverse_km2 = (1.0 / np.square(constants)).tolist()

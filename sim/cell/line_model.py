@@ -1,0 +1,347 @@
+"""A sorting line: one to four IRB 360s in series over one belt, assembled with `MjSpec`.
+
+`compile_line(layout)` starts from the cell's scene (`models/cell/scene.xml`: belt, camera,
+markers, lights, item pool, and the robot, its cage and its bins) and gives every robot of
+`layout` (a `LineLayout`) its own copy of them, `x` metres down the belt:
+
+- the robot: `models/abb_irb360/irb360.xml` attached whole (`MjSpec.attach` on a frame at
+  (x, 0, 0)) with the robot's name prefix on every element, so robot "r1_" has `r1_base_link`,
+  `r1_motor_1_joint`, `r1_cup_site`, the actuators `r1_motor_1` .. `r1_axis4`, the six loop
+  closures `r1_loop_1a` .. `r1_loop_3b` and the keyframe `r1_home`. The robot's own 1 ms step
+  and implicitfast integrator are the scene's (which includes the same file), unchanged;
+- its cage (the scene's `cage_*` geoms, drawn only) as `r1_cage_*`, and its bins, one per
+  material (the file's thesis bins or a catalogue's, `sim.cell.bin_layout`) as
+  `r1_bin_<material>` with `r1_bin_<material>_floor_plate`, `r1_bin_<material>_drop`, ...;
+- its cup's weld of every pool slot, `r1_item_<n>_grip` from `r1_cup_link` to `item_<n>`
+  (inactive, as the pool file's `item_<n>_grip`), for `sim.cell.suction.SuctionCup(...,
+  prefix="r1_")`.
+
+The scene's own robot, cage, bins and welds are removed, so a line's every robot-related name
+is prefixed. The keyframe `home` holds every robot at its home pose (the items parked); a
+robot's `<prefix>home` holds that robot at home and the rest at `qpos0` (`reset_robot_home`
+puts one robot back without touching the others). The belt keeps its infeed end and runs to
+1.5 m past the last robot, as the scene's runs 1.5 m past its robot (longer when `settings`
+ask so); the camera stays where it is, 1.48 m or more upstream of the first robot.
+
+Robots are kept apart by their cages: each stands in its own, 1.8 m long, so neighbours are at
+least 1.8 m apart; their working circles (1.13 m across) and bins (within 0.42 m of the robot
+along the belt) never overlap, so no robot can touch another or another's bins.
+
+A line of one robot with the prefix "" (`LineLayout()`) is the single cell: the scene edited in
+place (moved when its position is not 0), which at x = 0 compiles to today's cell to the byte.
+Every per-robot function of the cell takes that prefix (`sim.cell.robot`, `sim.cell.executor`,
+`sim.cell.suction`, `sim.cell.monitors.energy`, `sim.episode.pick_control`).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from functools import lru_cache
+
+import mujoco
+import numpy as np
+
+from perception.codes import THESIS_MATERIALS
+from sim.cell.scene_edits import (
+    BELT_LENGTH_RANGE_M,
+    CellSettings,
+    set_belt_length,
+    set_cup_diameter,
+)
+from sim.errors import InvalidInput
+from sim.flow.config import BELT_X_RANGE
+from sim.paths import ROBOT_XML, SCENE_XML
+
+MAX_ROBOTS = 4
+MIN_SPACING_M = 1.8
+"""Least distance between neighbouring robots [m]: the scene's cage length (posts at +-0.9 m)."""
+DISCHARGE_PAST_LAST_M = BELT_X_RANGE[1]
+"""The belt runs this far past the last robot [m], as the scene's past its robot at x = 0."""
+MAX_LAST_X_M = BELT_X_RANGE[0] + BELT_LENGTH_RANGE_M[1] - DISCHARGE_PAST_LAST_M
+"""Farthest position of the last robot [m]: the longest belt accepted ends 1.5 m past it."""
+CAGE_GEOMS = (
+    *(f"cage_post_{e}_{s}" for e in ("upstream", "downstream") for s in ("left", "right")),
+    *(f"cage_beam_{s}" for s in ("left", "right", "upstream", "downstream")),
+    "cage_cross_upstream",
+    "cage_cross_downstream",
+    "cage_mount_plate",
+)
+"""The scene's cage around its robot (drawn only), copied for each robot of a line."""
+ROBOT_ROOTS = ("base_link", "platform_link")
+"""The robot's top bodies (base with the arms and rods; the free platform with the cup)."""
+_PREFIX = re.compile(r"[A-Za-z][A-Za-z0-9]*_")
+
+
+def _number(value: object) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+
+
+@dataclass(frozen=True)
+class LineLayout:
+    """How many robots a line has, where they stand and what their names start with.
+
+    Attributes:
+        robots: Number of robots, 1 to 4.
+        positions_m: x of each robot's base centre along the belt, downstream in order [m]; the
+            first at x >= 0 (the camera, at -1.48 m, stays upstream of it), each at least
+            `MIN_SPACING_M` past the one before, the last at most `MAX_LAST_X_M`. Default:
+            0, 1.8, 3.6, ... m.
+        prefixes: Name prefix of each robot's elements (a letter, letters or digits, "_").
+            Default: "" for one robot (the single cell's names), else "r0_", "r1_", ...; ""
+            is allowed only for a line of one robot.
+    """
+
+    robots: int = 1
+    positions_m: tuple[float, ...] = ()
+    prefixes: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        n = self.robots
+        if not (isinstance(n, int) and not isinstance(n, bool) and 1 <= n <= MAX_ROBOTS):
+            raise InvalidInput("line.robots", f"1..{MAX_ROBOTS}", n)
+        positions = self.positions_m or tuple(k * MIN_SPACING_M for k in range(n))
+        allowed = (
+            f"{n} x positions [m] in downstream order: the first >= 0, each >= {MIN_SPACING_M} m"
+            f" past the one before, the last <= {MAX_LAST_X_M}"
+        )
+        if (
+            not isinstance(positions, tuple | list)
+            or len(positions) != n
+            or not all(_number(x) for x in positions)
+            or positions[0] < 0.0
+            or positions[-1] > MAX_LAST_X_M
+            or any(positions[k + 1] - positions[k] < MIN_SPACING_M - 1e-9 for k in range(n - 1))
+        ):
+            raise InvalidInput("line.positions_m", allowed, self.positions_m)
+        object.__setattr__(self, "positions_m", tuple(float(x) for x in positions))
+        prefixes = self.prefixes or (("",) if n == 1 else tuple(f"r{k}_" for k in range(n)))
+        if (
+            not isinstance(prefixes, tuple | list)
+            or len(prefixes) != n
+            or not all(isinstance(p, str) for p in prefixes)
+            or len(set(prefixes)) != n
+            or not all(_PREFIX.fullmatch(p) or (p == "" and n == 1) for p in prefixes)
+        ):
+            allowed = f"{n} distinct prefixes like 'r0_' (or '' for a line of one robot)"
+            raise InvalidInput("line.prefixes", allowed, self.prefixes)
+        object.__setattr__(self, "prefixes", tuple(prefixes))
+
+    @property
+    def belt_length_m(self) -> float:
+        """Length of belt the line needs: infeed to 1.5 m past the last robot [m]."""
+        return self.positions_m[-1] + DISCHARGE_PAST_LAST_M - BELT_X_RANGE[0]
+
+    @property
+    def in_place(self) -> bool:
+        """Whether the line is the scene's own robot (one robot, prefix "")."""
+        return self.prefixes == ("",)
+
+
+def line_elements(layout: LineLayout, materials=None) -> tuple:
+    """The named elements the code reads in a line's model (`sim.cell.mjcf.require_elements`):
+    every robot's and its bins' (prefixed), the belt's, camera's, markers' and pool's."""
+    from sim.cell.bin_layout import bin_elements
+    from sim.cell.mjcf import ROBOT_ELEMENTS, cell_elements, robot_elements
+
+    materials = THESIS_MATERIALS if materials is None else materials
+    own = set(ROBOT_ELEMENTS) | set(bin_elements(materials))
+    shared = tuple(e for e in cell_elements(materials) if e not in own)
+    robots = tuple(
+        e for p in layout.prefixes for e in (*robot_elements(p), *bin_elements(materials, p))
+    )
+    return (*robots, *shared, (("key",), "home"))
+
+
+@lru_cache(maxsize=1)
+def _robot_names() -> tuple[tuple[str, ...], tuple[str, ...], int]:
+    """The robot file's joint and actuator names and its platform's qpos address."""
+    from sim.cell.mjcf import load_robot
+
+    robot = load_robot()
+    joints = tuple(robot.joint(j).name for j in range(robot.njnt))
+    actuators = tuple(robot.actuator(a).name for a in range(robot.nu))
+    return joints, actuators, int(robot.joint("platform_joint").qposadr[0])
+
+
+def robot_qpos_index(model: mujoco.MjModel, prefix: str = "") -> np.ndarray:
+    """Indices into `qpos` of the robot `prefix`'s joints (the robot file's, in its order)."""
+    widths = {mujoco.mjtJoint.mjJNT_FREE: 7, mujoco.mjtJoint.mjJNT_BALL: 4}
+    out = []
+    for name in _robot_names()[0]:
+        joint = model.joint(prefix + name)
+        start = int(joint.qposadr[0])
+        out.extend(range(start, start + widths.get(int(joint.type[0]), 1)))
+    return np.array(out)
+
+
+def robot_dof_index(model: mujoco.MjModel, prefix: str = "") -> np.ndarray:
+    """Indices into `qvel` of the robot `prefix`'s degrees of freedom."""
+    widths = {mujoco.mjtJoint.mjJNT_FREE: 6, mujoco.mjtJoint.mjJNT_BALL: 3}
+    out = []
+    for name in _robot_names()[0]:
+        joint = model.joint(prefix + name)
+        start = int(joint.dofadr[0])
+        out.extend(range(start, start + widths.get(int(joint.type[0]), 1)))
+    return np.array(out)
+
+
+def robot_ctrl_index(model: mujoco.MjModel, prefix: str = "") -> np.ndarray:
+    """Indices into `ctrl` of the robot `prefix`'s actuators (motors 1-3, axis 4)."""
+    return np.array([model.actuator(prefix + name).id for name in _robot_names()[1]])
+
+
+def reset_robot_home(model: mujoco.MjModel, data: mujoco.MjData, prefix: str = "") -> None:
+    """Robot `prefix` back to its keyframe `<prefix>home` (joints, zero speeds, servo targets);
+    the other robots and the items keep their state. Runs `mj_forward`."""
+    key = model.key(f"{prefix}home")
+    qpos, dofs, ctrl = (
+        robot_qpos_index(model, prefix),
+        robot_dof_index(model, prefix),
+        robot_ctrl_index(model, prefix),
+    )
+    data.qpos[qpos] = key.qpos[qpos]
+    data.qvel[dofs] = 0.0
+    data.ctrl[ctrl] = key.ctrl[ctrl]
+    mujoco.mj_forward(model, data)
+
+
+def _move_in_place(spec: mujoco.MjSpec, x: float, materials) -> None:
+    """The scene's own robot, its cage and bins `x` [m] down the belt (nothing at x = 0)."""
+    if x == 0.0:
+        return
+    for name in ROBOT_ROOTS:
+        spec.body(name).pos[0] += x
+    key = spec.key("home")
+    qpos = np.array(key.qpos)
+    qpos[_robot_names()[2]] += x  # the free platform's x: world coordinates
+    key.qpos = qpos
+    for name in CAGE_GEOMS:
+        spec.geom(name).pos[0] += x
+    for name in materials.names:
+        spec.body(f"bin_{name}").pos[0] += x
+
+
+def _grip_template(spec: mujoco.MjSpec) -> tuple[list[str], dict]:
+    """The pool's slots (their bodies, by the welds `item_<n>_grip`) and the welds' settings."""
+    bodies, first = [], spec.equality("item_0_grip")
+    while (weld := spec.equality(f"item_{len(bodies)}_grip")) is not None:
+        bodies.append(weld.name2)
+    settings = {
+        "type": first.type,
+        "objtype": first.objtype,
+        "active": False,
+        "solref": list(first.solref),
+        "solimp": list(first.solimp),
+        "data": list(first.data),
+    }
+    return bodies, settings
+
+
+def _add_robot(spec, prefix: str, x: float, cup_diameter_m: float, materials, grips) -> None:
+    """Robot `prefix` at `x` [m]: attached from its file, with its cage, bins and welds."""
+    from sim.cell.mjcf import ROBOT_ELEMENTS, load_spec
+
+    robot = load_spec(ROBOT_XML, ROBOT_ELEMENTS)
+    key = robot.key("home")
+    qpos = np.array(key.qpos)
+    qpos[_robot_names()[2]] += x  # the key's free platform is in world coordinates
+    key.qpos = qpos
+    frame = spec.worldbody.add_frame(pos=[x, 0.0, 0.0])
+    spec.attach(robot, prefix=prefix, frame=frame)
+    set_cup_diameter(spec, cup_diameter_m, prefix=prefix)
+    for name in CAGE_GEOMS:
+        cage = spec.geom(name)
+        spec.worldbody.add_geom(
+            cage.classname,
+            name=prefix + name,
+            type=cage.type,
+            size=cage.size.copy(),
+            pos=cage.pos + np.array([x, 0.0, 0.0]),
+            material=cage.material,
+        )
+    for name in materials.names:  # copies (the spec copies during attach), not moves
+        frame.attach_body(spec.body(f"bin_{name}"), prefix, "")
+    bodies, settings = grips
+    for slot, body in enumerate(bodies):
+        spec.add_equality(
+            name=f"{prefix}item_{slot}_grip", name1=f"{prefix}cup_link", name2=body, **settings
+        )
+
+
+def line_spec(
+    layout: LineLayout, settings: CellSettings | None = None, materials=None, path=SCENE_XML
+) -> mujoco.MjSpec:
+    """The line's `MjSpec` (see the module docstring), not yet holding the keyframe `home` of a
+    line of several robots (`compile_line` adds it, from the compiled robots' keys).
+
+    Args:
+        layout: The robots, their positions and prefixes.
+        settings: Cup diameter and belt length (`sim.cell.scene_edits`); the belt is made at
+            least `layout.belt_length_m` long.
+        materials: One bin per material for each robot (`perception.codes.Materials`); the
+            thesis's when None.
+        path: The scene file.
+
+    Raises:
+        ModelFileError: the scene or the robot's file is refused (`sim.cell.mjcf`).
+    """
+    from sim.cell.bin_layout import lay_out_bins
+    from sim.cell.mjcf import CELL_ELEMENTS, load_spec
+
+    settings = settings or CellSettings()
+    materials = THESIS_MATERIALS if materials is None else materials
+    spec = load_spec(path, CELL_ELEMENTS)
+    set_belt_length(spec, max(settings.belt_length_m, layout.belt_length_m))
+    lay_out_bins(spec, materials)  # the file's own bins for the thesis's materials
+    if layout.in_place:
+        set_cup_diameter(spec, settings.cup_diameter_m)
+        _move_in_place(spec, layout.positions_m[0], materials)
+        return spec
+    grips = _grip_template(spec)
+    for name in ROBOT_ROOTS:  # takes its loop closures, actuators and the pool's welds along
+        spec.delete(spec.body(name))
+    spec.delete(spec.key("home"))
+    spec.copy_during_attach = True
+    for prefix, x in zip(layout.prefixes, layout.positions_m, strict=True):
+        _add_robot(spec, prefix, x, settings.cup_diameter_m, materials, grips)
+    for name in CAGE_GEOMS:
+        spec.delete(spec.geom(name))
+    for name in materials.names:
+        spec.delete(spec.body(f"bin_{name}"))
+    return spec
+
+
+def _line_home(model: mujoco.MjModel, layout: LineLayout) -> tuple[np.ndarray, np.ndarray]:
+    """(qpos, ctrl) of every robot at its own home, the items parked (`qpos0`)."""
+    qpos, ctrl = model.qpos0.copy(), np.zeros(model.nu)
+    for prefix in layout.prefixes:
+        key = model.key(f"{prefix}home")
+        index, actuators = robot_qpos_index(model, prefix), robot_ctrl_index(model, prefix)
+        qpos[index], ctrl[actuators] = key.qpos[index], key.ctrl[actuators]
+    return qpos, ctrl
+
+
+def compile_line(
+    layout: LineLayout | None = None,
+    settings: CellSettings | None = None,
+    materials=None,
+    path=SCENE_XML,
+) -> mujoco.MjModel:
+    """The line's compiled model (arguments as `line_spec`; `LineLayout()` when None: the
+    single cell), checked as `sim.cell.mjcf` checks a file, every robot's elements present.
+
+    Raises:
+        ModelFileError: a file is refused or the model lacks an element the code needs.
+    """
+    from sim.cell.mjcf import compile_spec
+
+    layout = layout or LineLayout()
+    spec = line_spec(layout, settings, materials, path)
+    elements = line_elements(layout, materials)
+    if layout.in_place:
+        return compile_spec(spec, path, elements)
+    qpos, ctrl = _line_home(compile_spec(spec, path), layout)
+    spec.add_key(name="home", qpos=qpos.tolist(), ctrl=ctrl.tolist())
+    return compile_spec(spec, path, elements)

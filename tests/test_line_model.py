@@ -1,0 +1,331 @@
+"""The sorting line's model (`sim.cell.line_model`): one to four IRB 360s over one belt.
+
+Figures (printed with `pytest -s tests/test_line_model.py`): the cost of one 1 ms step of the
+4-robot line at home with the items parked.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import mujoco
+import numpy as np
+import pytest
+
+from planner.motion.limits import limits_for_payload
+from planner.motion.ruckig_trajectory import RuckigTrajectoryGenerator
+from planner.motion.trajectory import State
+from sim.cell.conveyor import Belt
+from sim.cell.executor import TrajectoryExecutor, lumped_dynamics
+from sim.cell.item_pool import ItemPool
+from sim.cell.line_model import (
+    CAGE_GEOMS,
+    LineLayout,
+    compile_line,
+    reset_robot_home,
+    robot_ctrl_index,
+    robot_qpos_index,
+)
+from sim.cell.mjcf import load_robot
+from sim.cell.monitors.energy import EnergyMeter
+from sim.cell.robot import geometry_from_model, loop_closure_error, tcp_position
+from sim.cell.scene_edits import CellSettings, compile_scene
+from sim.cell.suction import SuctionCup
+from sim.errors import InvalidInput
+from sim.flow.catalogue import load_catalogue
+from sim.paths import REPO_ROOT
+
+FOUR = REPO_ROOT / "experiments" / "catalogues" / "pet_hdpe.toml"
+
+
+def model_bytes(model: mujoco.MjModel) -> bytes:
+    buffer = np.zeros(mujoco.mj_sizeModel(model), dtype=np.uint8)
+    mujoco.mj_saveModel(model, None, buffer)
+    return buffer.tobytes()
+
+
+def at_home(model: mujoco.MjModel) -> mujoco.MjData:
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
+    mujoco.mj_forward(model, data)
+    return data
+
+
+def body_of(model: mujoco.MjModel, geom: int) -> str:
+    return model.body(model.geom_bodyid[geom]).name
+
+
+@pytest.fixture(scope="module")
+def line2() -> mujoco.MjModel:
+    return compile_line(LineLayout(2))
+
+
+@pytest.fixture(scope="module")
+def line4() -> mujoco.MjModel:
+    return compile_line(LineLayout(4))
+
+
+@pytest.fixture(scope="module")
+def robot() -> mujoco.MjModel:
+    return load_robot()
+
+
+# --- the layout -----------------------------------------------------------------------------
+
+
+def test_default_layouts():
+    assert LineLayout() == LineLayout(1, (0.0,), ("",))
+    four = LineLayout(4)
+    assert four.positions_m == (0.0, 1.8, 3.6, 5.4)
+    assert four.prefixes == ("r0_", "r1_", "r2_", "r3_")
+    assert LineLayout().belt_length_m == pytest.approx(4.5)  # the scene's belt
+    assert four.belt_length_m == pytest.approx(9.9)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "field"),
+    [
+        ({"robots": 0}, "line.robots"),
+        ({"robots": 5}, "line.robots"),
+        ({"robots": True}, "line.robots"),
+        ({"robots": 2.0}, "line.robots"),
+        ({"robots": 2, "positions_m": (0.0, 1.0)}, "line.positions_m"),  # cages overlap
+        ({"robots": 2, "positions_m": (1.8, 0.0)}, "line.positions_m"),  # not downstream
+        ({"robots": 1, "positions_m": (-0.5,)}, "line.positions_m"),  # under the camera
+        ({"robots": 1, "positions_m": (16.0,)}, "line.positions_m"),  # belt over 20 m
+        ({"robots": 2, "positions_m": (0.0,)}, "line.positions_m"),
+        ({"robots": 1, "positions_m": (float("nan"),)}, "line.positions_m"),
+        ({"robots": 2, "prefixes": ("", "r1_")}, "line.prefixes"),  # "" for one robot only
+        ({"robots": 2, "prefixes": ("a_", "a_")}, "line.prefixes"),
+        ({"robots": 1, "prefixes": ("r 0",)}, "line.prefixes"),
+        ({"robots": 1, "prefixes": ("r0_", "r1_")}, "line.prefixes"),
+    ],
+)
+def test_bad_layouts_are_refused_naming_the_field(kwargs, field):
+    with pytest.raises(InvalidInput) as refused:
+        LineLayout(**kwargs)
+    assert refused.value.field == field
+
+
+# --- one robot: today's cell ------------------------------------------------------------------
+
+
+def test_a_line_of_one_robot_is_todays_cell_to_the_byte():
+    assert model_bytes(compile_line(LineLayout())) == model_bytes(compile_scene())
+
+
+def test_a_line_of_one_robot_with_settings_and_a_catalogue_is_the_cell_with_them():
+    settings = CellSettings(cup_diameter_m=0.08, belt_length_m=6.0)
+    materials = load_catalogue(FOUR).materials
+    line = compile_line(LineLayout(), settings, materials)
+    assert model_bytes(line) == model_bytes(compile_scene(settings, materials=materials))
+
+
+def test_one_robot_moved_down_the_belt_takes_its_cage_and_bins_along():
+    line, cell = compile_line(LineLayout(1, (0.7,))), compile_scene()
+    data = at_home(line)
+    np.testing.assert_allclose(tcp_position(line, data), [0.7, 0.0, 0.15], atol=1e-9)
+    assert loop_closure_error(line, data) < 1e-8
+    cell_data = at_home(cell)
+    for site in ("bin_paper_drop", "bin_plastic_drop", "bin_aluminium_drop"):
+        np.testing.assert_allclose(data.site(site).xpos - cell_data.site(site).xpos, [0.7, 0, 0])
+    np.testing.assert_allclose(line.geom("cage_mount_plate").pos, [0.7, 0.0, 1.09])
+    assert line.geom("belt").size[0] == pytest.approx(0.5 * (0.7 + 4.5))
+
+
+# --- several robots -------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("fixture", ["line2", "line4"])
+def test_a_line_compiles_with_every_robot_element_prefixed(fixture, request, robot):
+    line = request.getfixturevalue(fixture)
+    layout = LineLayout(4 if fixture == "line4" else 2)
+    n = layout.robots
+    assert line.opt.timestep == robot.opt.timestep == 0.001
+    assert line.opt.integrator == robot.opt.integrator
+    assert line.nu == n * robot.nu and line.nkey == n + 1
+    names = {kind: [getattr(line, kind)(i).name for i in range(count)] for kind, count in
+             (("body", line.nbody), ("joint", line.njnt), ("actuator", line.nu),
+              ("equality", line.neq))}  # fmt: skip
+    for kind, own in (("body", robot.nbody), ("joint", robot.njnt), ("actuator", robot.nu)):
+        for i in range(1 if kind == "body" else 0, own):  # the robot file's world is no body
+            name = getattr(robot, kind)(i).name
+            assert name not in names[kind]
+            assert all(p + name in names[kind] for p in layout.prefixes)
+    loops = [f"loop_{i}{r}" for i in (1, 2, 3) for r in "ab"]
+    pool = ItemPool(line, load_catalogue(), Belt(line))
+    assert np.all(pool.grip_ids < 0)  # no weld of the single cell's cup
+    for prefix, x in zip(layout.prefixes, layout.positions_m, strict=True):
+        assert all(prefix + loop in names["equality"] for loop in loops)
+        grips = pool.grip_ids_of(prefix)
+        assert np.all(grips >= 0) and len(grips) == pool.size
+        cup = line.body(f"{prefix}cup_link").id
+        assert np.all(line.eq_obj1id[grips] == cup)
+        assert np.array_equal(line.eq_obj2id[grips], pool.body_ids)
+        assert not np.any(line.eq_active0[grips])
+        assert line.geom(f"{prefix}cage_mount_plate").pos[0] == pytest.approx(x)
+        assert line.site(f"{prefix}bin_paper_drop").id >= 0
+    for name in CAGE_GEOMS:  # the scene's own cage is gone, each robot has its copy
+        assert mujoco.mj_name2id(line, mujoco.mjtObj.mjOBJ_GEOM, name) < 0
+    assert line.geom("belt").size[0] == pytest.approx(0.5 * layout.belt_length_m)
+    assert line.cam("belt_camera").pos[0] == pytest.approx(-1.48)
+
+
+def test_each_robots_geometry_is_the_single_robots_at_its_own_base(line4):
+    single = geometry_from_model(compile_scene())
+    for prefix, x in zip(LineLayout(4).prefixes, LineLayout(4).positions_m, strict=True):
+        geometry = geometry_from_model(line4, prefix=prefix)
+        assert geometry.base_xy == pytest.approx((x, 0.0), abs=1e-12)
+        moved = dataclasses.replace(geometry, base_xy=(0.0, 0.0))
+        for field in dataclasses.fields(single):  # equal but for rounding in x - x_base
+            got, want = getattr(moved, field.name), getattr(single, field.name)
+            np.testing.assert_allclose(got, want, rtol=0, atol=1e-12, err_msg=field.name)
+
+
+def test_each_robot_has_the_single_robots_physics(line4, robot):
+    """Joints, actuators, bodies and loop closures of every robot equal the robot file's (the
+    attached default classes resolved alike)."""
+    for prefix in LineLayout(4).prefixes:
+        for j in range(robot.njnt):
+            a, b = robot.joint(j), line4.joint(prefix + robot.joint(j).name)
+            np.testing.assert_array_equal(a.range, b.range)
+            for field in ("dof_damping", "dof_armature", "dof_frictionloss"):
+                np.testing.assert_array_equal(
+                    getattr(robot, field)[a.dofadr[0]], getattr(line4, field)[b.dofadr[0]]
+                )
+        for i in range(robot.nu):
+            a, b = robot.actuator(i), line4.actuator(prefix + robot.actuator(i).name)
+            for field in ("gainprm", "biasprm", "forcerange", "ctrlrange"):
+                np.testing.assert_array_equal(getattr(a, field), getattr(b, field))
+        for i in range(1, robot.nbody):
+            a, b = robot.body(i), line4.body(prefix + robot.body(i).name)
+            np.testing.assert_array_equal(a.mass, b.mass)
+            np.testing.assert_array_equal(a.inertia, b.inertia)
+        for i in range(robot.neq):
+            a, b = robot.equality(i), line4.equality(prefix + robot.equality(i).name)
+            np.testing.assert_array_equal(a.solref, b.solref)
+            np.testing.assert_array_equal(a.solimp, b.solimp)
+        cup = line4.geom(f"{prefix}cup_collision")
+        assert cup.contype[0] == 1 and cup.size[0] == pytest.approx(0.03)
+        single = lumped_dynamics(robot, geometry_from_model(robot))
+        assert lumped_dynamics(line4, geometry_from_model(line4, prefix=prefix), prefix=prefix) == (
+            single
+        )
+
+
+def test_the_cup_diameter_applies_to_every_robot():
+    line = compile_line(LineLayout(2), CellSettings(cup_diameter_m=0.08))
+    for prefix in ("r0_", "r1_"):
+        assert line.geom(f"{prefix}cup_collision").size[0] == pytest.approx(0.04)
+
+
+def test_every_robot_holds_home_with_its_loops_closed_for_1_s(line4):
+    layout = LineLayout(4)
+    data = at_home(line4)
+    start = {p: tcp_position(line4, data, prefix=p) for p in layout.prefixes}
+    for p, x in zip(layout.prefixes, layout.positions_m, strict=True):
+        np.testing.assert_allclose(start[p], [x, 0.0, 0.15], atol=1e-9)
+    worst = {p: 0.0 for p in layout.prefixes}
+    for _ in range(1000):
+        mujoco.mj_step(line4, data)
+        for p in layout.prefixes:
+            worst[p] = max(worst[p], loop_closure_error(line4, data, prefix=p))
+    for p in layout.prefixes:
+        assert worst[p] < 1e-4, (p, worst[p])
+        assert np.linalg.norm(tcp_position(line4, data, prefix=p) - start[p]) < 1e-3
+    assert sum(w.number for w in data.warning) == 0
+
+
+def test_no_contact_between_robots_or_with_anothers_bins_at_home(line4):
+    """At home nothing touches at all; the cups (the robots' only colliding geoms) are farther
+    from every other robot's bins than the robot reaches (working radius 0.565 m)."""
+    data = at_home(line4)
+    mujoco.mj_step(line4, data)
+    assert data.ncon == 0
+    layout = LineLayout(4)
+    for p in layout.prefixes:
+        cup = tcp_position(line4, data, prefix=p)
+        for q in layout.prefixes:
+            if q == p:
+                continue
+            assert np.linalg.norm(tcp_position(line4, data, prefix=q)[:2] - cup[:2]) > 1.13
+            for g in range(line4.ngeom):
+                if body_of(line4, g).startswith(f"{q}bin_"):
+                    assert abs(data.geom_xpos[g][0] - cup[0]) > 0.565 + 0.2
+
+
+def test_a_robots_key_resets_it_alone(line2):
+    data = at_home(line2)
+    data.qpos[robot_qpos_index(line2, "r0_")] += 0.01
+    data.qpos[robot_qpos_index(line2, "r1_")] += 0.02
+    before = data.qpos.copy()
+    reset_robot_home(line2, data, "r1_")
+    r0, r1 = robot_qpos_index(line2, "r0_"), robot_qpos_index(line2, "r1_")
+    np.testing.assert_array_equal(data.qpos[r0], before[r0])
+    np.testing.assert_array_equal(data.qpos[r1], line2.key("home").qpos[r1])
+    assert loop_closure_error(line2, data, prefix="r1_") < 1e-8
+    np.testing.assert_array_equal(
+        data.ctrl[robot_ctrl_index(line2, "r1_")], line2.key("r1_home").ctrl[4:]
+    )
+
+
+def _drive_one_robot(line: mujoco.MjModel, layout: LineLayout, k: int) -> None:
+    """Robot k plays a short move while the others hold home: it tracks within 1 mm, they stay
+    within 1 um of where they are when nobody moves (each settles under gravity by 0.3 mm)."""
+    data = at_home(line)
+    prefix = layout.prefixes[k]
+    geometry = geometry_from_model(line, prefix=prefix)
+    generator = RuckigTrajectoryGenerator(
+        limits_for_payload(1.0), geometry, lumped_dynamics(line, geometry, 1.0, prefix=prefix)
+    )
+    home = tcp_position(line, data, prefix=prefix)
+    goal = home + np.array([0.2, -0.15, -0.1])
+    segment = generator.plan(State.at_rest(home), State.at_rest(goal, axis4=0.5))
+    executor = TrajectoryExecutor(line, data, geometry=geometry, prefix=prefix)
+    meter = EnergyMeter(line, data, prefix=prefix)
+    log = executor.execute(segment, hold=0.1, on_step=lambda _t: meter.add(line.opt.timestep))
+    still = at_home(line)
+    mujoco.mj_step(line, still, nstep=len(log.time) * executor.substeps)
+    others = {p: tcp_position(line, still, prefix=p) for p in layout.prefixes if p != prefix}
+    assert np.max(log.tracking_error) < 1e-3
+    assert np.linalg.norm(tcp_position(line, data, prefix=prefix) - goal) < 1e-3
+    assert data.joint(f"{prefix}axis4_joint").qpos[0] == pytest.approx(0.5, abs=1e-2)
+    assert meter.mechanical_j > 0.0
+    for p, tcp in others.items():
+        assert np.linalg.norm(tcp_position(line, data, prefix=p) - tcp) < 1e-6, p
+        assert loop_closure_error(line, data, prefix=p) < 1e-4
+    assert loop_closure_error(line, data, prefix=prefix) < 1e-4
+    mine = robot_ctrl_index(line, prefix)  # the commands went to this robot's servos only
+    untouched = np.setdiff1d(np.arange(line.nu), mine)
+    np.testing.assert_array_equal(data.ctrl[untouched], line.key("home").ctrl[untouched])
+
+
+@pytest.mark.parametrize("fixture", ["line2", "line4"])
+def test_each_robot_is_driven_by_its_own_executor_while_the_others_hold(fixture, request):
+    line = request.getfixturevalue(fixture)
+    layout = LineLayout(4 if fixture == "line4" else 2)
+    for k in range(layout.robots):
+        _drive_one_robot(line, layout, k)
+
+
+def test_each_robots_cup_seals_through_its_own_welds(line2):
+    pool = ItemPool(line2, load_catalogue(), Belt(line2))
+    cups = [SuctionCup(line2, pool, prefix=p) for p in ("r0_", "r1_")]
+    assert cups[0].body_id != cups[1].body_id and cups[0].site_id != cups[1].site_id
+    assert not set(cups[0].grip_ids) & set(cups[1].grip_ids)
+    for cup, p in zip(cups, ("r0_", "r1_"), strict=True):
+        assert line2.body(cup.body_id).name == f"{p}cup_link"
+        assert cup.radius == pytest.approx(0.03)
+
+
+def test_step_cost_of_the_4_robot_line_at_home(line4):
+    data = at_home(line4)
+    for _ in range(200):  # the parked items fall asleep
+        mujoco.mj_step(line4, data)
+    steps = 1000
+    start = time.perf_counter()
+    mujoco.mj_step(line4, data, nstep=steps)
+    cost = (time.perf_counter() - start) / steps
+    print(f"\n4-robot line at home, items parked: {cost * 1e6:.0f} us per 1 ms step")
+    assert cost < 5e-3  # real time with room to spare, even on a loaded machine
