@@ -76,7 +76,7 @@ class Bins:
         self.pool = pool
         self.materials = materials
         mujoco.mj_kinematics(model, data)
-        self.interiors = {c: self._interior(model, data, c) for c in materials.names}
+        self.interiors = {c: self._interior(model, data, c, prefixes[0]) for c in materials.names}
         # (material, interior) of every robot's bins; the first robot's are `interiors`
         self._all = [
             (c, self._interior(model, data, c, prefix)) for prefix in prefixes

@@ -97,9 +97,8 @@ class LineCell:
         self.belt = Belt(model)
         self.pool = ItemPool(model, self.catalogue, self.belt)
         self.robot_cells = [RobotCell(self, p) for p in prefixes]
-        self._home_keys = [
-            mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, f"{p}home") for p in prefixes
-        ]
+        self._home_key = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")
+        """Every robot at its home pose (`sim.cell.line_model`)."""
         self.item_radius = max(
             float(self.pool.props(k)["geom_rbound"]) for k in range(len(self.catalogue.types))
         )
@@ -121,10 +120,7 @@ class LineCell:
         """Park every item, every robot to its `home`, belt at `belt_speed` [m/s], clock 0."""
         for slot in self.pool.active_slots():
             self.pool.park(self.data, int(slot))
-        mujoco.mj_resetData(self.model, self.data)
-        key = self._home_keys[0]
-        if key >= 0:
-            mujoco.mj_resetDataKeyframe(self.model, self.data, key)
+        mujoco.mj_resetDataKeyframe(self.model, self.data, self._home_key)
         self.data.eq_active[:] = self.model.eq_active0
         self.belt.set_speed(belt_speed)
         for robot in self.robot_cells:

@@ -263,7 +263,7 @@ def main(args: argparse.Namespace) -> int:
     result = run_episode(config, video_path=video, progress=progress)
     if progress is not None:
         progress.done()
-    columns = outputs.episode_columns(config.materials)
+    columns = outputs.episode_columns(config.materials) + outputs.line_columns(config.robots)
     outputs.write_episodes(out / "episodes.csv", [result.episode_row], columns)
     outputs.write_picks(out / "picks.csv", result.pick_rows)
     from sim.episode import manifest

@@ -246,6 +246,7 @@ class Episode:
                 pauses.place_pause_s,
                 items=self.flow.item_types(cell.catalogue),
                 suction=SuctionConfig(vacuum=float(config.cup.vacuum_pa)),
+                **_prefixed(robot_cell),
             )
             for robot_cell in self._robot_cells()
         ]

@@ -47,7 +47,7 @@ class EpisodeResult:
     latencies: dict[str, list[float]] = field(default_factory=dict)
 
 
-_CELLS: dict[tuple[int, CellSettings, str], Cell] = {}
+_CELLS: dict[tuple[int, CellSettings, str, int], object] = {}
 
 
 def planner_name(planner) -> str:
@@ -55,7 +55,7 @@ def planner_name(planner) -> str:
     return str(getattr(planner, "name", None) or type(planner).__name__)
 
 
-def shared_cell(settings: CellSettings | None = None, catalogue=None) -> Cell:
+def shared_cell(settings: CellSettings | None = None, catalogue=None, robots: int = 1):
     """This process's cell of `settings` (an episode config's `cell_settings`; the scene's when
     None) and `catalogue` (the default one when None; its materials name the bins): compiled
     once per process, settings and catalogue, reused by every episode run here with them, so a
@@ -64,9 +64,17 @@ def shared_cell(settings: CellSettings | None = None, catalogue=None) -> Cell:
         from sim.flow.catalogue import load_catalogue
 
         catalogue = load_catalogue()
-    key = (os.getpid(), settings or CellSettings(), catalogue.digest)
+    key = (os.getpid(), settings or CellSettings(), catalogue.digest, robots)
     if key not in _CELLS:
-        _CELLS[key] = Cell(settings=key[1], catalogue=catalogue)
+        if robots == 1:
+            _CELLS[key] = Cell(settings=key[1], catalogue=catalogue)
+        else:  # a sorting line (`sim.cell.line`)
+            from sim.cell.line import LineCell
+            from sim.cell.line_model import LineLayout, compile_line
+
+            layout = LineLayout(robots=robots)
+            model = compile_line(layout, key[1], catalogue.materials)
+            _CELLS[key] = LineCell(model, layout.prefixes, catalogue, key[1])
     return _CELLS[key]
 
 
@@ -97,7 +105,8 @@ def run_episode(
     if recorder is not None and video_path is not None:
         raise ValueError("run_episode takes a video_path or a recorder, not both")
     wall0, cpu0 = time.perf_counter(), time.process_time()
-    cell = cell if cell is not None else shared_cell(config.cell_settings, config.item_catalogue)
+    if cell is None:
+        cell = shared_cell(config.cell_settings, config.item_catalogue, config.robots)
     video = recorder
     if video_path is not None:
         from sim.cell.video import VideoRecorder

@@ -141,7 +141,9 @@ def episode_columns(sweep: SweepConfig) -> tuple[str, ...]:
     """The columns of a sweep's episodes.csv: a run's (with the columns of every material its
     episodes sort), then its variants' settings."""
     materials = (spec.config.materials for spec in sweep.episodes)
-    return outputs.sweep_episode_columns(materials) + sweep.variant_columns
+    robots = max((spec.config.robots for spec in sweep.episodes), default=1)
+    line = outputs.line_columns(robots)
+    return outputs.sweep_episode_columns(materials) + line + sweep.variant_columns
 
 
 def pick_columns(sweep: SweepConfig) -> tuple[str, ...]:
