@@ -53,11 +53,11 @@ def test_independent_offers_every_item():
 
 def test_the_upstream_robot_leaves_what_the_idle_downstream_robot_takes():
     # Two items far apart: the downstream robot, idle, can take both; the upstream robot is
-    # offered none of them ... and so, every item being claimed, all of them.
+    # offered none of them (it waits).
     items = [_item(0, -0.2), _item(1, -2.0)]
     robots = _robots(2)
     assert downstream_claims(items, robots, 0, 0.0, 0.7) == {0, 1}
-    assert offered_items("coordinated", items, robots, 0, 0.0, 0.7) == items
+    assert offered_items("coordinated", items, robots, 0, 0.0, 0.7) == []
 
 
 def test_the_overflow_goes_upstream():

@@ -12,8 +12,10 @@ When a robot is free, the coordination hands its decision manager the items it m
   order of the items' deadlines (their exit from each robot's window): the most downstream
   robot first, each free again one cycle (`pick_time_s`) after each predicted pick, taking the
   items it can still meet inside its window before they leave it. The free robot is offered
-  the items no downstream robot is predicted to take; when every item is claimed, it is
-  offered them all (a robot that would idle frees a later pick downstream instead).
+  only the items no downstream robot is predicted to take (none: it waits and asks again).
+  The claims are made again at every decision, over the items in view then, so an item that
+  stops fitting a downstream robot's schedule (more items arrived) is offered upstream while
+  it is still in reach there.
 
 Pure functions of the tracked items and the robots' windows, times and belt speed; SI units
 (m, s).
@@ -29,6 +31,12 @@ from planner.decision.interface import DecisionContext, TrackedItem
 from planner.errors import PlannerInputError
 
 COORDINATIONS = ("independent", "coordinated")
+CLAIM_SLACK = 1.3
+"""A downstream robot's predicted picks are spaced by its pick time times this (its picks vary
+about their mean: a claim it cannot keep costs the item)."""
+CLAIM_MARGIN_S = 0.5
+"""A downstream robot claims an item only if it would meet it this long before the item
+leaves its window [s]."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -96,9 +104,9 @@ def downstream_claims(
                 timed.append((times[1], times[0], item.item_id))
         for deadline, entry, item_id in sorted(timed):
             meet = max(free + lead_s, entry)
-            if meet <= deadline:
+            if meet <= deadline - CLAIM_MARGIN_S:
                 claimed.add(item_id)
-                free = meet + pick_time_s - lead_s
+                free = meet + CLAIM_SLACK * pick_time_s - lead_s
     return claimed
 
 
@@ -122,8 +130,7 @@ def offered_items(
         return items
     claimed = downstream_claims(items, robots, robot, t, pick_time_s, lead_s)
     left = [it for it in items if it.item_id not in claimed]
-    reachable = [it for it in left if _still_reachable(robots[robot].context, t, it)]
-    return reachable if reachable else items
+    return [it for it in left if _still_reachable(robots[robot].context, t, it)]
 
 
 def _still_reachable(context: DecisionContext, t: float, item: TrackedItem) -> bool:

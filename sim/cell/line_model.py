@@ -37,8 +37,10 @@ from __future__ import annotations
 
 import math
 import re
+import tempfile
 from dataclasses import dataclass
 from functools import lru_cache
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -270,6 +272,25 @@ def _add_robot(spec, prefix: str, x: float, cup_diameter_m: float, materials, gr
         )
 
 
+LINE_POOL_SIZE = 160
+"""Item bodies of a line of several robots: a line exists to serve belts one robot cannot clear
+(`sim.flow.config.LINE_MAX_ITEMS_PER_METRE`)."""
+
+
+def _scene_with_pool(pool_size: int, folder: Path) -> Path:
+    """A copy of the cell's scene in `folder` whose pool has `pool_size` item bodies (the
+    scene's `items.xml` generated again at that size, `sim.cell.item_pool_xml`)."""
+    from sim.cell.item_pool_xml import pool_xml
+    from sim.flow.catalogue import load_catalogue
+
+    (folder / "cell").mkdir()
+    (folder / "abb_irb360").mkdir()
+    (folder / "cell" / "scene.xml").write_bytes(SCENE_XML.read_bytes())
+    (folder / "abb_irb360" / "irb360.xml").write_bytes(ROBOT_XML.read_bytes())
+    (folder / "cell" / "items.xml").write_text(pool_xml(load_catalogue(), pool_size))
+    return folder / "cell" / "scene.xml"
+
+
 def line_spec(
     layout: LineLayout, settings: CellSettings | None = None, materials=None, path=SCENE_XML
 ) -> mujoco.MjSpec:
@@ -292,7 +313,11 @@ def line_spec(
 
     settings = settings or CellSettings()
     materials = THESIS_MATERIALS if materials is None else materials
-    spec = load_spec(path, CELL_ELEMENTS)
+    if layout.in_place or path != SCENE_XML:
+        spec = load_spec(path, CELL_ELEMENTS)
+    else:  # the scene with a pool of `LINE_POOL_SIZE` bodies
+        with tempfile.TemporaryDirectory() as folder:
+            spec = load_spec(_scene_with_pool(LINE_POOL_SIZE, Path(folder)), CELL_ELEMENTS)
     set_belt_length(spec, max(settings.belt_length_m, layout.belt_length_m))
     lay_out_bins(spec, materials)  # the file's own bins for the thesis's materials
     if layout.in_place:

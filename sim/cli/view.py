@@ -62,7 +62,7 @@ def main(args: argparse.Namespace) -> int:
     from sim.cell.live_view import LiveView, ViewerClosed
     from sim.episode.runner import run_episode, shared_cell
 
-    cell = shared_cell(config.cell_settings, config.item_catalogue)
+    cell = shared_cell(config.cell_settings, config.item_catalogue, config.robots, config.line_cell)
     view = LiveView(cell.model, cell.data, args.real_time_factor, panels=args.panels)
     progress = None if args.quiet else Progress()
     try:

@@ -41,7 +41,12 @@ class SortingCellEnv(gym.Env):
         if self.episode is not None:
             self.episode.close()
         episode_seed = int(self.np_random.integers(0, 2**31 - 1))
-        cell = shared_cell(self.config.cell_settings, self.config.item_catalogue)
+        cell = shared_cell(
+            self.config.cell_settings,
+            self.config.item_catalogue,
+            self.config.robots,
+            self.config.line_cell,
+        )
         self.episode = Episode(self.config, cell)
         self.episode.reset(seed=episode_seed)
         self._profit = 0.0

@@ -94,7 +94,7 @@ from sim.cell.scene_edits import (
 )
 from sim.errors import InvalidInput, RefusedInput
 from sim.flow.catalogue import DEFAULT_CATALOGUE, Catalogue, load_catalogue
-from sim.flow.config import FlowConfig
+from sim.flow.config import LINE_MAX_ITEMS_PER_METRE, MAX_ITEMS_PER_METRE, FlowConfig
 from sim.flow.world import WorldVariation
 
 BELT_SPEED_X1_MPS = SPEED_X1_MPS
@@ -505,8 +505,24 @@ class EpisodeConfig:
             observation_period_s=self.observation_period_s,
             world=self.world_variation,
             n_materials=self.materials.count,
+            max_items_per_metre=self.max_items_per_metre,
             **self.flow.flow_kwargs(),
         )
+
+    @property
+    def max_items_per_metre(self) -> float:
+        """The densest belt an episode takes (`LINE_MAX_ITEMS_PER_METRE`: a line's pool)."""
+        return LINE_MAX_ITEMS_PER_METRE
+
+    @property
+    def line_cell(self) -> bool:
+        """Whether the episode runs on a line's model (`sim.cell.line`): several robots, or
+        one robot on a belt denser than the single cell's pool carries
+        (`MAX_ITEMS_PER_METRE`)."""
+        if self.robots > 1:
+            return True
+        density = self.items / (self.duration_s * self.belt_speed_mps)
+        return density > MAX_ITEMS_PER_METRE * (1 + 1e-9)
 
     @property
     def world_variation(self) -> WorldVariation:
@@ -527,6 +543,7 @@ class EpisodeConfig:
                 self.observation_period_s,
                 self.materials.count,
                 mix,
+                self.max_items_per_metre,
             )
         except InvalidInput as exc:
             key = {"n_items": "items"}.get(exc.field, exc.field)
@@ -571,6 +588,7 @@ def _flow_check(
     period_s: float,
     n_materials: int = 3,
     mix: tuple = (),
+    max_items_per_metre: float = MAX_ITEMS_PER_METRE,
 ) -> None:
     """`FlowConfig`'s checks of these settings (cached: a sweep repeats them for every seed)."""
     FlowConfig(
@@ -579,6 +597,7 @@ def _flow_check(
         speed_factor=speed_factor,
         observation_period_s=period_s,
         n_materials=n_materials,
+        max_items_per_metre=max_items_per_metre,
         **dict(mix),
     )
 

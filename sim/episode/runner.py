@@ -47,7 +47,7 @@ class EpisodeResult:
     latencies: dict[str, list[float]] = field(default_factory=dict)
 
 
-_CELLS: dict[tuple[int, CellSettings, str, int], object] = {}
+_CELLS: dict[tuple[int, CellSettings, str, int, bool], object] = {}
 
 
 def planner_name(planner) -> str:
@@ -55,7 +55,9 @@ def planner_name(planner) -> str:
     return str(getattr(planner, "name", None) or type(planner).__name__)
 
 
-def shared_cell(settings: CellSettings | None = None, catalogue=None, robots: int = 1):
+def shared_cell(
+    settings: CellSettings | None = None, catalogue=None, robots: int = 1, line: bool = False
+):
     """This process's cell of `settings` (an episode config's `cell_settings`; the scene's when
     None) and `catalogue` (the default one when None; its materials name the bins): compiled
     once per process, settings and catalogue, reused by every episode run here with them, so a
@@ -64,15 +66,17 @@ def shared_cell(settings: CellSettings | None = None, catalogue=None, robots: in
         from sim.flow.catalogue import load_catalogue
 
         catalogue = load_catalogue()
-    key = (os.getpid(), settings or CellSettings(), catalogue.digest, robots)
+    line = line or robots > 1
+    key = (os.getpid(), settings or CellSettings(), catalogue.digest, robots, line)
     if key not in _CELLS:
-        if robots == 1:
+        if not line:
             _CELLS[key] = Cell(settings=key[1], catalogue=catalogue)
-        else:  # a sorting line (`sim.cell.line`)
+        else:  # a sorting line (`sim.cell.line`), or one robot with a line's item pool
             from sim.cell.line import LineCell
             from sim.cell.line_model import LineLayout, compile_line
 
-            layout = LineLayout(robots=robots)
+            prefixes = ("r0_",) if robots == 1 else ()
+            layout = LineLayout(robots=robots, prefixes=prefixes)
             model = compile_line(layout, key[1], catalogue.materials)
             _CELLS[key] = LineCell(model, layout.prefixes, catalogue, key[1])
     return _CELLS[key]
@@ -106,7 +110,9 @@ def run_episode(
         raise ValueError("run_episode takes a video_path or a recorder, not both")
     wall0, cpu0 = time.perf_counter(), time.process_time()
     if cell is None:
-        cell = shared_cell(config.cell_settings, config.item_catalogue, config.robots)
+        cell = shared_cell(
+            config.cell_settings, config.item_catalogue, config.robots, config.line_cell
+        )
     video = recorder
     if video_path is not None:
         from sim.cell.video import VideoRecorder

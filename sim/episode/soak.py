@@ -104,7 +104,7 @@ def _finite(data) -> bool:
 def soak_episode(config: EpisodeConfig) -> SoakResult:
     """Run one episode on this process's cell and check it (see the module docstring)."""
     cpu0 = time.process_time()
-    cell = shared_cell(config.cell_settings, config.item_catalogue)
+    cell = shared_cell(config.cell_settings, config.item_catalogue, config.robots, config.line_cell)
     nonfinite = False
     with Episode(config, cell) as episode:
         episode.reset()

@@ -32,6 +32,8 @@ ITEM_CLASSES = (2, 3, 4)
 # The densest thesis flows carry about 11 items per metre of belt (400 items in ~190 s and
 # 3000 items in 25 min at x1); we allow up to 12 and size the item pool for that.
 MAX_ITEMS_PER_METRE = 12.0
+LINE_MAX_ITEMS_PER_METRE = 30.0
+"""The densest belt a line of several robots takes (its pool has `LINE_POOL_SIZE` bodies)."""
 # x1.5 = 0.2775 m/s is the conveyor's top speed of 0.277 m/s, rounded.
 _SPEED_SLACK_MPS = SPEED_TOLERANCE_MPS + 1e-12  # the belt's own check, to the bit
 
@@ -108,6 +110,8 @@ class FlowConfig:
         world: How items vary from their catalogue types (sizes, variants, colours, gaps);
             `WorldVariation.uniform()` for the uniform world.
         n_materials: Material classes of the catalogue the flow is drawn from (n).
+        max_items_per_metre: The densest belt accepted (`MAX_ITEMS_PER_METRE` for one
+            robot's pool, `LINE_MAX_ITEMS_PER_METRE` for a line's).
     """
 
     n_items: int = 100
@@ -120,6 +124,7 @@ class FlowConfig:
     observation_period_s: float = OBSERVATION_PERIOD_S
     world: WorldVariation = field(default_factory=WorldVariation)
     n_materials: int = 3
+    max_items_per_metre: float = MAX_ITEMS_PER_METRE
 
     def __post_init__(self):
         n = self.n_items
@@ -160,10 +165,11 @@ class FlowConfig:
         if not isinstance(self.world, WorldVariation):
             raise InvalidInput("world", "a WorldVariation", type(self.world).__name__)
         density = self.items_per_metre
-        if density > MAX_ITEMS_PER_METRE * (1 + 1e-9):
-            most = int(MAX_ITEMS_PER_METRE * self.duration_s * self.belt_speed_mps + 1e-6)
+        limit = float(self.max_items_per_metre)
+        if density > limit * (1 + 1e-9):
+            most = int(limit * self.duration_s * self.belt_speed_mps + 1e-6)
             allowed = (
-                f"at most {MAX_ITEMS_PER_METRE:g} items per metre of belt: <= {most} items "
+                f"at most {limit:g} items per metre of belt: <= {most} items "
                 f"in {self.duration_s:g} s at x{self.speed_factor:g} (longer flows carry more)"
             )
             raise InvalidInput("n_items", allowed, n)
