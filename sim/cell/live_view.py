@@ -209,7 +209,7 @@ class LiveView:
         scene.ngeom = 0
         for track_id, x, y, z, cls, prob in overlay.items[: scene.maxgeom]:
             rgba = np.array([*overlay.colours.get(cls, (200, 200, 200)), 255], dtype=float) / 255
-            big = track_id == overlay.next_pick
+            big = track_id == overlay.next_pick or track_id in overlay.next_picks
             radius = ITEM_RADIUS_M * (2.0 if big else 1.0)
             geom = scene.geoms[scene.ngeom]
             mujoco.mjv_initGeom(

@@ -85,11 +85,14 @@ class Overlay:
     Attributes:
         items: (track id, x, y, z, predicted class id, probability) of each tracked item [m].
         next_pick: Track id of the chosen next pick, or None.
+        next_picks: Track ids of every robot's pick under way (a line's robots), with
+            `next_pick` among them.
         counters: Lines of text for the top-left corner.
     """
 
     items: list[tuple[int, float, float, float, int, float]] = field(default_factory=list)
     next_pick: int | None = None
+    next_picks: tuple[int, ...] = ()
     counters: list[str] = field(default_factory=list)
     short: dict[int, str] = field(default_factory=lambda: dict(CLASS_SHORT))
     """Short label of each class id (the materials')."""
@@ -97,19 +100,39 @@ class Overlay:
     """RGB of each class id's labels."""
 
 
-def view_camera() -> mujoco.MjvCamera:
-    """A free camera framing the belt from the camera box to the robot and the bins."""
+def last_robot_x(model: mujoco.MjModel | None) -> float:
+    """x of the most downstream robot's base [m] (0 for the single cell; a line's last)."""
+    if model is None:
+        return 0.0
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    xs = [
+        float(data.xpos[b][0])
+        for b in range(model.nbody)
+        if (model.body(b).name or "").endswith("base_link")
+    ]
+    return max(xs, default=0.0)
+
+
+def view_camera(model: mujoco.MjModel | None = None) -> mujoco.MjvCamera:
+    """A free camera framing the belt from the camera box to the robot and the bins; for a
+    line, to its last robot (farther back, centred on the line)."""
+    span = last_robot_x(model)
     cam = mujoco.MjvCamera()
     cam.type = mujoco.mjtCamera.mjCAMERA_FREE
-    cam.lookat[:] = LOOKAT
-    cam.distance, cam.azimuth, cam.elevation = DISTANCE, AZIMUTH, ELEVATION
+    cam.lookat[:] = (LOOKAT[0] + 0.5 * span, LOOKAT[1], LOOKAT[2])
+    cam.distance, cam.azimuth, cam.elevation = DISTANCE + 0.6 * span, AZIMUTH, ELEVATION
     return cam
 
 
 def ghosted_geoms(model: mujoco.MjModel) -> frozenset[int]:
-    """Ids of the geoms the video draws see-through (`GHOSTED_PREFIXES`)."""
+    """Ids of the geoms the video draws see-through (`GHOSTED_PREFIXES`, after a line's robot
+    prefix too: `r1_cage_*`)."""
     return frozenset(
-        i for i in range(model.ngeom) if model.geom(i).name.startswith(GHOSTED_PREFIXES)
+        i
+        for i in range(model.ngeom)
+        if (name := model.geom(i).name).startswith(GHOSTED_PREFIXES)
+        or name.partition("_")[2].startswith(GHOSTED_PREFIXES)
     )
 
 
@@ -168,7 +191,8 @@ def annotate(frame: np.ndarray, uv: np.ndarray, overlay: Overlay) -> np.ndarray:
         h = 8 + 16 * len(overlay.counters)
         w = 12 + max(cv2.getTextSize(t, font, 0.42, 1)[0][0] for t in overlay.counters)
         taken.append((0, 0, w, h))
-    order = sorted(zip(overlay.items, uv, strict=True), key=lambda e: e[0][0] != overlay.next_pick)
+    picks = {overlay.next_pick, *overlay.next_picks} - {None}
+    order = sorted(zip(overlay.items, uv, strict=True), key=lambda e: e[0][0] not in picks)
     for (track_id, *_, cls, prob), (u, v) in order:
         if not (np.isfinite(u) and np.isfinite(v)):
             continue
@@ -181,7 +205,7 @@ def annotate(frame: np.ndarray, uv: np.ndarray, overlay: Overlay) -> np.ndarray:
         corner = place_label(p, (w, h), taken)
         if corner is not None:
             cv2.putText(frame, label, corner, font, 0.33, colour, 1, cv2.LINE_AA)
-        if track_id == overlay.next_pick:
+        if track_id in picks:
             cv2.rectangle(frame, (p[0] - 10, p[1] - 10), (p[0] + 10, p[1] + 10), (255, 60, 60), 2)
             cv2.putText(
                 frame, "next", (p[0] - 12, p[1] + 22), font, 0.35, (255, 60, 60), 1, cv2.LINE_AA
@@ -368,7 +392,7 @@ class FramePainter:
         vis = model.vis.global_
         vis.offwidth, vis.offheight = self.size
         self.data = mujoco.MjData(model)
-        self.cam = view_camera()
+        self.cam = view_camera(model)
         self._ghosts = ghosted_geoms(model)
         check_backend()
         self.renderer = mujoco.Renderer(model, height=self.size[1], width=self.size[0])
@@ -638,8 +662,8 @@ def overlay_of(episode, t: float) -> Overlay:
     """The annotations of an episode's frame at sim time `t` [s]."""
     items = []
     tracks = episode.tracker.tracks()
-    if episode.current_pick is not None:
-        tracks.append(episode.current_pick)
+    under_way = [s.current_pick for s in episode.stations if s.current_pick is not None]
+    tracks.extend(under_way)
     for tr in tracks:
         cls = tr.predicted_class
         items.append((tr.track_id, tr.x_at(t, episode.speed), tr.y, 0.03, cls, tr.probs[cls - 1]))
@@ -653,7 +677,15 @@ def overlay_of(episode, t: float) -> Overlay:
         "purity " + purity_text(m.binned, short),
     ]
     pick = None if episode.current_pick is None else episode.current_pick.track_id
-    return Overlay(items, pick, counters, short, colours)
+    picks = tuple(track.track_id for track in under_way)
+    return Overlay(
+        items=items,
+        next_pick=pick,
+        counters=counters,
+        short=short,
+        colours=colours,
+        next_picks=picks,
+    )
 
 
 def purity_text(binned: dict[int, tuple[int, int]], short: dict[int, str] = CLASS_SHORT) -> str:
