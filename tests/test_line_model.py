@@ -214,6 +214,19 @@ def test_each_robot_has_the_single_robots_physics(line4, robot):
         )
 
 
+def test_each_robot_has_a_bin_per_material_of_a_catalogue():
+    materials = load_catalogue(FOUR).materials
+    line = compile_line(LineLayout(2), materials=materials)
+    data = at_home(line)
+    cell = at_home(compile_scene(materials=materials))
+    for name in materials.names:
+        site = f"bin_{name}_drop"
+        for prefix, x in (("r0_", 0.0), ("r1_", 1.8)):
+            np.testing.assert_allclose(
+                data.site(prefix + site).xpos, cell.site(site).xpos + [x, 0, 0], atol=1e-12
+            )
+
+
 def test_the_cup_diameter_applies_to_every_robot():
     line = compile_line(LineLayout(2), CellSettings(cup_diameter_m=0.08))
     for prefix in ("r0_", "r1_"):
@@ -317,6 +330,41 @@ def test_each_robots_cup_seals_through_its_own_welds(line2):
     for cup, p in zip(cups, ("r0_", "r1_"), strict=True):
         assert line2.body(cup.body_id).name == f"{p}cup_link"
         assert cup.radius == pytest.approx(0.03)
+
+
+def test_robot_r1_seals_lifts_and_releases_an_item_through_its_own_weld():
+    model = compile_line(LineLayout(2))  # its own: the pool writes the model's geom fields
+    data = at_home(model)
+    model.geom_surfacevel[model.geom("belt").id] = 0.0  # the belt stopped under the robot
+    catalogue = load_catalogue()
+    pool = ItemPool(model, catalogue, Belt(model))
+    k = catalogue.index("carton_box_small")
+    slot = pool.spawn(data, 0, k, 1.8, 0.0, 0.0, catalogue.colour_rgba("blue"))
+    mujoco.mj_step(model, data, nstep=300)
+    cups = {p: SuctionCup(model, pool, prefix=p) for p in ("r0_", "r1_")}
+    geometry = geometry_from_model(model, prefix="r1_")
+    generator = RuckigTrajectoryGenerator(limits_for_payload(1.0), geometry)
+    executor = TrajectoryExecutor(model, data, geometry=geometry, prefix="r1_")
+    home = tcp_position(model, data, prefix="r1_")
+    item = pool.position(data, slot)
+    touch = np.array([item[0], item[1], 2 * pool.item_type(slot).rest_height - 0.002])
+
+    def update(_t: float) -> None:
+        for cup in cups.values():
+            cup.update(data)
+
+    cups["r1_"].vacuum_on()
+    executor.execute(generator.plan(State.at_rest(home), State.at_rest(touch)), 0.1, update)
+    assert cups["r1_"].held_slot == slot and cups["r0_"].held_slot is None
+    assert data.eq_active[pool.grip_ids_of("r1_")[slot]] == 1
+    assert not np.any(data.eq_active[pool.grip_ids_of("r0_")])
+    executor.execute(generator.plan(State.at_rest(touch), State.at_rest(home)), 0.05, update)
+    assert pool.position(data, slot)[2] > 0.1  # lifted with r1's cup
+    cups["r1_"].vacuum_off(float(data.time))
+    mujoco.mj_step(model, data, nstep=100)
+    update(0.0)
+    assert [e.kind for e in cups["r1_"].events] == ["sealed", "released"]
+    assert not np.any(data.eq_active[pool.grip_ids_of("r1_")])
 
 
 def test_step_cost_of_the_4_robot_line_at_home(line4):
