@@ -121,3 +121,28 @@ def test_four_robots_for_two_minutes():
     assert crossings == 0
     assert worst_gap < 1e-4
     assert row["picked"] >= 0.85 * row["entered"]
+
+
+@pytest.mark.parametrize(
+    ("changes", "field"),
+    [
+        ({"robots": 5}, "robots"),
+        ({"robots": 0}, "robots"),
+        ({"coordination": "greedy"}, "coordination"),
+    ],
+)
+def test_bad_line_settings_are_refused_naming_the_key(changes, field):
+    from sim.errors import InvalidInput
+
+    with pytest.raises(InvalidInput) as err:
+        episode_config.load(None, **changes)
+    assert err.value.field == field
+
+
+def test_a_cell_of_another_robot_count_is_refused():
+    from sim.errors import InvalidInput
+
+    config, cell = _line(2, 20, 12.0)
+    with pytest.raises(InvalidInput) as err:
+        Episode(config.replace(robots=1), cell).reset()
+    assert err.value.field == "robots"

@@ -104,6 +104,20 @@ def add_episode_arguments(parser: argparse.ArgumentParser) -> None:
         "every item its catalogue type's (default varied; docs/world.md)",
     )
     parser.add_argument(
+        "--robots",
+        type=int,
+        default=None,
+        metavar="N",
+        help="IRB 360s in series over the belt, 1-4: a sorting line (default 1; docs/line.md)",
+    )
+    parser.add_argument(
+        "--coordination",
+        default=None,
+        choices=["independent", "coordinated"],
+        help="a line's robots: each on its own, or the upstream one leaving what a downstream "
+        "one can take (default coordinated)",
+    )
+    parser.add_argument(
         "--catalogue",
         default=None,
         metavar="TOML",
@@ -295,5 +309,7 @@ def load_config(args: argparse.Namespace):
         classifier=args.classifier,
         world=args.world,
         catalogue=args.catalogue,
+        robots=args.robots,
+        coordination=args.coordination,
         **{name: getattr(args, name) for name in WORLD_NUMBERS},
     )
