@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 
+from planner.decision import line_coordination
 from planner.decision.interface import DecisionContext, TrackedItem
 from planner.decision.line_coordination import (
     LineRobot,
@@ -60,7 +61,7 @@ def test_the_upstream_robot_leaves_what_the_idle_downstream_robot_takes():
     assert offered_items("coordinated", items, robots, 0, 0.0, 0.7) == []
 
 
-def test_the_overflow_goes_upstream():
+def test_the_overflow_goes_upstream(monkeypatch):
     # Thirty items 21 mm apart on the centre line: item k enters the downstream robot's 1 m
     # window at 5 + 0.105 k s and leaves it 5 s later. Picking one every 0.75 s from 5 s in
     # order of deadline, skipping what it can no longer meet, it takes items 0..7 (5 + 0.75 k
@@ -68,12 +69,19 @@ def test_the_overflow_goes_upstream():
     # (11.785 s) and 24 (12.52 s). The rest is what the upstream robot is offered.
     items = [_item(i, -0.021 * i) for i in range(30)]
     robots = _robots(2)
+    # the bare list schedule (no slack on the cycle, no margin before the deadline)
+    monkeypatch.setattr(line_coordination, "CLAIM_SLACK", 1.0)
+    monkeypatch.setattr(line_coordination, "CLAIM_MARGIN_S", 0.0)
     claimed = downstream_claims(items, robots, 0, 0.0, 0.75)
     assert claimed == {*range(8), 10, 17, 24}
     offered = offered_items("coordinated", items, robots, 0, 0.0, 0.75)
     assert [it.item_id for it in offered] == [i for i in range(30) if i not in claimed]
     # the last robot is offered everything: nobody downstream to leave items to
     assert offered_items("coordinated", items, robots, 1, 0.0, 0.75) == items
+    # with the slack and the margin the downstream robot claims fewer: more goes upstream
+    monkeypatch.undo()
+    cautious = downstream_claims(items, robots, 0, 0.0, 0.75)
+    assert len(cautious) < len(claimed) and {0, 1, 2, 3, 4} <= cautious
 
 
 def test_a_busy_downstream_robot_claims_less():
