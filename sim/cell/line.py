@@ -19,7 +19,7 @@ from planner.motion.kinematics import reachable_mask
 from planner.motion.limits import limits_for_payload
 from planner.motion.reach_window import ReachWindow
 from planner.motion.ruckig_trajectory import RuckigTrajectoryGenerator
-from sim.cell.cell import DESIGN_PAYLOAD_KG, PICK_Z_NOMINAL
+from sim.cell.cell import DESIGN_PAYLOAD_KG, PICK_Z_NOMINAL, Cell
 from sim.cell.conveyor import Belt
 from sim.cell.executor import TrajectoryExecutor, lumped_dynamics
 from sim.cell.item_pool import ItemPool
@@ -127,15 +127,8 @@ class LineCell:
             robot.executor.set_payload(0.0)
         mujoco.mj_forward(self.model, self.data)
 
-    def belt_camera(self, size: tuple[int, int]):
-        """The belt camera's renderer at `size`, created once and kept for later episodes."""
-        from sim.cell.camera import BeltCamera
-
-        if self._camera is None or self._camera.size != tuple(size):
-            if self._camera is not None:
-                self._camera.close()
-            self._camera = BeltCamera(self.model, *size)
-        return self._camera
+    belt_camera = Cell.belt_camera
+    """The belt camera's renderer at a size, created once and kept (as the single cell's)."""
 
     def tcp(self) -> np.ndarray:
         """The first robot's cup lip centre now [m]."""

@@ -139,6 +139,7 @@ class RobotStation:
         # (track, choice, energy reading at the start, travel [m]) of the pick under way
         self.pick_started: tuple | None = None
         self.started_at = 0.0  # when the pick under way started [s]
+        self.picks_done, self.pick_time_sum = 0, 0.0  # its finished picks and their time [s]
         self.cup_events_seen = 0
 
 
@@ -473,6 +474,8 @@ class Episode:
         """Book a finished pick and decide again at once."""
         track, choice, (mech0, elec0), travel = station.pick_started
         station.pick_started = None
+        station.picks_done += 1
+        station.pick_time_sum += outcome.t_end - outcome.t_start
         mech, elec = station.energy.reading()
         station.current_pick = None
         if not outcome.held_to_bin and track.true_id is not None:
@@ -606,8 +609,9 @@ class Episode:
 
     def _pick_time(self, station: RobotStation) -> float:
         """Mean duration of the robot's picks so far [s] (`LINE_PICK_TIME_S` before any)."""
-        done = [p.t_end_s - p.t_start_s for p in self.metrics.picks if p.robot == station.index]
-        return sum(done) / len(done) if done else LINE_PICK_TIME_S
+        if not station.picks_done:
+            return LINE_PICK_TIME_S
+        return station.pick_time_sum / station.picks_done
 
     def robot_columns(self, sim_s: float) -> dict[str, object]:
         """A line's episodes.csv columns: robots, coordination, each robot's picks, picks per
