@@ -52,13 +52,30 @@ def test_independent_offers_every_item():
     assert offered_items("independent", items, _robots(2), 0, 0.0, 0.7) == items
 
 
-def test_the_upstream_robot_leaves_what_the_idle_downstream_robot_takes():
-    # Two items far apart: the downstream robot, idle, can take both; the upstream robot is
-    # offered none of them (it waits).
+def test_a_free_robot_never_idles_while_items_pass_in_its_reach():
+    # Two items far apart: the downstream robot, idle, could take both. Nothing would be lost,
+    # so the upstream robot is offered what is in its reach now (it does not idle while the
+    # item passes), and nothing that reaches it only later.
     items = [_item(0, -0.2), _item(1, -2.0)]
     robots = _robots(2)
     assert downstream_claims(items, robots, 0, 0.0, 0.7) == {0, 1}
-    assert offered_items("coordinated", items, robots, 0, 0.0, 0.7) == []
+    assert offered_items("coordinated", items, robots, 0, 0.0, 0.7) == [items[0]]
+    assert offered_items("coordinated", [items[1]], robots, 0, 0.0, 0.7) == []
+
+
+def test_robots_claim_and_are_offered_only_the_materials_they_sort():
+    items = [_item(i, -0.2 - 0.05 * i) for i in range(6)]  # classes 2, 3, 4, 2, 3, 4
+    window = ReachWindow.disc(0.5)
+    only_alu = LineRobot(DecisionContext(V, _Cycle(), window.shifted(PITCH)), 0.0, frozenset({4}))
+    robots = [_robots(1)[0], only_alu]
+    claimed = downstream_claims(items, robots, 0, 0.0, 0.7)
+    assert claimed and all(items[i].bin_class == 4 for i in claimed)
+    # the last robot, sorting aluminium only, is offered aluminium only
+    assert {it.bin_class for it in offered_items("independent", items, robots, 1, 0.0, 0.7)} == {
+        4
+    }
+    with pytest.raises(PlannerInputError):
+        LineRobot(robots[0].context, 0.0, frozenset())
 
 
 def test_the_overflow_goes_upstream(monkeypatch):

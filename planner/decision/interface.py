@@ -19,7 +19,6 @@ import math
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
-import numpy as np
 
 from perception.codes import (
     MATERIALS,
@@ -66,16 +65,19 @@ class TrackedItem:
     class_probs: tuple[float, ...]
 
     def __post_init__(self):
-        probs = np.asarray(self.class_probs, dtype=float)
-        ok = probs.ndim == 1 and 2 <= len(probs) <= MAX_MATERIALS + 1
-        if not ok or not np.all(np.isfinite(probs)) or np.any(probs < 0):
+        # Plain Python, not numpy: a line's decisions build about a million of these.
+        try:
+            probs_t = tuple(float(p) for p in self.class_probs)
+        except (TypeError, ValueError):
+            probs_t = ()
+        ok = 2 <= len(probs_t) <= MAX_MATERIALS + 1
+        if not ok or not all(math.isfinite(p) and p >= 0.0 for p in probs_t):
             allowed = f"2..{MAX_MATERIALS + 1} finite probabilities >= 0 (void, materials)"
             raise PlannerInputError("class_probs", allowed, self.class_probs)
-        if abs(probs.sum() - 1.0) > 1e-6:
-            raise PlannerInputError("class_probs", "probabilities summing to 1", probs.sum())
+        if abs(math.fsum(probs_t) - 1.0) > 1e-6:
+            raise PlannerInputError("class_probs", "probabilities summing to 1", sum(probs_t))
         if not (math.isfinite(self.x) and math.isfinite(self.y)):
             raise PlannerInputError("x, y", "finite positions [m]", (self.x, self.y))
-        probs_t = tuple(float(p) for p in probs)
         object.__setattr__(self, "class_probs", probs_t)
         materials = probs_t[1:]
         object.__setattr__(self, "_bin_class", 2 + materials.index(max(materials)))

@@ -8,14 +8,16 @@ When a robot is free, the coordination hands its decision manager the items it m
   its own; the upstream robots take what they like first).
 - `coordinated` (this project's rule, not the thesis's: the thesis plans for one robot, and
   names the line's planner as future work, 5.2): what a downstream robot can still take, the
-  upstream one leaves. The downstream robots' next picks are predicted by list scheduling in
-  order of the items' deadlines (their exit from each robot's window): the most downstream
-  robot first, each free again one cycle (`pick_time_s`) after each predicted pick, taking the
-  items it can still meet inside its window before they leave it. The free robot is offered
-  only the items no downstream robot is predicted to take (none: it waits and asks again).
-  The claims are made again at every decision, over the items in view then, so an item that
-  stops fitting a downstream robot's schedule (more items arrived) is offered upstream while
-  it is still in reach there.
+  upstream one leaves, but never by idling. The downstream robots' next picks are predicted by
+  list scheduling in order of the items' deadlines (their exit from each robot's window): the
+  most downstream robot first, each free again a cycle (`pick_time_s`, with slack) after each
+  predicted pick, taking the items it can still meet inside its window before they leave it.
+  The free robot is offered the items no downstream robot is predicted to take, when one of
+  them is in its window within `START_HORIZON_S` (an item the line would otherwise lose);
+  otherwise it is offered every item in its window within that time, claimed or not: a robot
+  that waits while items pass through its reach wastes capacity the line needs when a
+  prediction fails, and an item it takes off a downstream robot's list only gives that robot
+  slack. The claims are made again at every decision, over the items in view then.
 
 Pure functions of the tracked items and the robots' windows, times and belt speed; SI units
 (m, s).
@@ -28,6 +30,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from planner.decision.interface import DecisionContext, TrackedItem
+from planner.decision.robot_materials import items_sorted_by, sorts
 from planner.errors import PlannerInputError
 
 COORDINATIONS = ("independent", "coordinated")
@@ -46,16 +49,23 @@ class LineRobot:
     Attributes:
         context: Its decision context (belt speed, its reachable window, its bins, values).
         free_at: When it is free to start its next pick [s] (now for a free robot).
+        class_ids: The material classes (2, 3, ...) it sorts; None: all of them
+            (`planner.decision.robot_materials`).
     """
 
     context: DecisionContext
     free_at: float
+    class_ids: frozenset[int] | None = None
 
     def __post_init__(self):
         if not isinstance(self.context, DecisionContext):
             raise PlannerInputError("context", "a DecisionContext", type(self.context).__name__)
         if not math.isfinite(self.free_at):
             raise PlannerInputError("free_at", "a finite time [s]", self.free_at)
+        if self.class_ids is not None and not (
+            isinstance(self.class_ids, frozenset) and self.class_ids
+        ):
+            raise PlannerInputError("class_ids", "None or a non-empty frozenset", self.class_ids)
 
 
 def window_times(
@@ -99,6 +109,8 @@ def downstream_claims(
         for item in items:
             if item.item_id in claimed or context.expected_value(item) <= 0.0:
                 continue
+            if not sorts(robots[k].class_ids, item):
+                continue
             times = window_times(context, t, item)
             if times is not None and times[1] > t:
                 timed.append((times[1], times[0], item.item_id))
@@ -108,6 +120,11 @@ def downstream_claims(
                 claimed.add(item_id)
                 free = meet + CLAIM_SLACK * pick_time_s - lead_s
     return claimed
+
+
+START_HORIZON_S = 1.0
+"""A free robot prefers an unclaimed item only if that item is in its window within this time
+[s] (it starts no pick on an item further upstream: `sim.episode.loop.MAX_LEAD_S`)."""
 
 
 def offered_items(
@@ -126,13 +143,19 @@ def offered_items(
     if not 0 <= robot < len(robots):
         raise PlannerInputError("robot", f"0..{len(robots) - 1}", robot)
     items = list(items)
+    mine = items_sorted_by(items, robots[robot].class_ids)
     if coordination == "independent" or robot == len(robots) - 1:
-        return items
+        return mine
+    context = robots[robot].context
+    soon = [it for it in mine if _in_reach_within(context, t, it, START_HORIZON_S)]
+    if not soon:
+        return []
     claimed = downstream_claims(items, robots, robot, t, pick_time_s, lead_s)
-    left = [it for it in items if it.item_id not in claimed]
-    return [it for it in left if _still_reachable(robots[robot].context, t, it)]
+    unclaimed = [it for it in soon if it.item_id not in claimed]
+    return unclaimed or soon
 
 
-def _still_reachable(context: DecisionContext, t: float, item: TrackedItem) -> bool:
+def _in_reach_within(context: DecisionContext, t: float, item: TrackedItem, horizon: float):
+    """The item is in the robot's window at some time in [t, t + horizon]."""
     times = window_times(context, t, item)
-    return times is not None and times[1] > t
+    return times is not None and times[1] > t and times[0] <= t + horizon

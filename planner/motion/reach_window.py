@@ -46,6 +46,8 @@ class ReachWindow:
         object.__setattr__(self, "_ys", [float(v) for v in y])
         object.__setattr__(self, "_lo", [float(v) for v in np.asarray(self.x_entry, float)])
         object.__setattr__(self, "_hi", [float(v) for v in np.asarray(self.x_exit, float)])
+        # An item keeps its y along the belt: bounds are asked for the same y again and again.
+        object.__setattr__(self, "_bounds_at", {})
 
     @classmethod
     def disc(cls, radius: float = 0.565, pick_z: float = 0.02, samples: int = 401) -> ReachWindow:
@@ -93,6 +95,17 @@ class ReachWindow:
 
     def bounds(self, y: float) -> tuple[float, float] | None:
         """(x_entry, x_exit) at `y` [m], or None when no x at that y is reachable."""
+        memo = self._bounds_at
+        try:
+            return memo[y]
+        except KeyError:
+            pass
+        if len(memo) > 4096:
+            memo.clear()
+        out = memo[y] = self._bounds(y)
+        return out
+
+    def _bounds(self, y: float) -> tuple[float, float] | None:
         ys = self._ys
         if not ys[0] <= y <= ys[-1]:
             return None

@@ -19,13 +19,17 @@ With `in_window=True` (the episode's `item_riding = "path"`) riders do not wake 
 they ride on through the robot's window until something may touch them. The robot is the only
 thing there that can, and its path is known: when a pick starts, `wake_along` wakes every rider
 the planned path of the cup (and of an item hanging from it) passes near, before the cup moves;
-loose items wake riders as upstream. While a pick is under way no item in the window starts
-riding (one the cup has just woken stays in contact dynamics); an idle robot rests over a bin.
-A settled item that the cup will never come near therefore costs no contact dynamics at all,
-however long the queue in front of the robot.
+loose items wake riders as upstream. While picks are under way (one robot's, or several of a
+line's), a settled item in the window starts riding only where the rest of no pick's planned
+path passes near it (`PlannedPath.passes_near`: one the cup has just woken stays in contact
+dynamics until the cup has passed); an idle robot rests over a bin. A settled item that no cup
+will come near therefore costs no contact dynamics at all, however long the queue in front of
+the robots.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import mujoco
 import numpy as np
@@ -69,6 +73,51 @@ def wake_line(reachable, item_radius: float, z_range=(-0.02, 0.3)) -> float:
     return x_min - item_radius - WAKE_LEAD_M
 
 
+@dataclass(frozen=True, eq=False)
+class PlannedPath:
+    """A pick's planned cup path, sampled every `PATH_SAMPLE_S` from the pick's start.
+
+    Attributes:
+        t_start: Sim time the pick started (the path's time 0) [s].
+        times: (n,) sample times from the start [s], increasing, the last the path's end.
+        cup: (n, 3) the cup's centre at those times [m].
+        reach_xy: How far from the cup's axis the cup or a held item reaches [m].
+        reach_z: How far below the cup a held item reaches [m].
+    """
+
+    t_start: float
+    times: np.ndarray
+    cup: np.ndarray
+    reach_xy: float
+    reach_z: float
+
+    @classmethod
+    def of(cls, chain, t_start: float, reach_xy: float, reach_z: float) -> PlannedPath:
+        """The path of `chain` (`duration`, `states_at(times)` giving the cup's centre first)
+        played from `t_start` [s]."""
+        times = np.append(np.arange(0.0, chain.duration, PATH_SAMPLE_S), chain.duration)
+        cup = np.asarray(chain.states_at(times)[0], dtype=float)
+        return cls(float(t_start), times, cup, float(reach_xy), float(reach_z))
+
+    def passes_near(
+        self, centre: np.ndarray, radius: np.ndarray, belt_speed: float, now: float
+    ) -> np.ndarray:
+        """(k,) whether the rest of the path from `now` [s] passes near items riding the belt
+        at `centre` (k, 3) [m] with bounding radii `radius` (k,) [m]: the cup's centre within
+        `reach_xy` + radius + `PATH_MARGIN_M` horizontally of the item (carried on at
+        `belt_speed` [m/s]) while less than `reach_z` + `PATH_MARGIN_M` above its top."""
+        first = int(np.searchsorted(self.times, now - self.t_start, side="right")) - 1
+        first = min(max(first, 0), len(self.times) - 1)
+        ahead = self.times[first:] - self.times[first]
+        cup = self.cup[first:]
+        top = centre[:, 2] + radius
+        dx = cup[None, :, 0] - (centre[:, 0, None] + belt_speed * ahead[None, :])
+        dy = cup[None, :, 1] - centre[:, 1, None]
+        near = np.hypot(dx, dy) < (self.reach_xy + PATH_MARGIN_M + radius)[:, None]
+        low = cup[None, :, 2] < (top + self.reach_z + PATH_MARGIN_M)[:, None]
+        return np.any(near & low, axis=1)
+
+
 class ItemRiding:
     """Which pool slots ride the belt without contact dynamics, and the switches.
 
@@ -104,11 +153,18 @@ class ItemRiding:
         """Slots whose item rides now."""
         return np.flatnonzero((self._rider_of >= 0) & (self._rider_of == self.pool.item_ids))
 
-    def update(self, data: mujoco.MjData, held_slot=None, robot_busy: bool = False) -> None:
+    def update(
+        self,
+        data: mujoco.MjData,
+        held_slot=None,
+        robot_busy: bool = False,
+        busy_paths: list[PlannedPath] | None = None,
+    ) -> None:
         """Switches items to riding or back; call every `check_period` of simulated time.
         `held_slot`: the slot a cup holds (None: none), or a sequence of them (a line's cups).
-        `robot_busy`: a pick is under way (with `in_window`, no item in the window starts
-        riding then)."""
+        With `in_window`, which settled items in the window may start riding: given
+        `busy_paths` (the planned paths of the picks under way), those the rest of no path
+        passes near; else, when `robot_busy` (a pick is under way), none."""
         if not self.enabled:
             return
         pool = self.pool
@@ -146,13 +202,21 @@ class ItemRiding:
             self._wake(int(slot))
         # Ride the settled items upstream of the robot that touch nothing but the belt.
         upstream = data.xpos[pool.body_ids[movers], 0] < self.wake_x - RIDE_MARGIN_M
-        where = upstream | (self.in_window and not robot_busy)
+        where = upstream | (self.in_window and (busy_paths is not None or not robot_busy))
         candidates = movers[
             settled
             & (data.time - self._born[movers] >= SETTLE_AGE_S)
             & where
             & ~np.isin(movers, [] if held_slot is None else held_slot)
         ]
+        if self.in_window and busy_paths and len(candidates):
+            # In the window: not where a pick under way will pass.
+            centre = data.xpos[pool.body_ids[candidates]]
+            radius = self._radius(candidates)
+            clear = np.ones(len(candidates), dtype=bool)
+            for path in busy_paths:
+                clear &= ~path.passes_near(centre, radius, vb, float(data.time))
+            candidates = candidates[clear | (centre[:, 0] < self.wake_x - RIDE_MARGIN_M)]
         if not len(candidates):
             return
         calm = set(candidates.tolist()) | set(riders.tolist()) if self.in_window else set()
@@ -184,12 +248,7 @@ class ItemRiding:
         reach_z: float,
     ) -> int:
         """Wakes the riders the planned path `chain` of the cup, starting now, passes near;
-        returns how many.
-
-        A rider wakes when, at some time of the plan (sampled every `PATH_SAMPLE_S`), the
-        cup's centre is within `reach_xy` + the rider's bounding radius + `PATH_MARGIN_M` of
-        the rider's centre (carried on by the belt) horizontally, while the cup is less than
-        `reach_z` + `PATH_MARGIN_M` above the rider's top.
+        returns how many (`wake_on_path` of `PlannedPath.of(chain, now, reach_xy, reach_z)`).
 
         Args:
             data: The cell's data (positions now).
@@ -198,20 +257,18 @@ class ItemRiding:
             reach_xy: How far from the cup's axis the cup or a held item reaches [m].
             reach_z: How far below the cup a held item reaches [m].
         """
+        path = PlannedPath.of(chain, float(data.time), reach_xy, reach_z)
+        return self.wake_on_path(data, path, belt_speed)
+
+    def wake_on_path(self, data: mujoco.MjData, path: PlannedPath, belt_speed: float) -> int:
+        """Wakes the riders the rest of the planned `path` passes near (`PlannedPath.
+        passes_near`), and the riders touching those; returns how many."""
         riders = self.riding()
         if not len(riders):
             return 0
-        times = np.append(np.arange(0.0, chain.duration, PATH_SAMPLE_S), chain.duration)
-        cup = chain.states_at(times)[0]
-        body = self.pool.body_ids[riders]
-        centre = data.xpos[body]
-        radius = self._radius(riders)
-        top = centre[:, 2] + radius
-        dx = cup[None, :, 0] - (centre[:, 0, None] + belt_speed * times[None, :])
-        dy = cup[None, :, 1] - centre[:, 1, None]
-        near = np.hypot(dx, dy) < (reach_xy + PATH_MARGIN_M + radius)[:, None]
-        low = cup[None, :, 2] < (top + reach_z + PATH_MARGIN_M)[:, None]
-        woken = riders[np.any(near & low, axis=1)]
+        centre = data.xpos[self.pool.body_ids[riders]]
+        near = path.passes_near(centre, self._radius(riders), belt_speed, float(data.time))
+        woken = riders[near]
         # And the riders touching those (a group of settled items rides together).
         grown = self._within(data, riders, woken)
         while len(grown) > len(woken):

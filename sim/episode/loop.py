@@ -32,7 +32,7 @@ from sim.cell.depth_noise import ZED_CLASS
 from sim.cell.monitors.energy import EnergyMeter
 from sim.cell.monitors.mj_warnings import WarningCounter
 from sim.cell.monitors.thrown import ThrowWatch
-from sim.cell.riding import ItemRiding
+from sim.cell.riding import ItemRiding, PlannedPath
 from sim.cell.suction import SuctionConfig
 from sim.cell.video import overlay_of
 from sim.episode.attribution import attributed_item
@@ -139,6 +139,7 @@ class RobotStation:
         # (track, choice, energy reading at the start, travel [m]) of the pick under way
         self.pick_started: tuple | None = None
         self.started_at = 0.0  # when the pick under way started [s]
+        self.path: PlannedPath | None = None  # the cup's planned path of the pick under way
         self.picks_done, self.pick_time_sum = 0, 0.0  # its finished picks and their time [s]
         self.cup_events_seen = 0
 
@@ -352,10 +353,13 @@ class Episode:
         self._deciding = None
         while not self._finished():
             t = self.data.time
+            items = None  # the tracked items now, once for every robot free now
             for station in self.stations:
                 if not station.robot.busy and t + 1e-9 >= station.next_decision:
                     station.next_decision = t + DECIDE_PERIOD_S
-                    self._candidates = self._offered(station, self._tracked_items(t), t)
+                    if items is None:
+                        items = self._tracked_items(t)
+                    self._candidates = self._offered(station, items, t)
                     if self._candidates:
                         self._deciding = station
                         return True
@@ -418,8 +422,9 @@ class Episode:
         station.pick_started = (track, choice, station.energy.reading(), travel)
         station.started_at = t
         robot.start(intercept, -1 if track.true_id is None else int(track.true_id))
+        station.path = PlannedPath.of(intercept.plan.chain, t, *station.path_reach)
         if self.riding.in_window:
-            self.riding.wake_along(self.data, intercept.plan.chain, self.speed, *station.path_reach)
+            self.riding.wake_on_path(self.data, station.path, self.speed)
         return True
 
     def run(self) -> None:
@@ -591,8 +596,8 @@ class Episode:
                 self.metrics.on_binned(landing.item_id, landing.true_class, landing.bin_class)
             self.tracker.remove_true(landing.item_id)
         self._book_unsure(self.tracker.prune(t, self.x_discard))
-        busy = any(s.robot.busy for s in self.stations)
-        self.riding.update(data, held_slots if len(held_slots) > 1 else held, robot_busy=busy)
+        paths = [s.path for s in self.stations if s.robot.busy and s.path is not None]
+        self.riding.update(data, held_slots if len(held_slots) > 1 else held, busy_paths=paths)
 
     def _offered(self, station: RobotStation, items: list[TrackedItem], t: float):
         """The items a free robot of a line may choose among (`coordination`); all of them
