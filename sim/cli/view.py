@@ -60,9 +60,9 @@ def main(args: argparse.Namespace) -> int:
 
     prepare_camera(config)
     from sim.cell.live_view import LiveView, ViewerClosed
-    from sim.episode.runner import run_episode, shared_cell
+    from sim.episode.runner import config_cell, run_episode
 
-    cell = shared_cell(config.cell_settings, config.item_catalogue, config.robots, config.line_cell)
+    cell = config_cell(config)
     view = LiveView(cell.model, cell.data, args.real_time_factor, panels=args.panels)
     progress = None if args.quiet else Progress()
     try:

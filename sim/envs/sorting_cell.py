@@ -14,7 +14,7 @@ import numpy as np
 from planner.decision.slot_features import bounds, choice_for, observe, slot_candidates
 from sim.episode import config as episode_config
 from sim.episode.loop import Episode
-from sim.episode.runner import shared_cell
+from sim.episode.runner import config_cell
 
 
 class SortingCellEnv(gym.Env):
@@ -41,12 +41,7 @@ class SortingCellEnv(gym.Env):
         if self.episode is not None:
             self.episode.close()
         episode_seed = int(self.np_random.integers(0, 2**31 - 1))
-        cell = shared_cell(
-            self.config.cell_settings,
-            self.config.item_catalogue,
-            self.config.robots,
-            self.config.line_cell,
-        )
+        cell = config_cell(self.config)
         self.episode = Episode(self.config, cell)
         self.episode.reset(seed=episode_seed)
         self._profit = 0.0

@@ -32,7 +32,8 @@ TOML layout (every key optional; defaults are the headline episode)::
     min_gap_m = 0.0             # least gap between items [m] (uniform: 0.005)
     overlap_share = 0.1         # items allowed to lie partly over a flat neighbour
     overlap_depth_m = 0.02      # how far over it [m]
-    robots = 1                  # IRB 360s in series over the belt, 1..4 (a sorting line)
+    robots = 1                  # IRB 360s in series over the belt, 1..4 (a sorting line),
+                                # or a [[robots]] table per robot (below, after the tables)
     coordination = "coordinated"  # a line's: independent | coordinated
                                 # (planner/decision/line_coordination.py)
     catalogue = ""              # item catalogue TOML (its [[material]] entries name the
@@ -69,6 +70,17 @@ TOML layout (every key optional; defaults are the headline episode)::
     vacuum_pa = 80000.0         # vacuum below atmosphere, 1000..101325 Pa; holds area x vacuum
     [belt]
     length_m = 4.5              # 4..20 m from the infeed; the discharge end moves (recompiles)
+
+A line's robots one by one, instead of `robots = N` (sim/episode/line_robots.py, docs/line.md;
+`--robots N` replaces the table by N robots at the default spacing)::
+
+    [[robots]]                  # the first robot, upstream
+    x_m = 0.0                   # its base along the belt [m]; for every robot or none (then
+                                # 0, 1.8, 3.6, ...): first >= 0, >= 1.8 m apart, last <= 15.5
+    materials = ["aluminium"]   # what it picks (items by their most probable material);
+                                # omitted: every material. Each material by some robot
+    [[robots]]
+    x_m = 2.2
 """
 
 from __future__ import annotations
@@ -84,6 +96,7 @@ from perception.codes import Materials
 from planner.decision.line_coordination import COORDINATIONS
 from planner.decision.registry import ALLOWED as ALLOWED_PLANNERS
 from planner.decision.registry import check_planner
+from planner.decision.robot_materials import class_ids_of
 from planner.motion.belt_speeds import SPEED_RANGE_MPS, SPEED_TOLERANCE_MPS, SPEED_X1_MPS
 from sim.cell.scene_edits import (
     BELT_LENGTH_M,
@@ -92,6 +105,7 @@ from sim.cell.scene_edits import (
     CUP_DIAMETER_RANGE_M,
     CellSettings,
 )
+from sim.episode.line_robots import LineRobotSpec, check_robots_table, robots_table
 from sim.errors import InvalidInput, RefusedInput
 from sim.flow.catalogue import DEFAULT_CATALOGUE, Catalogue, load_catalogue
 from sim.flow.config import LINE_MAX_ITEMS_PER_METRE, MAX_ITEMS_PER_METRE, FlowConfig
@@ -410,6 +424,7 @@ class EpisodeConfig:
     overlap_share: float | None = None
     overlap_depth_m: float | None = None
     robots: int = 1
+    robot_table: tuple[LineRobotSpec, ...] = ()
     coordination: str = "coordinated"
     catalogue: str = ""
     values: Values = field(default_factory=Values)
@@ -470,6 +485,12 @@ class EpisodeConfig:
             raise InvalidInput(exc.field, exc.allowed, exc.got, w) from None
         r = self.robots
         _check(_integer(r) and 1 <= r <= MAX_ROBOTS, "robots", f"1..{MAX_ROBOTS}", r, w)
+        ok = isinstance(self.robot_table, tuple | list)
+        _check(ok, "robots", "a count or an array of [[robots]] tables", self.robot_table, w)
+        table = tuple(self.robot_table)
+        ok = not table or len(table) == r
+        _check(ok, "robots", f"as many robots as [[robots]] tables ({len(table)})", r, w)
+        object.__setattr__(self, "robot_table", table)
         c = self.coordination
         _check(c in COORDINATIONS, "coordination", " | ".join(COORDINATIONS), c, w)
         ok = isinstance(self.catalogue, str) and "\0" not in self.catalogue
@@ -479,6 +500,7 @@ class EpisodeConfig:
         except InvalidInput as exc:
             raise InvalidInput(exc.field, exc.allowed, exc.got, exc.where or w) from None
         self.values.check_names(catalogue, w)
+        check_robots_table(self.robot_table, catalogue.materials, w)
         # Every material's value written out (the catalogue's where not given), so configs
         # compare equal by what they run with, and a manifest's table reads back the same.
         resolved = Values.from_table(self.values.table(catalogue.materials))
@@ -515,11 +537,24 @@ class EpisodeConfig:
         return LINE_MAX_ITEMS_PER_METRE
 
     @property
+    def robot_positions_m(self) -> tuple[float, ...]:
+        """x of each robot's base along the belt, upstream first [m] (the `[[robots]]` table's
+        `x_m`); () when not given: the line's default spacing (`sim.cell.line_model`)."""
+        return tuple(s.x_m for s in self.robot_table if s.x_m is not None)
+
+    @functools.cached_property
+    def robot_class_ids(self) -> tuple[frozenset[int] | None, ...]:
+        """Per robot, upstream first, the material class ids (2, 3, ...) it sorts; None: every
+        material (`planner.decision.robot_materials`)."""
+        names = [s.materials for s in self.robot_table] or [None] * self.robots
+        return tuple(class_ids_of(n, self.materials) for n in names)
+
+    @property
     def line_cell(self) -> bool:
-        """Whether the episode runs on a line's model (`sim.cell.line`): several robots, or
-        one robot on a belt denser than the single cell's pool carries
-        (`MAX_ITEMS_PER_METRE`)."""
-        if self.robots > 1:
+        """Whether the episode runs on a line's model (`sim.cell.line`): several robots, one
+        robot placed elsewhere than x = 0, or one robot on a belt denser than the single
+        cell's pool carries (`MAX_ITEMS_PER_METRE`)."""
+        if self.robots > 1 or self.robot_positions_m[:1] not in ((), (0.0,)):
             return True
         density = self.items / (self.duration_s * self.belt_speed_mps)
         return density > MAX_ITEMS_PER_METRE * (1 + 1e-9)
@@ -570,6 +605,9 @@ class EpisodeConfig:
         """Plain dict of every setting (TOML layout), for reports and sweep keys."""
         out = dataclasses.asdict(self)
         out.pop("where")
+        out.pop("robot_table")
+        if self.robot_table:
+            out["robots"] = [spec.table() for spec in self.robot_table]
         out["values"] = self.values.table(self.materials)
         out["flow"] = {k: _plain(v) for k, v in self.flow.flow_kwargs().items()}
         return out
@@ -612,7 +650,8 @@ _SECTIONS = {
     "cup": Cup,
     "belt": Belt,
 }
-_SCALARS = {f.name for f in dataclasses.fields(EpisodeConfig)} - set(_SECTIONS) - {"where"}
+_SCALARS = {f.name for f in dataclasses.fields(EpisodeConfig)} - set(_SECTIONS)
+_SCALARS -= {"where", "robot_table"}  # the table comes as `robots = [...]`
 
 
 def from_dict(data: dict[str, Any], where: str | None = None) -> EpisodeConfig:
@@ -640,6 +679,9 @@ def _from_dict(data: dict[str, Any], where: str | None) -> EpisodeConfig:
                     sub in names, f"{key}.{sub}", "one of " + ", ".join(sorted(names)), None, where
                 )
             kwargs[key] = cls(**value)
+        elif key == "robots" and isinstance(value, list | tuple):
+            kwargs["robot_table"] = robots_table(value, MAX_ROBOTS, where)
+            kwargs["robots"] = len(value)
         else:
             allowed = "one of " + ", ".join(sorted(_SCALARS | set(_SECTIONS)))
             _check(key in _SCALARS, key, allowed, None, where)
@@ -709,4 +751,6 @@ def load(path: Path | None = None, **overrides: Any) -> EpisodeConfig:
     changes = {k: v for k, v in overrides.items() if v is not None}
     unknown = set(changes) - _SCALARS
     _check(not unknown, "override", ", ".join(sorted(_SCALARS)), sorted(unknown), None)
+    if "robots" in changes:  # a robot count replaces the file's [[robots]] table
+        changes["robot_table"] = ()
     return dataclasses.replace(config, where=None, **changes) if changes else config

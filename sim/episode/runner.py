@@ -30,6 +30,7 @@ __all__ = [
     "Episode",
     "EpisodeResult",
     "make_decision_manager",
+    "config_cell",
     "run_episode",
     "shared_cell",
 ]
@@ -47,7 +48,7 @@ class EpisodeResult:
     latencies: dict[str, list[float]] = field(default_factory=dict)
 
 
-_CELLS: dict[tuple[int, CellSettings, str, int, bool], object] = {}
+_CELLS: dict[tuple[int, CellSettings, str, int, bool, tuple[float, ...]], object] = {}
 
 
 def planner_name(planner) -> str:
@@ -56,30 +57,50 @@ def planner_name(planner) -> str:
 
 
 def shared_cell(
-    settings: CellSettings | None = None, catalogue=None, robots: int = 1, line: bool = False
+    settings: CellSettings | None = None,
+    catalogue=None,
+    robots: int = 1,
+    line: bool = False,
+    positions_m: tuple[float, ...] = (),
 ):
     """This process's cell of `settings` (an episode config's `cell_settings`; the scene's when
     None) and `catalogue` (the default one when None; its materials name the bins): compiled
     once per process, settings and catalogue, reused by every episode run here with them, so a
-    sweep over the cup's diameter, the belt's length or the catalogue gets each its own model."""
+    sweep over the cup's diameter, the belt's length or the catalogue gets each its own model.
+    A line of `robots` stands at `positions_m` along the belt [m] (() the default spacing,
+    `sim.cell.line_model.LineLayout`); one robot away from x = 0 runs on a line's model."""
+    from sim.cell.line_model import LineLayout, compile_line
+
     if catalogue is None:
         from sim.flow.catalogue import load_catalogue
 
         catalogue = load_catalogue()
-    line = line or robots > 1
-    key = (os.getpid(), settings or CellSettings(), catalogue.digest, robots, line)
+    prefixes = ("r0_",) if robots == 1 else ()
+    layout = LineLayout(robots=robots, positions_m=tuple(positions_m), prefixes=prefixes)
+    line = line or robots > 1 or layout.positions_m[0] != 0.0
+    settings = settings or CellSettings()
+    key = (os.getpid(), settings, catalogue.digest, robots, line, layout.positions_m)
     if key not in _CELLS:
         if not line:
             _CELLS[key] = Cell(settings=key[1], catalogue=catalogue)
         else:  # a sorting line (`sim.cell.line`), or one robot with a line's item pool
             from sim.cell.line import LineCell
-            from sim.cell.line_model import LineLayout, compile_line
 
-            prefixes = ("r0_",) if robots == 1 else ()
-            layout = LineLayout(robots=robots, prefixes=prefixes)
             model = compile_line(layout, key[1], catalogue.materials)
             _CELLS[key] = LineCell(model, layout.prefixes, catalogue, key[1])
     return _CELLS[key]
+
+
+def config_cell(config: EpisodeConfig):
+    """This process's shared cell for `config` (`shared_cell` of its model settings,
+    catalogue, robots and their positions)."""
+    return shared_cell(
+        config.cell_settings,
+        config.item_catalogue,
+        config.robots,
+        config.line_cell,
+        config.robot_positions_m,
+    )
 
 
 def run_episode(
@@ -110,9 +131,7 @@ def run_episode(
         raise ValueError("run_episode takes a video_path or a recorder, not both")
     wall0, cpu0 = time.perf_counter(), time.process_time()
     if cell is None:
-        cell = shared_cell(
-            config.cell_settings, config.item_catalogue, config.robots, config.line_cell
-        )
+        cell = config_cell(config)
     video = recorder
     if video_path is not None:
         from sim.cell.video import VideoRecorder

@@ -24,7 +24,7 @@ import numpy as np
 from sim.episode import config as episode_config
 from sim.episode.config import EpisodeConfig
 from sim.episode.loop import Episode
-from sim.episode.runner import shared_cell
+from sim.episode.runner import config_cell
 from sim.flow.config import MAX_ITEMS_PER_METRE
 
 PLANNERS = ("qlearning", "proximity", "fifo", "greedy")
@@ -104,7 +104,7 @@ def _finite(data) -> bool:
 def soak_episode(config: EpisodeConfig) -> SoakResult:
     """Run one episode on this process's cell and check it (see the module docstring)."""
     cpu0 = time.process_time()
-    cell = shared_cell(config.cell_settings, config.item_catalogue, config.robots, config.line_cell)
+    cell = config_cell(config)
     nonfinite = False
     with Episode(config, cell) as episode:
         episode.reset()
