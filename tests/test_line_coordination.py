@@ -71,9 +71,7 @@ def test_robots_claim_and_are_offered_only_the_materials_they_sort():
     claimed = downstream_claims(items, robots, 0, 0.0, 0.7)
     assert claimed and all(items[i].bin_class == 4 for i in claimed)
     # the last robot, sorting aluminium only, is offered aluminium only
-    assert {it.bin_class for it in offered_items("independent", items, robots, 1, 0.0, 0.7)} == {
-        4
-    }
+    assert {it.bin_class for it in offered_items("independent", items, robots, 1, 0.0, 0.7)} == {4}
     with pytest.raises(PlannerInputError):
         LineRobot(robots[0].context, 0.0, frozenset())
 

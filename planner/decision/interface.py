@@ -19,7 +19,6 @@ import math
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
-
 from perception.codes import (
     MATERIALS,
     MAX_MATERIALS,

@@ -26,7 +26,6 @@ from planner.decision.energy_cost import EnergyPrice
 from planner.decision.interface import Choice, DecisionContext, RobotState, TrackedItem
 from planner.decision.line_coordination import LineRobot, offered_items
 from planner.decision.registry import make_planner
-from planner.decision.robot_materials import items_sorted_by
 from sim.cell.bins import Bins
 from sim.cell.cell import PICK_Z_NOMINAL, Cell
 from sim.cell.depth_noise import ZED_CLASS
@@ -608,11 +607,11 @@ class Episode:
         line = []
         for s in self.stations:
             free_at = s.started_at + self._pick_time(s) if s.robot.busy else t
-            line.append(LineRobot(s.context, max(free_at, t)))
-        offered = offered_items(
+            sorted_here = self.config.robot_class_ids[s.index]  # None: every material
+            line.append(LineRobot(s.context, max(free_at, t), sorted_here))
+        return offered_items(
             self.config.coordination, items, line, station.index, t, self._pick_time(station)
         )
-        return items_sorted_by(offered, self.config.robot_class_ids[station.index])
 
     def _pick_time(self, station: RobotStation) -> float:
         """Mean duration of the robot's picks so far [s] (`LINE_PICK_TIME_S` before any)."""
