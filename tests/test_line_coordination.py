@@ -91,8 +91,10 @@ def test_the_overflow_goes_upstream(monkeypatch):
     assert claimed == {*range(8), 10, 17, 24}
     offered = offered_items("coordinated", items, robots, 0, 0.0, 0.75)
     assert [it.item_id for it in offered] == [i for i in range(30) if i not in claimed]
-    # the last robot is offered everything: nobody downstream to leave items to
-    assert offered_items("coordinated", items, robots, 1, 0.0, 0.75) == items
+    # the last robot is offered everything in its reach soon: nobody downstream to leave to
+    assert offered_items("coordinated", items, robots, 1, 0.0, 0.75) == []  # 5 s away
+    later = [_item(it.item_id, it.x + 0.92) for it in items]  # 4.6 s on: 0.4 + 0.105 k s away
+    assert offered_items("coordinated", later, robots, 1, 4.6, 0.75) == later[:6]
     # with the slack and the margin the downstream robot claims fewer: more goes upstream
     monkeypatch.undo()
     cautious = downstream_claims(items, robots, 0, 0.0, 0.75)

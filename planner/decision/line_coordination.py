@@ -17,7 +17,8 @@ When a robot is free, the coordination hands its decision manager the items it m
   otherwise it is offered every item in its window within that time, claimed or not: a robot
   that waits while items pass through its reach wastes capacity the line needs when a
   prediction fails, and an item it takes off a downstream robot's list only gives that robot
-  slack. The claims are made again at every decision, over the items in view then.
+  slack. The last robot is offered every item in its window within that time. The claims
+  are made again at every decision, over the items in view then.
 
 Pure functions of the tracked items and the robots' windows, times and belt speed; SI units
 (m, s).
@@ -144,12 +145,12 @@ def offered_items(
         raise PlannerInputError("robot", f"0..{len(robots) - 1}", robot)
     items = list(items)
     mine = items_sorted_by(items, robots[robot].class_ids)
-    if coordination == "independent" or robot == len(robots) - 1:
+    if coordination == "independent":
         return mine
     context = robots[robot].context
     soon = [it for it in mine if _in_reach_within(context, t, it, START_HORIZON_S)]
-    if not soon:
-        return []
+    if not soon or robot == len(robots) - 1:
+        return soon  # the last robot: nobody downstream to leave items to
     claimed = downstream_claims(items, robots, robot, t, pick_time_s, lead_s)
     unclaimed = [it for it in soon if it.item_id not in claimed]
     return unclaimed or soon
