@@ -43,6 +43,7 @@ PURITY_PREFIX = "purity_"
 """Each material's bin purity (`purity_<material>`: the catalogue's materials) is a metric too."""
 FIGURES = (
     ("profit_eur", "profit [EUR]"),
+    ("picked", "items picked"),
     ("accuracy", "accuracy SP/SI"),
     ("picks_per_min", "picks per minute"),
 )
