@@ -90,11 +90,16 @@ def test_the_overflow_goes_upstream(monkeypatch):
     claimed = downstream_claims(items, robots, 0, 0.0, 0.75)
     assert claimed == {*range(8), 10, 17, 24}
     offered = offered_items("coordinated", items, robots, 0, 0.0, 0.75)
-    assert [it.item_id for it in offered] == [i for i in range(30) if i not in claimed]
+    # offered: the unclaimed items in robot 0's window (x >= -0.5 m) within START_HORIZON_S
+    # (0.3 s: 6 cm more at 0.2 m/s), i.e. items 0..26
+    soon = [i for i in range(30) if -0.021 * i >= -0.5 - V * line_coordination.START_HORIZON_S]
+    assert soon == list(range(27))
+    assert [it.item_id for it in offered] == [i for i in soon if i not in claimed]
     # the last robot is offered everything in its reach soon: nobody downstream to leave to
     assert offered_items("coordinated", items, robots, 1, 0.0, 0.75) == []  # 5 s away
-    later = [_item(it.item_id, it.x + 0.92) for it in items]  # 4.6 s on: 0.4 + 0.105 k s away
-    assert offered_items("coordinated", later, robots, 1, 4.6, 0.75) == later[:6]
+    # 4.96 s on, item k is 0.04 + 0.105 k s from the downstream window: items 0..2 are soon
+    later = [_item(it.item_id, it.x + 0.992) for it in items]
+    assert offered_items("coordinated", later, robots, 1, 4.96, 0.75) == later[:3]
     # with the slack and the margin the downstream robot claims fewer: more goes upstream
     monkeypatch.undo()
     cautious = downstream_claims(items, robots, 0, 0.0, 0.75)
