@@ -10,6 +10,10 @@
   and the cycle-time model, no physics.
 - `sortsim/SortingCell-v0` (`sim.envs.sorting_cell.SortingCellEnv`): the physics of the cell,
   truth or camera perception.
+
+A line of robots is a multi-agent environment in PettingZoo's parallel API, not a Gymnasium
+one: `sim.envs.sorting_line.SortingLineParallelEnv(robots=2, ...)` (no PettingZoo needed to
+run it; `pettingzoo.test.parallel_api_test` passes on it).
 """
 
 from __future__ import annotations

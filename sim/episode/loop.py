@@ -181,6 +181,11 @@ class Episode:
         return self._station().context
 
     @property
+    def deciding_robot(self) -> int:
+        """Index of the robot deciding now, 0 upstream (the first robot between decisions)."""
+        return self._station().index
+
+    @property
     def energy(self) -> EnergyMeter:
         """The first robot's motor energy meter (the line's: `stations`)."""
         return self.stations[0].energy
