@@ -16,6 +16,7 @@ A seal that does not form leaves the cup to lift straight up, empty.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
 
@@ -31,6 +32,7 @@ from planner.motion.clearance import (
     path_conflicts,
 )
 from planner.motion.intercept import Intercept, intercept_item
+from planner.motion.kinematics import Unreachable
 from planner.motion.pick_cycle import PickPlaceConfig
 from planner.motion.trajectory import State
 from sim.cell.cell import Cell
@@ -155,6 +157,7 @@ class PickController:
         self.clear_z = clear_height(cell.catalogue, rail_top_z(cell.model), items)
         self._pick: _PickInProgress | None = None
         self._request: tuple[float, float, int] | None = None
+        self._planned: tuple | None = None  # (chain, playback) of the last feasible plan
         self.started: list[StartedPick] = []  # every pick started, as planned
 
     def slot_near(self, x: float, y: float) -> int | None:
@@ -323,7 +326,7 @@ class PickController:
             # is flown over instead (the corner raised over its top), then straight down.
             conflicts = path_conflicts(chain, t_down, obstacles, self.belt_speed, radius)
             if not conflicts:
-                return hit
+                return self._playable(hit)
             need = max(c.top for c in conflicts) + APPROACH_CLEARANCE_M - pick_z
             if need <= approach + 1e-6:
                 break
@@ -338,6 +341,20 @@ class PickController:
             float("nan"),
             np.full(3, np.nan),
         )
+
+    def _playable(self, hit: Intercept) -> Intercept:
+        """`hit` if the executor can play its plan, else refused. The planner checks the path
+        every `CHECK_DT` (2 ms); the executor's set-points, one each control period (1 ms), may
+        find a point between two checks outside the workspace, at its very edge: such a pick
+        is refused now, before any robot commits to it. The playback made here is the one
+        `start` plays."""
+        try:
+            playback = self.cell.executor.playback(hit.plan.chain, hold=RELEASE_CLEAR_S)
+        except Unreachable as exc:
+            self.plan_failures += 1
+            return Intercept(False, f"the path leaves the workspace: {exc}", math.nan, hit.pick_xyz)
+        self._planned = (hit.plan.chain, playback)
+        return hit
 
     @property
     def busy(self) -> bool:
@@ -371,12 +388,19 @@ class PickController:
         self._pick = _PickInProgress(
             chain=plan.chain,
             target=int(target),
-            playback=self.cell.executor.playback(plan.chain, hold=RELEASE_CLEAR_S),
+            playback=self._playback_of(plan.chain),
             vacuum_from=plan.chain.phase_start("descend"),
             release_time=plan.release_time,
             t_start=float(self.cell.data.time),
             end=plan.chain.at_time(plan.chain.duration)[0],
         )
+
+    def _playback_of(self, chain) -> Playback:
+        """The playback of `chain`: the one `plan` made for it, else made now."""
+        planned, self._planned = self._planned, None
+        if planned is not None and planned[0] is chain:
+            return planned[1]
+        return self.cell.executor.playback(chain, hold=RELEASE_CLEAR_S)
 
     def activity(self) -> str:
         """What the robot is doing now, in a few words (for logs of unexpected events)."""
