@@ -7,7 +7,7 @@ Every episode is checked for the accounting identities, MuJoCo warnings, a finit
 items thrown off the belt (`sim.episode.soak.soak_episode`). One line per episode, then a
 summary; the exit status is 1 if any episode failed a check.
 
-    python benchmarks/soak.py [--episodes 200] [--workers 2] [--seed 0]
+    python benchmarks/soak.py [--episodes 200] [--workers 2] [--seed 0] [--lines]
 """
 
 from __future__ import annotations
@@ -40,8 +40,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--episodes", type=int, default=200, help="random episodes (200)")
     parser.add_argument("--workers", type=int, default=2, help="worker processes (2)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the configs' draw (0)")
+    parser.add_argument(
+        "--lines", action="store_true", help="sorting lines of 2-4 robots on dense belts"
+    )
     args = parser.parse_args(argv)
-    configs = draw_configs(args.episodes, args.seed)
+    configs = draw_configs(args.episodes, args.seed, lines=args.lines)
     print(
         f"soak: {len(configs)} random episodes (draw seed {args.seed}), {args.workers} worker(s)",
         flush=True,

@@ -12,7 +12,15 @@ import pytest
 from perception.codes import ALUMINIUM, PAPER, PLASTIC
 from sim.cell.monitors.thrown import Throw
 from sim.episode.metrics import EpisodeMetrics, PickRecord
-from sim.episode.soak import PLANNERS, RIDINGS, SPEED_FACTORS, draw_configs, soak_episode
+from sim.episode.soak import (
+    LINE_DENSITY_PER_M,
+    LINE_RIDINGS,
+    PLANNERS,
+    RIDINGS,
+    SPEED_FACTORS,
+    draw_configs,
+    soak_episode,
+)
 from sim.flow.config import MAX_ITEMS_PER_METRE
 
 VALUES = {PAPER: 0.22, PLASTIC: 0.25, ALUMINIUM: 0.27}
@@ -70,6 +78,18 @@ def test_the_draw_spans_the_cell_within_the_flows_limits():
     assert all(c.perception == "truth" for c in configs)
     for c in configs:
         assert c.items <= MAX_ITEMS_PER_METRE * c.duration_s * c.belt_speed_mps + 1e-6
+
+
+def test_the_line_draw_spans_robots_coordinations_and_dense_belts():
+    configs = draw_configs(40, seed=7, lines=True)
+    assert configs == draw_configs(40, seed=7, lines=True)
+    assert {c.robots for c in configs} == {2, 3, 4}
+    assert {c.coordination for c in configs} == {"independent", "coordinated"}
+    assert {c.item_riding for c in configs} == set(LINE_RIDINGS)
+    densities = [c.items / (c.duration_s * c.belt_speed_mps) for c in configs]
+    assert max(densities) <= LINE_DENSITY_PER_M[1] + 1e-6
+    assert sum(d > MAX_ITEMS_PER_METRE for d in densities) >= 30  # beyond one robot's belts
+    assert all(c.line_cell for c in configs)
 
 
 @pytest.mark.slow

@@ -21,11 +21,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from planner.decision.line_coordination import COORDINATIONS
 from sim.episode import config as episode_config
 from sim.episode.config import EpisodeConfig
 from sim.episode.loop import Episode
 from sim.episode.runner import config_cell
-from sim.flow.config import MAX_ITEMS_PER_METRE
+from sim.flow.config import LINE_MAX_ITEMS_PER_METRE, MAX_ITEMS_PER_METRE
 
 PLANNERS = ("qlearning", "proximity", "fifo", "greedy")
 SPEED_FACTORS = (1.0, 1.2, 1.5)
@@ -34,22 +35,34 @@ DURATION_S = (20.0, 60.0)
 """Range of the episodes' flow durations [s] (short, so that hundreds run in half an hour)."""
 DENSITY_PER_M = (2.0, MAX_ITEMS_PER_METRE)
 """Range of the items per metre of belt drawn (the flow refuses more than 12)."""
+LINE_DENSITY_PER_M = (MAX_ITEMS_PER_METRE, LINE_MAX_ITEMS_PER_METRE)
+"""Range of the items per metre a line's soak draws: the belts one robot cannot clear."""
+LINE_RIDINGS = ("path", "settled", "contact")
+"""A line's soak draws every riding mode, the default ("path") included."""
 
 
 def draw_configs(
-    n: int, seed: int = 0, duration_s: tuple[float, float] = DURATION_S
+    n: int, seed: int = 0, duration_s: tuple[float, float] = DURATION_S, lines: bool = False
 ) -> list[EpisodeConfig]:
     """`n` random truth-perception episode configs (reproducible from `seed`), their flows
-    lasting `duration_s` (low, high) [s]."""
+    lasting `duration_s` (low, high) [s]. With `lines`, sorting lines: 2-4 robots, either
+    coordination, every riding mode, belts up to a line's `LINE_DENSITY_PER_M`."""
     rng = np.random.default_rng(seed)
     configs = []
     for _ in range(n):
         speed = float(rng.choice(SPEED_FACTORS))
         duration = float(np.round(rng.uniform(*duration_s), 1))
-        density = rng.uniform(*DENSITY_PER_M)
+        low, high = LINE_DENSITY_PER_M if lines else DENSITY_PER_M
+        density = rng.uniform(low, high)
         metres = duration * episode_config.belt_speed_mps(speed)
-        most = int(MAX_ITEMS_PER_METRE * metres + 1e-6)
+        most = int(high * metres + 1e-6)
         items = int(min(max(5, round(density * metres)), most))
+        line = {}
+        if lines:
+            line = {
+                "robots": int(rng.integers(2, episode_config.MAX_ROBOTS + 1)),
+                "coordination": str(rng.choice(COORDINATIONS)),
+            }
         configs.append(
             episode_config.load(
                 None,
@@ -59,7 +72,8 @@ def draw_configs(
                 planner=str(rng.choice(PLANNERS)),
                 perception="truth",
                 duration_s=duration,
-                item_riding=str(rng.choice(RIDINGS)),
+                item_riding=str(rng.choice(LINE_RIDINGS if lines else RIDINGS)),
+                **line,
             )
         )
     return configs
