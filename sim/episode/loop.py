@@ -427,8 +427,9 @@ class Episode:
         station.pick_started = (track, choice, station.energy.reading(), travel)
         station.started_at = t
         robot.start(intercept, -1 if track.true_id is None else int(track.true_id))
-        station.path = PlannedPath.of(intercept.plan.chain, t, *station.path_reach)
+        station.path = None
         if self.riding.in_window:
+            station.path = PlannedPath.of(intercept.plan.chain, t, *station.path_reach)
             self.riding.wake_on_path(self.data, station.path, self.speed)
         return True
 
