@@ -58,6 +58,8 @@ def test_two_robots_share_the_belt_and_never_take_the_same_item(coordination):
     assert row["robot0_picked"] > 0 and row["robot1_picked"] > 0
     carried = [p for p in picks if p["success"]]
     assert row["robot0_picked"] + row["robot1_picked"] == len(carried)
+    # picks.csv names the robot of every attempt
+    assert {p["robot"] for p in picks} == {0, 1}
     ids = [p["item_id"] for p in carried]
     assert len(ids) == len(set(ids)), "an item carried to a bin twice"
     assert row["picked"] >= 0.9 * row["entered"]

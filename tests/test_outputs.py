@@ -35,7 +35,7 @@ def test_write_is_atomic_and_leaves_no_temporary_files(tmp_path):
     outputs.write_picks(path, [row])
     first = path.read_bytes()
     assert first.startswith(b"t_start_s,t_end_s,item_id")
-    assert b"1.0000,1.5000,3,,,,1,0.5000,,,\n" in first
+    assert b"1.0000,1.5000,3,,,,1,0.5000,,,,\n" in first
     outputs.write_picks(path, [row, row])
     assert path.read_bytes().count(b"\n") == 3
     assert os.listdir(path.parent) == ["picks.csv"]

@@ -111,6 +111,7 @@ class PickRecord:
             "travel_m": self.travel_m,
             "energy_mech_j": self.energy_mech_j,
             "energy_elec_j": self.energy_elec_j,
+            "robot": self.robot,
         }
 
 

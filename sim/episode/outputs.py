@@ -85,6 +85,7 @@ PICK_COLUMNS = (
     "travel_m",
     "energy_mech_j",
     "energy_elec_j",
+    "robot",
 )
 WALL_COLUMNS = ("wall_s", "real_time_factor")
 PER_MATERIAL = ("picked", "entered", "purity", "recovery")
