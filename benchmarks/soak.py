@@ -1,7 +1,7 @@
 """Soak: many random episodes, each checked for what must never happen (`make soak`).
 
 Random truth-perception episodes (items up to 12 per metre of belt, belt x1 / x1.2 / x1.5, the
-decision managers qlearning, proximity, fifo and greedy, both riding modes, random seeds, flows
+decision managers qlearning, proximity, fifo and greedy, every riding mode, random seeds, flows
 of 20-60 s; `sim.episode.soak.draw_configs`) run in worker processes, one compiled cell each.
 Every episode is checked for the accounting identities, MuJoCo warnings, a finite state and
 items thrown off the belt (`sim.episode.soak.soak_episode`). One line per episode, then a

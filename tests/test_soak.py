@@ -14,7 +14,6 @@ from sim.cell.monitors.thrown import Throw
 from sim.episode.metrics import EpisodeMetrics, PickRecord
 from sim.episode.soak import (
     LINE_DENSITY_PER_M,
-    LINE_RIDINGS,
     PLANNERS,
     RIDINGS,
     SPEED_FACTORS,
@@ -85,7 +84,7 @@ def test_the_line_draw_spans_robots_coordinations_and_dense_belts():
     assert configs == draw_configs(40, seed=7, lines=True)
     assert {c.robots for c in configs} == {2, 3, 4}
     assert {c.coordination for c in configs} == {"independent", "coordinated"}
-    assert {c.item_riding for c in configs} == set(LINE_RIDINGS)
+    assert {c.item_riding for c in configs} == set(RIDINGS)
     densities = [c.items / (c.duration_s * c.belt_speed_mps) for c in configs]
     assert max(densities) <= LINE_DENSITY_PER_M[1] + 1e-6
     assert sum(d > MAX_ITEMS_PER_METRE for d in densities) >= 30  # beyond one robot's belts

@@ -2,7 +2,7 @@
 
 `draw_configs` draws episodes across the space the cell runs in (item density up to the flow's
 limit of 12 items per metre, belt speeds x1 / x1.2 / x1.5, every built-in decision manager but
-the oracle, both riding modes, random seeds and durations); `soak_episode` runs one and checks:
+the oracle, every riding mode, random seeds and durations); `soak_episode` runs one and checks:
 
 - the accounting identities of `sim.episode.metrics` (entered = picked + missed + dropped, ...)
   and that every item of the flow entered the belt and left it before the time cap;
@@ -30,15 +30,14 @@ from sim.flow.config import LINE_MAX_ITEMS_PER_METRE, MAX_ITEMS_PER_METRE
 
 PLANNERS = ("qlearning", "proximity", "fifo", "greedy")
 SPEED_FACTORS = (1.0, 1.2, 1.5)
-RIDINGS = ("settled", "contact")
+RIDINGS = ("path", "settled", "contact")
+"""Every riding mode, the default ("path") first (`sim.cell.riding`)."""
 DURATION_S = (20.0, 60.0)
 """Range of the episodes' flow durations [s] (short, so that hundreds run in half an hour)."""
 DENSITY_PER_M = (2.0, MAX_ITEMS_PER_METRE)
 """Range of the items per metre of belt drawn (the flow refuses more than 12)."""
 LINE_DENSITY_PER_M = (MAX_ITEMS_PER_METRE, LINE_MAX_ITEMS_PER_METRE)
 """Range of the items per metre a line's soak draws: the belts one robot cannot clear."""
-LINE_RIDINGS = ("path", "settled", "contact")
-"""A line's soak draws every riding mode, the default ("path") included."""
 
 
 def draw_configs(
@@ -46,7 +45,7 @@ def draw_configs(
 ) -> list[EpisodeConfig]:
     """`n` random truth-perception episode configs (reproducible from `seed`), their flows
     lasting `duration_s` (low, high) [s]. With `lines`, sorting lines: 2-4 robots, either
-    coordination, every riding mode, belts up to a line's `LINE_DENSITY_PER_M`."""
+    coordination, belts up to a line's `LINE_DENSITY_PER_M`."""
     rng = np.random.default_rng(seed)
     configs = []
     for _ in range(n):
@@ -72,7 +71,7 @@ def draw_configs(
                 planner=str(rng.choice(PLANNERS)),
                 perception="truth",
                 duration_s=duration,
-                item_riding=str(rng.choice(LINE_RIDINGS if lines else RIDINGS)),
+                item_riding=str(rng.choice(RIDINGS)),
                 **line,
             )
         )
