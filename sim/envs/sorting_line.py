@@ -50,9 +50,9 @@ class SortingLineParallelEnv:
         self.config = episode_config.load(None, **{**settings, "coordination": "independent"})
         self.k_slots = int(k_slots)
         self.possible_agents = [f"robot_{k}" for k in range(robots)]
-        low, high = bounds(self.k_slots)
+        self._low, self._high = bounds(self.k_slots)
         self._observation_spaces = {
-            a: gym.spaces.Box(low, high, dtype=np.float32) for a in self.possible_agents
+            a: gym.spaces.Box(self._low, self._high, dtype=np.float32) for a in self.possible_agents
         }
         self._action_spaces = {
             a: gym.spaces.Discrete(self.k_slots + 1) for a in self.possible_agents
@@ -119,8 +119,7 @@ class SortingLineParallelEnv:
         base_x = episode.cell.robot_cells[index].base_x
         slots = obs.reshape(self.k_slots, N_FEATURES)
         slots[: len(self._cands), 1] -= base_x  # x from the deciding robot's base [m]
-        low, high = bounds(self.k_slots)
-        self._obs = np.clip(obs, low, high)
+        self._obs = np.clip(obs, self._low, self._high)
 
     def _observations(self) -> dict[str, np.ndarray]:
         idle = np.zeros(self.k_slots * N_FEATURES, dtype=np.float32)

@@ -30,8 +30,8 @@ from sim.flow.config import LINE_MAX_ITEMS_PER_METRE, MAX_ITEMS_PER_METRE
 
 PLANNERS = ("qlearning", "proximity", "fifo", "greedy")
 SPEED_FACTORS = (1.0, 1.2, 1.5)
-RIDINGS = ("path", "settled", "contact")
-"""Every riding mode, the default ("path") first (`sim.cell.riding`)."""
+RIDINGS = episode_config.ITEM_RIDINGS
+"""Every riding mode (`sim.cell.riding`), the default ("path") included."""
 DURATION_S = (20.0, 60.0)
 """Range of the episodes' flow durations [s] (short, so that hundreds run in half an hour)."""
 DENSITY_PER_M = (2.0, MAX_ITEMS_PER_METRE)
