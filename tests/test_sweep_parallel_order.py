@@ -110,3 +110,42 @@ def test_a_resumed_run_keeps_the_grid_order(swept):
 def test_the_sweep_file_has_a_normal_mode(swept):
     _, out, _, _ = swept
     assert stat.S_IMODE((out / "episodes.csv").stat().st_mode) == 0o644
+
+
+def test_a_finished_sweep_rewrites_its_picks_in_grid_order(swept, tmp_path):
+    """picks.csv as appended out of grid order (a row of the grid's first episode last) is
+    rewritten with every episode's picks in the grid's order, their own order kept."""
+    import shutil
+
+    config, out, _, _ = swept
+    copy = tmp_path / "out"
+    shutil.copytree(out, copy)
+    picks = outputs.read_rows(copy / sweep.PICKS_FILE)
+    assert picks, "the fifo episode picked"
+    spec = config.episodes[0]  # the patient manager's episode: no picks of its own
+    first = {**picks[0], "variant": spec.variant, "planner": spec.config.planner}
+    appended = [*picks, {**first, "t_start_s": "0.5"}, {**first, "t_start_s": "0.25"}]
+    outputs.write_sweep_picks(copy / sweep.PICKS_FILE, appended, sweep.pick_columns(config))
+    sweep.run_sweep(config, copy, workers=1)
+    rewritten = outputs.read_rows(copy / sweep.PICKS_FILE)
+    assert [r["t_start_s"] for r in rewritten[:2]] == ["0.5", "0.25"]
+    assert rewritten[2:] == picks
+
+
+def test_workers_take_the_longest_flows_first(tmp_path):
+    (tmp_path / "grid.toml").write_text(
+        """
+[sweep]
+name = "lengths"
+items = [10, 40, 20]
+planners = ["fifo"]
+seeds = [1, 2]
+duration_s_by_items = { 10 = 5.0, 40 = 30.0, 20 = 30.0 }
+
+[base]
+perception = "truth"
+"""
+    )
+    config = sweep_config.load(tmp_path / "grid.toml")
+    ordered = [(s.config.items, s.config.seed) for s in sweep.dispatch_order(config.episodes)]
+    assert ordered == [(40, 1), (40, 2), (20, 1), (20, 2), (10, 1), (10, 2)]

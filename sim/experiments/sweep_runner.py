@@ -177,11 +177,25 @@ def run_spec(spec: EpisodeSpec) -> tuple[dict, list[dict]]:
     return result.episode_row, result.pick_rows
 
 
+def dispatch_order(specs: list[EpisodeSpec]) -> list[EpisodeSpec]:
+    """The order workers take `specs` in: the longest flows first, the densest and the
+    largest lines among equals (longest-processing-time-first scheduling: the last episodes
+    to start are short, so no worker idles long while another finishes a 191 s flow). The
+    output files are rewritten in the grid's order at the end, so this order never shows."""
+
+    def cost(spec: EpisodeSpec) -> tuple[float, int, int]:
+        c = spec.config
+        return (c.duration_s, c.items, c.robots)
+
+    return sorted(specs, key=cost, reverse=True)
+
+
 def _local(specs: list[EpisodeSpec], workers: int, on_row: RowCallback) -> None:
     if workers <= 1:
         for spec in specs:
             on_row(spec, *run_spec(spec))
         return
+    specs = dispatch_order(specs)
     # spawn: a fresh interpreter per worker, no inherited rendering contexts or threads.
     context = multiprocessing.get_context("spawn")
     with context.Pool(processes=min(workers, len(specs)), maxtasksperchild=None) as pool:
@@ -316,11 +330,23 @@ def eta_text(elapsed_s: float, done: int, left: int) -> str:
 
 
 def _sorted_rewrite(sweep: SweepConfig, csv_path: Path) -> list[dict]:
+    """Rewrite episodes.csv, and picks.csv beside it, in the grid's order (each episode's
+    picks in the order they were made); returns the episode rows."""
     rows = outputs.read_rows(csv_path)
     order = {spec.key: i for i, spec in enumerate(sweep.episodes)}
-    rows.sort(key=lambda r: order.get(row_key(r), len(order)))
+
+    def grid_order(row: dict) -> int:
+        return order.get(row_key(row), len(order))
+
+    rows.sort(key=grid_order)
     if rows:
         outputs.write_episodes(csv_path, rows, episode_columns(sweep))
+    picks_path = csv_path.parent / PICKS_FILE
+    picks = outputs.read_rows(picks_path)
+    if picks:
+        ordered = sorted(picks, key=grid_order)  # stable: each episode's picks keep their order
+        if ordered != picks:
+            outputs.write_sweep_picks(picks_path, ordered, pick_columns(sweep))
     return rows
 
 
