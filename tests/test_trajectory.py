@@ -198,3 +198,25 @@ def test_vectorised_states_are_ruckigs_to_the_bit(robot):
         one_by_one = np.array([np.concatenate(chain.at_time(float(t))) for t in times])
         at_once = np.concatenate(chain.states_at(times), axis=1)
         np.testing.assert_array_equal(at_once, one_by_one)
+
+
+def test_vectorised_states_of_coordinates_that_finish_early_are_ruckigs_to_the_bit(robot):
+    """A coordinate that does not move (or arrives before the others) ends its profile before
+    the segment does, and then keeps its final state: `states_at` gives what `at_time` gives
+    there too (also for a segment stretched to a minimum duration)."""
+    _, _, gen = robot
+    start = State.at_rest([-0.2, 0.1, 0.05], 0.3)
+    goals = [
+        State.at_rest([0.25, 0.1, 0.05], 0.3),  # x alone moves
+        State([0.1, 0.1, 0.12, 0.3], [0.2, 0.0, 0.0, 0.0]),  # y and axis 4 stay
+        State.at_rest([-0.2, 0.1, 0.08], 0.35),  # a short z move and a small turn
+    ]
+    for goal in goals:
+        for minimum_duration in (None, 0.4):
+            segment = gen.plan(start, goal, minimum_duration=minimum_duration)
+            times = np.concatenate(
+                [segment.sample_states(0.001)[0], np.linspace(-0.01, segment.duration + 0.01, 97)]
+            )
+            one_by_one = np.array([np.concatenate(segment.at_time(float(t))) for t in times])
+            at_once = np.concatenate(segment.states_at(times), axis=1)
+            np.testing.assert_array_equal(at_once, one_by_one)

@@ -35,6 +35,7 @@ TORQUE_MARGIN = 0.90
 simulated torques (rod inertia), and the servo feedback needs some headroom."""
 
 _NOT_BUILT = object()
+_COORDINATES = np.arange(DOF)
 
 
 class RuckigSegment(Segment):
@@ -57,36 +58,37 @@ class RuckigSegment(Segment):
 
     def states_at(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Positions, velocities and accelerations (n, 4) at `times` (n,) [s] (clamped to the
-        segment), bit for bit what ruckig's `at_time` gives, evaluated in numpy at once: each
-        coordinate's profile is seven jerk-constant phases, p + t (v + t (a/2 + t j/6)) from
-        the phase's start state. Falls back to ruckig per time where a profile has a brake
-        phase (a start outside the limits) or a time lies past a profile's last phase."""
+        segment), bit for bit what ruckig's `at_time` gives, evaluated in numpy for every
+        coordinate at once: each coordinate's profile is seven jerk-constant phases,
+        p + t (v + t (a/2 + t j/6)) from the phase's start state, and after its last phase
+        (at the segment's end, or earlier for a coordinate that finishes early) it keeps its
+        final acceleration (jerk 0). Falls back to ruckig per time where a profile has a brake
+        phase (a start outside the limits) or the segment has several sections."""
         t = np.minimum(np.maximum(np.asarray(times, dtype=float), 0.0), self._duration)
         tables = self._phase_tables()
         if tables is None:
             return super().states_at(t)
-        ends, phase_p, phase_v, phase_a, phase_j = tables
-        out = np.empty((3, t.size, 4))
-        at_end = t >= self._duration
-        for dof in range(4):
-            t_sum = ends[dof]
-            index = np.searchsorted(t_sum, t, side="right")
-            rest = t_sum[-1] <= t
-            if np.any(rest & ~at_end):
-                return super().states_at(t)  # a coordinate finished early: ruckig's branch
-            index = np.where(at_end, 7, np.minimum(index, 6))
-            start = np.where(index > 0, t_sum[np.maximum(index - 1, 0)], 0.0)
-            d = np.where(index > 0, t - start, t)
-            p0, v0, a0 = phase_p[dof][index], phase_v[dof][index], phase_a[dof][index]
-            j = np.where(at_end, 0.0, phase_j[dof][np.minimum(index, 6)])
-            out[0, :, dof] = p0 + d * (v0 + d * (a0 / 2 + d * j / 6))
-            out[1, :, dof] = v0 + d * (a0 + d * j / 2)
-            out[2, :, dof] = a0 + d * j
-        return out[0], out[1], out[2]
+        ends, starts, phase_p, phase_v, phase_a, phase_j = tables
+        # The phase of each time and coordinate (n, 4): ruckig's upper bound in the phase ends,
+        # 7 (the final state) past the last phase and at the segment's end.
+        index = np.sum(ends <= t[:, None, None], axis=2)
+        index[t >= self._duration] = 7
+        d = t[:, None] - starts[_COORDINATES, index]
+        p0 = phase_p[_COORDINATES, index]
+        v0 = phase_v[_COORDINATES, index]
+        a0 = phase_a[_COORDINATES, index]
+        j = phase_j[_COORDINATES, index]
+        return (
+            p0 + d * (v0 + d * (a0 / 2 + d * j / 6)),
+            v0 + d * (a0 + d * j / 2),
+            a0 + d * j,
+        )
 
     def _phase_tables(self):
-        """(phase end times, start p, v, a, jerk) per coordinate, or None where the
-        vectorised evaluation does not apply (brake phases, several sections)."""
+        """Per coordinate (rows of (4, 7) or (4, 8) arrays): phase end times [s], phase start
+        times (0, then the ends) [s], start positions, velocities, accelerations and jerks
+        (0 after the last phase); None where the vectorised evaluation does not apply (brake
+        phases, several sections, phase ends out of order)."""
         if self._tables is not _NOT_BUILT:
             return self._tables
         profiles = self._traj.profiles
@@ -95,13 +97,16 @@ class RuckigSegment(Segment):
             p.brake.duration == 0.0 and p.accel.duration == 0.0 for p in profiles[0]
         ):
             section = profiles[0]
-            tables = (
-                [np.cumsum(p.t) for p in section],
-                [np.array(p.p) for p in section],
-                [np.array(p.v) for p in section],
-                [np.array(p.a) for p in section],
-                [np.array(p.j) for p in section],
-            )
+            ends = np.cumsum([p.t for p in section], axis=1)
+            if np.all(np.diff(ends, axis=1) >= 0.0):
+                tables = (
+                    ends,
+                    np.concatenate([np.zeros((DOF, 1)), ends], axis=1),
+                    np.array([p.p for p in section]),
+                    np.array([p.v for p in section]),
+                    np.array([p.a for p in section]),
+                    np.concatenate([np.array([p.j for p in section]), np.zeros((DOF, 1))], axis=1),
+                )
         self._tables = tables
         return tables
 
@@ -112,6 +117,10 @@ class RuckigSegment(Segment):
 
     def breakpoints(self) -> np.ndarray:
         """Times [s] where some coordinate's jerk switches (its acceleration peaks there)."""
+        tables = self._phase_tables()
+        if tables is not None:
+            # The phase starts, offset by the zero brake phase as below (0.0 + -0.0 is 0.0).
+            return np.clip(0.0 + tables[1].ravel(), 0.0, self._duration)
         times = []
         for section in self._traj.profiles:
             for prof in section:
