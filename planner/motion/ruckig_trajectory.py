@@ -17,9 +17,9 @@ from ruckig import Trajectory as _RuckigTrajectory
 
 from planner.errors import PlannerInputError
 from planner.motion.dynamics import LumpedDynamics
-from planner.motion.kinematics import DeltaGeometry, reachable_mask
+from planner.motion.kinematics import DeltaGeometry, angles_and_reachability
 from planner.motion.limits import MotionLimits
-from planner.motion.motor_rates import motor_rates
+from planner.motion.motor_rates import motor_rates, motor_rates_at_angles
 from planner.motion.trajectory import DOF, Segment, State, TrajectoryGenerator
 
 CHECK_DT = 0.002
@@ -255,9 +255,10 @@ class RuckigTrajectoryGenerator(TrajectoryGenerator):
         if self.geometry is None:
             return 0.0, 0.0
         times, pos, vel, acc = segment.sample_states(CHECK_DT)
-        if not np.all(reachable_mask(self.geometry, pos[:, :3])):
+        q, reachable = angles_and_reachability(self.geometry, pos[:, :3])
+        if not np.all(reachable):
             return np.inf, np.inf
-        rates = motor_rates(self.geometry, pos[:, :3], vel[:, :3], acc[:, :3])
+        rates = motor_rates_at_angles(self.geometry, q, pos[:, :3], vel[:, :3], acc[:, :3])
         speed = float(np.max(np.abs(rates.qdot))) / self.limits.motor_velocity
         if self.dynamics is None:
             return speed, 0.0
