@@ -113,3 +113,25 @@ def test_refusals(gen):
         plan_chain(State.at_rest(A), [Waypoint(np.r_[A, 0.0])], gen)  # ends on a corner
     with pytest.raises(PlannerInputError):
         plan_pick_place(State.at_rest(A), [1.2, 0.0, 0.02], 0.185, [0.0, -0.51, 0.06], gen)
+
+
+def test_a_chain_without_corners_plans_each_segment_once(gen, monkeypatch):
+    """Without corners the blended chain is the rest-corner chain: each segment is planned
+    (motor checks included) once, and the chain is the one planned without blending."""
+    start = State.at_rest([0.1, 0.2, 0.02])
+    waypoints = [
+        Waypoint(np.array([0.1, 0.2, 0.08, 0.0]), velocity=np.zeros(4), label="lift"),
+        Waypoint(np.array([0.21, 0.51, 0.06, 0.5]), np.zeros(4), 0.035, "transfer", "release"),
+    ]
+    unblended = plan_chain(start, waypoints, gen, blend=False)
+    labels = []
+    plan = gen.plan
+
+    def counted(start, goal, label="", *args):
+        labels.append(label)
+        return plan(start, goal, label, *args)
+
+    monkeypatch.setattr(gen, "plan", counted)
+    chain = plan_chain(start, waypoints, gen, blend=True)
+    assert labels == ["lift", "transfer"]
+    assert [s.duration for s in chain.segments] == [s.duration for s in unblended.segments]

@@ -238,8 +238,9 @@ def plan_chain(
     """
     best_corners, _ = search_corners(start, waypoints, generator, blend, sweeps, fractions, cuts)
     zero = {k: (np.zeros(DOF), np.zeros(DOF)) for k in best_corners}
-    best = _try_build(start, waypoints, best_corners, generator, True) if blend else None
-    if best is not None and zero:
+    # Without corners the blended chain is the rest-corner chain: built once, below.
+    best = _try_build(start, waypoints, best_corners, generator, True) if blend and zero else None
+    if best is not None:
         # The rest-corner chain cannot beat its own unchecked duration: skip it when possible.
         _, zero_bound = search_corners(start, waypoints, generator, blend=False)
         if _duration(best) <= zero_bound:
