@@ -243,3 +243,12 @@ def test_limit_ratios_are_motor_rates_own_numbers_to_the_bit(robot):
         assert gen.limit_ratios(segment) == expected
     away = gen.plan_unchecked(State.at_rest([0.0, 0.0, 0.05]), State.at_rest([1.5, 0.0, 0.05]))
     assert gen.limit_ratios(away) == (np.inf, np.inf)
+
+
+def test_ruckig_limits_are_the_per_coordinate_limits():
+    for limits in (limits_for_payload(2.0), limits_for_payload(0.5).slowed(1.37)):
+        assert limits.ruckig_limits == (
+            tuple(limits.max_velocity),
+            tuple(limits.max_acceleration),
+            tuple(limits.max_jerk),
+        )

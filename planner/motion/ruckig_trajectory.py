@@ -184,9 +184,7 @@ class RuckigTrajectoryGenerator(TrajectoryGenerator):
         inp.target_position = goal.position.tolist()
         inp.target_velocity = goal.velocity.tolist()
         inp.target_acceleration = goal.acceleration.tolist()
-        inp.max_velocity = limits.max_velocity.tolist()
-        inp.max_acceleration = limits.max_acceleration.tolist()
-        inp.max_jerk = limits.max_jerk.tolist()
+        inp.max_velocity, inp.max_acceleration, inp.max_jerk = limits.ruckig_limits
         traj = _RuckigTrajectory(DOF)
         result = self._robust_calculate(inp, traj)
         if result not in (Result.Working, Result.Finished):
@@ -228,9 +226,7 @@ class RuckigTrajectoryGenerator(TrajectoryGenerator):
         inp.current_position, inp.current_velocity, inp.current_acceleration = start
         inp.target_position, inp.target_velocity, inp.target_acceleration = goal
         lim = self.limits if slow == 1.0 else self.limits.slowed(slow)
-        inp.max_velocity = lim.max_velocity.tolist()
-        inp.max_acceleration = lim.max_acceleration.tolist()
-        inp.max_jerk = lim.max_jerk.tolist()
+        inp.max_velocity, inp.max_acceleration, inp.max_jerk = lim.ruckig_limits
         traj = _RuckigTrajectory(DOF)
         if self._robust_calculate(inp, traj) not in (Result.Working, Result.Finished):
             return np.inf, -np.inf
