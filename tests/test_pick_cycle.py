@@ -6,12 +6,14 @@ import numpy as np
 import pytest
 
 from planner.errors import PlannerInputError
-from planner.motion.blending import Waypoint, plan_chain
+from planner.motion import blending
+from planner.motion.blending import Waypoint, plan_chain, search_corners
 from planner.motion.limits import limits_for_payload
 from planner.motion.motor_rates import motor_rates
 from planner.motion.pick_cycle import (
     PickPlaceConfig,
     cycle1_waypoints,
+    pick_place_waypoints,
     plan_cycle1,
     plan_pick_place,
 )
@@ -113,3 +115,57 @@ def test_refusals(gen):
         plan_chain(State.at_rest(A), [Waypoint(np.r_[A, 0.0])], gen)  # ends on a corner
     with pytest.raises(PlannerInputError):
         plan_pick_place(State.at_rest(A), [1.2, 0.0, 0.02], 0.185, [0.0, -0.51, 0.06], gen)
+
+
+def test_a_chain_without_corners_plans_each_segment_once(gen, monkeypatch):
+    """Without corners the blended chain is the rest-corner chain: each segment is planned
+    (motor checks included) once, and the chain is the one planned without blending."""
+    start = State.at_rest([0.1, 0.2, 0.02])
+    waypoints = [
+        Waypoint(np.array([0.1, 0.2, 0.08, 0.0]), velocity=np.zeros(4), label="lift"),
+        Waypoint(np.array([0.21, 0.51, 0.06, 0.5]), np.zeros(4), 0.035, "transfer", "release"),
+    ]
+    unblended = plan_chain(start, waypoints, gen, blend=False)
+    labels = []
+    plan = gen.plan
+
+    def counted(start, goal, label="", *args):
+        labels.append(label)
+        return plan(start, goal, label, *args)
+
+    monkeypatch.setattr(gen, "plan", counted)
+    chain = plan_chain(start, waypoints, gen, blend=True)
+    assert labels == ["lift", "transfer"]
+    assert [s.duration for s in chain.segments] == [s.duration for s in unblended.segments]
+
+
+def test_corner_search_ends_only_where_more_sweeps_change_nothing(gen, monkeypatch):
+    """The coordinate descent stops after a sweep that changed nothing, and after one sweep
+    of a single corner: the corners and duration are those of every sweep run."""
+    starts = [State.at_rest([0.0, -0.51, 0.06]), State.at_rest([-0.3, 0.2, 0.15], 0.4)]
+    chains = [
+        (
+            s,
+            pick_place_waypoints([0.1, 0.2, 0.02], 0.2775, [0.21, 0.51, 0.06], PickPlaceConfig())[
+                :2
+            ],
+        )
+        for s in starts
+    ]
+    chains.append((State.at_rest(A), cycle1_waypoints(A)))
+    rng = np.random.default_rng(0)
+    for _ in range(12):  # two corners: some improve on a second sweep
+        points = [np.r_[rng.uniform(-0.3, 0.3, 2), rng.uniform(0.03, 0.2), 0.0] for _ in range(4)]
+        waypoints = [Waypoint(p) for p in points[1:3]] + [Waypoint(points[3], np.zeros(4))]
+        chains.append((State(points[0]), waypoints))
+    for sweeps in (2, 3):
+        found = [search_corners(s, wps, gen, sweeps=sweeps) for s, wps in chains]
+        with monkeypatch.context() as patch:
+            patch.setattr(blending, "_settled", lambda best, before, corners: False)
+            every = [search_corners(s, wps, gen, sweeps=sweeps) for s, wps in chains]
+        for (corners, duration), (all_corners, all_duration) in zip(found, every, strict=True):
+            assert duration == all_duration
+            assert corners.keys() == all_corners.keys()
+            for k, (offset, velocity) in corners.items():
+                np.testing.assert_array_equal(offset, all_corners[k][0])
+                np.testing.assert_array_equal(velocity, all_corners[k][1])

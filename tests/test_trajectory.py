@@ -17,6 +17,7 @@ from planner.motion.limits import MotionLimits, limits_for_payload
 from planner.motion.motor_rates import motor_rates
 from planner.motion.pick_cycle import PickPlaceConfig, pick_place_waypoints
 from planner.motion.ruckig_trajectory import (
+    CHECK_DT,
     TORQUE_MARGIN,
     RuckigTrajectoryGenerator,
     motor_speeds,
@@ -198,3 +199,56 @@ def test_vectorised_states_are_ruckigs_to_the_bit(robot):
         one_by_one = np.array([np.concatenate(chain.at_time(float(t))) for t in times])
         at_once = np.concatenate(chain.states_at(times), axis=1)
         np.testing.assert_array_equal(at_once, one_by_one)
+
+
+def test_vectorised_states_of_coordinates_that_finish_early_are_ruckigs_to_the_bit(robot):
+    """A coordinate that does not move (or arrives before the others) ends its profile before
+    the segment does, and then keeps its final state: `states_at` gives what `at_time` gives
+    there too (also for a segment stretched to a minimum duration)."""
+    _, _, gen = robot
+    start = State.at_rest([-0.2, 0.1, 0.05], 0.3)
+    goals = [
+        State.at_rest([0.25, 0.1, 0.05], 0.3),  # x alone moves
+        State([0.1, 0.1, 0.12, 0.3], [0.2, 0.0, 0.0, 0.0]),  # y and axis 4 stay
+        State.at_rest([-0.2, 0.1, 0.08], 0.35),  # a short z move and a small turn
+    ]
+    for goal in goals:
+        for minimum_duration in (None, 0.4):
+            segment = gen.plan(start, goal, minimum_duration=minimum_duration)
+            times = np.concatenate(
+                [segment.sample_states(0.001)[0], np.linspace(-0.01, segment.duration + 0.01, 97)]
+            )
+            one_by_one = np.array([np.concatenate(segment.at_time(float(t))) for t in times])
+            at_once = np.concatenate(segment.states_at(times), axis=1)
+            np.testing.assert_array_equal(at_once, one_by_one)
+
+
+def test_limit_ratios_are_motor_rates_own_numbers_to_the_bit(robot):
+    """`limit_ratios` solves the inverse kinematics once for the workspace check and the motor
+    rates: its ratios are exactly those of `motor_rates` (which solves it again) on the
+    segment's samples, and a segment leaving the workspace is (inf, inf)."""
+    geom, dyn, gen = robot
+    rng = np.random.default_rng(11)
+    for _ in range(20):
+        start, pick, speed, _ = _random_pair(rng, geom)
+        goal = State(np.append(pick, 0.5), [speed, 0.0, 0.0, 0.0])
+        segment = gen.plan_unchecked(State.at_rest(start), goal)
+        _, pos, vel, acc = segment.sample_states(CHECK_DT)
+        rates = motor_rates(geom, pos[:, :3], vel[:, :3], acc[:, :3])
+        tau = dyn.torque(rates.q, rates.qdot, rates.qddot, rates.jac, acc[:, :3])
+        expected = (
+            float(np.max(np.abs(rates.qdot))) / gen.limits.motor_velocity,
+            float(np.max(np.abs(tau))) / (TORQUE_MARGIN * dyn.torque_limit),
+        )
+        assert gen.limit_ratios(segment) == expected
+    away = gen.plan_unchecked(State.at_rest([0.0, 0.0, 0.05]), State.at_rest([1.5, 0.0, 0.05]))
+    assert gen.limit_ratios(away) == (np.inf, np.inf)
+
+
+def test_ruckig_limits_are_the_per_coordinate_limits():
+    for limits in (limits_for_payload(2.0), limits_for_payload(0.5).slowed(1.37)):
+        assert limits.ruckig_limits == (
+            tuple(limits.max_velocity),
+            tuple(limits.max_acceleration),
+            tuple(limits.max_jerk),
+        )

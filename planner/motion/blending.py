@@ -142,8 +142,12 @@ def _corner_axes(start, waypoints, generator):
     return axes
 
 
-def _within(v: np.ndarray, generator: RuckigTrajectoryGenerator) -> bool:
-    return bool(np.all(np.abs(v) <= generator.limits.max_velocity))
+def _settled(best: float, before: float, corners: int) -> bool:
+    """Whether the coordinate descent is over after a sweep that took its chain duration from
+    `before` to `best` [s]: a further sweep would try exactly the trials of this one again,
+    with the same results, when this one changed nothing, or when there is a single corner
+    (its trials set every corner)."""
+    return best == before or corners == 1
 
 
 def search_corners(
@@ -192,21 +196,26 @@ def search_corners(
     if not (blend and zero):
         return best_corners, best
     axes = _corner_axes(start, waypoints, generator)
+    max_velocity = generator.limits.max_velocity
     for _ in range(sweeps):
+        before = best
         for k, (e_in, e_out, cut) in axes.items():
             for c in cuts if np.any(cut) else (0.0,):
+                position = tuple(waypoints[k].position + c * cut)
                 for alpha in fractions:
                     for beta in fractions:
                         v = alpha * e_in + beta * e_out
-                        if not _within(v, generator):
+                        if not np.all(np.abs(v) <= max_velocity):
                             continue
                         trial = dict(as_tuples)
-                        trial[k] = (tuple(waypoints[k].position + c * cut), tuple(v))
+                        trial[k] = (position, tuple(v))
                         d = _search_duration(start, plain, trial, generator, cache)
                         if d < best - 1e-12:
                             best, as_tuples = d, trial
                             best_corners = dict(best_corners)
                             best_corners[k] = (c * cut, v)
+        if _settled(best, before, len(axes)):
+            break
     return best_corners, best
 
 
@@ -238,8 +247,9 @@ def plan_chain(
     """
     best_corners, _ = search_corners(start, waypoints, generator, blend, sweeps, fractions, cuts)
     zero = {k: (np.zeros(DOF), np.zeros(DOF)) for k in best_corners}
-    best = _try_build(start, waypoints, best_corners, generator, True) if blend else None
-    if best is not None and zero:
+    # Without corners the blended chain is the rest-corner chain: built once, below.
+    best = _try_build(start, waypoints, best_corners, generator, True) if blend and zero else None
+    if best is not None:
         # The rest-corner chain cannot beat its own unchecked duration: skip it when possible.
         _, zero_bound = search_corners(start, waypoints, generator, blend=False)
         if _duration(best) <= zero_bound:

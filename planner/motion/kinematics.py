@@ -13,10 +13,13 @@ Robot: Kinematics Solutions" gives the same per-leg solution.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
 from planner.errors import PlannerInputError
+
+_Z = np.array([0.0, 0.0, 1.0])
 
 
 class Unreachable(PlannerInputError):
@@ -75,16 +78,21 @@ class DeltaGeometry:
                 (self.motor_lower, self.motor_upper),
             )
 
-    @property
+    @cached_property
     def radial(self) -> np.ndarray:
-        """Outward unit vector of each leg, shape (3, 3)."""
+        """Outward unit vector of each leg, shape (3, 3) (read-only, computed once)."""
         a = np.asarray(self.leg_azimuths)
-        return np.stack([np.cos(a), np.sin(a), np.zeros(3)], axis=1)
+        return _read_only(np.stack([np.cos(a), np.sin(a), np.zeros(3)], axis=1))
 
-    @property
+    @cached_property
     def base_centre(self) -> np.ndarray:
-        """World position of the base centre (motor plane) [m]."""
-        return np.array([self.base_xy[0], self.base_xy[1], self.base_height])
+        """World position of the base centre (motor plane) [m] (read-only, computed once)."""
+        return _read_only(np.array([self.base_xy[0], self.base_xy[1], self.base_height]))
+
+
+def _read_only(array: np.ndarray) -> np.ndarray:
+    array.setflags(write=False)
+    return array
 
 
 def _as_points(p) -> tuple[np.ndarray, bool]:
@@ -119,12 +127,19 @@ def _ik_raw(geom: DeltaGeometry, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     return np.where(ok, q, np.nan), ok
 
 
-def reachable_mask(geom: DeltaGeometry, p) -> np.ndarray:
-    """Vectorised reachability of TCP positions (n, 3) [m] -> bool (n,)."""
+def angles_and_reachability(geom: DeltaGeometry, p) -> tuple[np.ndarray, np.ndarray]:
+    """Motor angles (n, 3) [rad] of TCP positions (n, 3) [m], NaN where a leg has no
+    solution, and whether each position is reachable (n,): every leg has a solution with its
+    motor within range (`reachable_mask`; the angles are `inverse_kinematics`' where it is)."""
     pts, _ = _as_points(p)
     q, ok = _ik_raw(geom, pts)
     inside = (q >= geom.motor_lower) & (q <= geom.motor_upper)
-    return np.all(ok & inside, axis=-1)
+    return q, np.all(ok & inside, axis=-1)
+
+
+def reachable_mask(geom: DeltaGeometry, p) -> np.ndarray:
+    """Vectorised reachability of TCP positions (n, 3) [m] -> bool (n,)."""
+    return angles_and_reachability(geom, p)[1]
 
 
 def is_reachable(geom: DeltaGeometry, p) -> bool:
@@ -146,9 +161,8 @@ def inverse_kinematics(geom: DeltaGeometry, p) -> np.ndarray:
         Unreachable: some position has a leg without solution or a motor out of range.
     """
     pts, single = _as_points(p)
-    q, ok = _ik_raw(geom, pts)
-    inside = (q >= geom.motor_lower) & (q <= geom.motor_upper)
-    bad = ~np.all(ok & inside, axis=-1)
+    q, reachable = angles_and_reachability(geom, pts)
+    bad = ~reachable
     if np.any(bad):
         first = pts[np.argmax(bad)]
         raise Unreachable("p", "a position inside the robot's workspace", tuple(first.round(4)))
@@ -158,10 +172,14 @@ def inverse_kinematics(geom: DeltaGeometry, p) -> np.ndarray:
 def elbows(geom: DeltaGeometry, q) -> np.ndarray:
     """World elbow points (middle of each rod pair's top axis) for motor angles (.., 3) [m]."""
     q = np.asarray(q, dtype=float)
+    return elbows_from_cos_sin(geom, np.cos(q)[..., None], np.sin(q)[..., None])
+
+
+def elbows_from_cos_sin(geom: DeltaGeometry, cos_q: np.ndarray, sin_q: np.ndarray) -> np.ndarray:
+    """`elbows` from the cosines and sines of the motor angles, each (.., 3, 1), for callers
+    that need those too [m]."""
     u = geom.radial
-    cq, sq = np.cos(q)[..., None], np.sin(q)[..., None]
-    z = np.array([0.0, 0.0, 1.0])
-    return geom.base_centre + geom.base_radius * u + geom.upper_arm * (cq * u - sq * z)
+    return geom.base_centre + geom.base_radius * u + geom.upper_arm * (cos_q * u - sin_q * _Z)
 
 
 def forward_kinematics(geom: DeltaGeometry, q) -> np.ndarray:

@@ -29,6 +29,7 @@ Sources:
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import cached_property
 
 import numpy as np
 
@@ -97,6 +98,16 @@ class MotionLimits:
         """Ruckig's per-DoF jerk limits (x, y, z, axis4)."""
         j = self.tcp_jerk
         return np.array([j, j, j, self.axis4_jerk])
+
+    @cached_property
+    def ruckig_limits(self) -> tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]]:
+        """`max_velocity`, `max_acceleration` and `max_jerk` as tuples of 4 floats, as ruckig's
+        input takes them (computed once)."""
+        return (
+            tuple(self.max_velocity.tolist()),
+            tuple(self.max_acceleration.tolist()),
+            tuple(self.max_jerk.tolist()),
+        )
 
     def slowed(self, factor: float) -> MotionLimits:
         """Limits of the same motion played `factor` (> 1) times slower.

@@ -14,7 +14,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from planner.motion.kinematics import DeltaGeometry, elbows, inverse_kinematics
+from planner.motion.kinematics import DeltaGeometry, elbows_from_cos_sin, inverse_kinematics
 
 _Z = np.array([0.0, 0.0, 1.0])
 
@@ -37,13 +37,19 @@ def motor_rates(geom: DeltaGeometry, xyz, vxyz, axyz=None) -> MotorRates:
         planner.motion.kinematics.Unreachable: a position outside the workspace.
     """
     xyz = np.atleast_2d(np.asarray(xyz, dtype=float))
+    return motor_rates_at_angles(geom, inverse_kinematics(geom, xyz), xyz, vxyz, axyz)
+
+
+def motor_rates_at_angles(geom: DeltaGeometry, q, xyz, vxyz, axyz=None) -> MotorRates:
+    """`motor_rates` where the motor angles `q` (n, 3) [rad] of the TCP positions `xyz`
+    (n, 3) [m] are known already (`planner.motion.kinematics.angles_and_reachability`)."""
+    xyz = np.atleast_2d(np.asarray(xyz, dtype=float))
     v = np.atleast_2d(np.asarray(vxyz, dtype=float))
     a = np.zeros_like(v) if axyz is None else np.atleast_2d(np.asarray(axyz, dtype=float))
-    q = inverse_kinematics(geom, xyz)
     u = geom.radial
     platform = xyz + np.array([0.0, 0.0, geom.tcp_offset])
-    rho = platform[:, None, :] + geom.platform_radius * u - elbows(geom, q)  # (n, 3, 3)
     cq, sq = np.cos(q)[..., None], np.sin(q)[..., None]
+    rho = platform[:, None, :] + geom.platform_radius * u - elbows_from_cos_sin(geom, cq, sq)
     d_elbow = geom.upper_arm * (-sq * u - cq * _Z)  # dE/dq
     dd_elbow = geom.upper_arm * (-cq * u + sq * _Z)  # d2E/dq2
     b = np.einsum("nij,nij->ni", rho, d_elbow)

@@ -17,9 +17,9 @@ from ruckig import Trajectory as _RuckigTrajectory
 
 from planner.errors import PlannerInputError
 from planner.motion.dynamics import LumpedDynamics
-from planner.motion.kinematics import DeltaGeometry, reachable_mask
+from planner.motion.kinematics import DeltaGeometry, angles_and_reachability
 from planner.motion.limits import MotionLimits
-from planner.motion.motor_rates import motor_rates
+from planner.motion.motor_rates import motor_rates, motor_rates_at_angles
 from planner.motion.trajectory import DOF, Segment, State, TrajectoryGenerator
 
 CHECK_DT = 0.002
@@ -35,6 +35,7 @@ TORQUE_MARGIN = 0.90
 simulated torques (rod inertia), and the servo feedback needs some headroom."""
 
 _NOT_BUILT = object()
+_COORDINATES = np.arange(DOF)
 
 
 class RuckigSegment(Segment):
@@ -57,36 +58,37 @@ class RuckigSegment(Segment):
 
     def states_at(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Positions, velocities and accelerations (n, 4) at `times` (n,) [s] (clamped to the
-        segment), bit for bit what ruckig's `at_time` gives, evaluated in numpy at once: each
-        coordinate's profile is seven jerk-constant phases, p + t (v + t (a/2 + t j/6)) from
-        the phase's start state. Falls back to ruckig per time where a profile has a brake
-        phase (a start outside the limits) or a time lies past a profile's last phase."""
+        segment), bit for bit what ruckig's `at_time` gives, evaluated in numpy for every
+        coordinate at once: each coordinate's profile is seven jerk-constant phases,
+        p + t (v + t (a/2 + t j/6)) from the phase's start state, and after its last phase
+        (at the segment's end, or earlier for a coordinate that finishes early) it keeps its
+        final acceleration (jerk 0). Falls back to ruckig per time where a profile has a brake
+        phase (a start outside the limits) or the segment has several sections."""
         t = np.minimum(np.maximum(np.asarray(times, dtype=float), 0.0), self._duration)
         tables = self._phase_tables()
         if tables is None:
             return super().states_at(t)
-        ends, phase_p, phase_v, phase_a, phase_j = tables
-        out = np.empty((3, t.size, 4))
-        at_end = t >= self._duration
-        for dof in range(4):
-            t_sum = ends[dof]
-            index = np.searchsorted(t_sum, t, side="right")
-            rest = t_sum[-1] <= t
-            if np.any(rest & ~at_end):
-                return super().states_at(t)  # a coordinate finished early: ruckig's branch
-            index = np.where(at_end, 7, np.minimum(index, 6))
-            start = np.where(index > 0, t_sum[np.maximum(index - 1, 0)], 0.0)
-            d = np.where(index > 0, t - start, t)
-            p0, v0, a0 = phase_p[dof][index], phase_v[dof][index], phase_a[dof][index]
-            j = np.where(at_end, 0.0, phase_j[dof][np.minimum(index, 6)])
-            out[0, :, dof] = p0 + d * (v0 + d * (a0 / 2 + d * j / 6))
-            out[1, :, dof] = v0 + d * (a0 + d * j / 2)
-            out[2, :, dof] = a0 + d * j
-        return out[0], out[1], out[2]
+        ends, starts, phase_p, phase_v, phase_a, phase_j = tables
+        # The phase of each time and coordinate (n, 4): ruckig's upper bound in the phase ends,
+        # 7 (the final state) past the last phase and at the segment's end.
+        index = np.sum(ends <= t[:, None, None], axis=2)
+        index[t >= self._duration] = 7
+        d = t[:, None] - starts[_COORDINATES, index]
+        p0 = phase_p[_COORDINATES, index]
+        v0 = phase_v[_COORDINATES, index]
+        a0 = phase_a[_COORDINATES, index]
+        j = phase_j[_COORDINATES, index]
+        return (
+            p0 + d * (v0 + d * (a0 / 2 + d * j / 6)),
+            v0 + d * (a0 + d * j / 2),
+            a0 + d * j,
+        )
 
     def _phase_tables(self):
-        """(phase end times, start p, v, a, jerk) per coordinate, or None where the
-        vectorised evaluation does not apply (brake phases, several sections)."""
+        """Per coordinate (rows of (4, 7) or (4, 8) arrays): phase end times [s], phase start
+        times (0, then the ends) [s], start positions, velocities, accelerations and jerks
+        (0 after the last phase); None where the vectorised evaluation does not apply (brake
+        phases, several sections, phase ends out of order)."""
         if self._tables is not _NOT_BUILT:
             return self._tables
         profiles = self._traj.profiles
@@ -95,13 +97,16 @@ class RuckigSegment(Segment):
             p.brake.duration == 0.0 and p.accel.duration == 0.0 for p in profiles[0]
         ):
             section = profiles[0]
-            tables = (
-                [np.cumsum(p.t) for p in section],
-                [np.array(p.p) for p in section],
-                [np.array(p.v) for p in section],
-                [np.array(p.a) for p in section],
-                [np.array(p.j) for p in section],
-            )
+            ends = np.cumsum([p.t for p in section], axis=1)
+            if np.all(np.diff(ends, axis=1) >= 0.0):
+                tables = (
+                    ends,
+                    np.concatenate([np.zeros((DOF, 1)), ends], axis=1),
+                    np.array([p.p for p in section]),
+                    np.array([p.v for p in section]),
+                    np.array([p.a for p in section]),
+                    np.concatenate([np.array([p.j for p in section]), np.zeros((DOF, 1))], axis=1),
+                )
         self._tables = tables
         return tables
 
@@ -112,6 +117,10 @@ class RuckigSegment(Segment):
 
     def breakpoints(self) -> np.ndarray:
         """Times [s] where some coordinate's jerk switches (its acceleration peaks there)."""
+        tables = self._phase_tables()
+        if tables is not None:
+            # The phase starts, offset by the zero brake phase as below (0.0 + -0.0 is 0.0).
+            return np.clip(0.0 + tables[1].ravel(), 0.0, self._duration)
         times = []
         for section in self._traj.profiles:
             for prof in section:
@@ -175,9 +184,7 @@ class RuckigTrajectoryGenerator(TrajectoryGenerator):
         inp.target_position = goal.position.tolist()
         inp.target_velocity = goal.velocity.tolist()
         inp.target_acceleration = goal.acceleration.tolist()
-        inp.max_velocity = limits.max_velocity.tolist()
-        inp.max_acceleration = limits.max_acceleration.tolist()
-        inp.max_jerk = limits.max_jerk.tolist()
+        inp.max_velocity, inp.max_acceleration, inp.max_jerk = limits.ruckig_limits
         traj = _RuckigTrajectory(DOF)
         result = self._robust_calculate(inp, traj)
         if result not in (Result.Working, Result.Finished):
@@ -219,9 +226,7 @@ class RuckigTrajectoryGenerator(TrajectoryGenerator):
         inp.current_position, inp.current_velocity, inp.current_acceleration = start
         inp.target_position, inp.target_velocity, inp.target_acceleration = goal
         lim = self.limits if slow == 1.0 else self.limits.slowed(slow)
-        inp.max_velocity = lim.max_velocity.tolist()
-        inp.max_acceleration = lim.max_acceleration.tolist()
-        inp.max_jerk = lim.max_jerk.tolist()
+        inp.max_velocity, inp.max_acceleration, inp.max_jerk = lim.ruckig_limits
         traj = _RuckigTrajectory(DOF)
         if self._robust_calculate(inp, traj) not in (Result.Working, Result.Finished):
             return np.inf, -np.inf
@@ -246,9 +251,10 @@ class RuckigTrajectoryGenerator(TrajectoryGenerator):
         if self.geometry is None:
             return 0.0, 0.0
         times, pos, vel, acc = segment.sample_states(CHECK_DT)
-        if not np.all(reachable_mask(self.geometry, pos[:, :3])):
+        q, reachable = angles_and_reachability(self.geometry, pos[:, :3])
+        if not np.all(reachable):
             return np.inf, np.inf
-        rates = motor_rates(self.geometry, pos[:, :3], vel[:, :3], acc[:, :3])
+        rates = motor_rates_at_angles(self.geometry, q, pos[:, :3], vel[:, :3], acc[:, :3])
         speed = float(np.max(np.abs(rates.qdot))) / self.limits.motor_velocity
         if self.dynamics is None:
             return speed, 0.0
