@@ -1,12 +1,22 @@
 """Off-screen frames of the cell's belt camera, seen through a real lens.
 
-`BeltCamera` renders the MJCF camera `belt_camera` with one reused `mujoco.Renderer` (run under
+`BeltCamera` renders the MJCF camera `belt_camera` with reused `mujoco.Renderer`s (run under
 `MUJOCO_GL=egl`; `sim.cell.rendering` refuses a back-end that cannot render) and passes the
 pinhole render through `perception.camera.lens.LensDistorter`, so the frames carry the
 distortion of a real wide lens. MuJoCo's pinhole has square pixels, the principal point at the
 image centre and the vertical field of view `fovy`; since barrel distortion shows rays from
 outside that field, the pinhole render is made on a larger canvas with the same focal length
 (the camera's fovy is widened for that render only).
+
+Two passes make a frame with depth, each drawing only what its output holds. The depth pass is
+MuJoCo's segmentation render, which turns multisampling off (`glDisable(GL_MULTISAMPLE)`): its
+depth is that of each pixel's centre whatever the context's sample count, so it runs on a
+context of one sample and skips clearing and resolving four (the same depth:
+`tests/test_camera.py`). The colour pass keeps the model's multisampling; it leaves out the
+skybox when the depth pass found geometry nearer than the skybox at every pixel (the belt camera
+looks down at the belt and the floor), since the skybox is drawn only where nothing opaque lies
+nearer. (The depth pass sees transparent geoms too: one with nothing but sky behind it would
+hide that sky from the test; in the cell the belt and the floor lie behind everything.)
 
 `true_camera_matrix` is the renderer's exact intrinsics, for tests: perception never uses it,
 it calibrates the camera from checkerboard images instead (`sortsim calibrate`).
@@ -92,6 +102,34 @@ def marker_points(
     return np.array(positions), np.array(colours)
 
 
+SKYBOX_RANGE_SHARE = 0.7
+"""MuJoCo draws the skybox around the camera at this share of the far clipping plane's distance,
+after the opaque geoms and depth-tested against them: it shows only at pixels where nothing
+opaque lies nearer."""
+
+
+def skybox_depth(model: mujoco.MjModel, focal_px: float, canvas: tuple[int, int]) -> float:
+    """The least depth [m along the optical axis] at which the skybox can show on a pinhole
+    canvas of `canvas` (width, height) px and focal length `focal_px` [px]: at its corners, the
+    rays furthest off the axis (1 % less, for the depth buffer's rounding)."""
+    half_diagonal = math.hypot(0.5 * canvas[0], 0.5 * canvas[1])
+    cos_corner = focal_px / math.hypot(focal_px, half_diagonal)
+    far = model.vis.map.zfar * model.stat.extent
+    return 0.99 * SKYBOX_RANGE_SHARE * far * cos_corner
+
+
+def single_sample_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
+    """A renderer of `width` x `height` px on a context without multisampling (the sample count
+    is read from the model when the context is made; the model keeps its own)."""
+    quality = model.vis.quality
+    samples = quality.offsamples
+    quality.offsamples = 0
+    try:
+        return mujoco.Renderer(model, height, width)
+    finally:
+        quality.offsamples = samples
+
+
 class BeltCamera:
     """Renders distorted frames (height, width, 3) uint8 of the belt camera.
 
@@ -131,7 +169,10 @@ class BeltCamera:
         vis.offwidth = max(vis.offwidth, src_size[0])
         vis.offheight = max(vis.offheight, src_size[1])
         check_backend()  # once per process: a missing back-end refused in one line
+        self._canvas_size = (int(src_size[0]), int(src_size[1]))
         self._renderer = mujoco.Renderer(model, src_size[1], src_size[0])
+        self._depth_renderer: mujoco.Renderer | None = None  # made for the first depth frame
+        self._sky_depth_m = skybox_depth(model, focal, src_size)
 
     def render(self, data: mujoco.MjData) -> np.ndarray:
         """The camera's frame of the current state of `data` (height, width, 3) uint8."""
@@ -145,17 +186,13 @@ class BeltCamera:
     def _render(self, data: mujoco.MjData, depth: bool) -> tuple[np.ndarray, np.ndarray | None]:
         fovy = float(self.model.cam_fovy[self._cam])
         self.model.cam_fovy[self._cam] = self._fovy
-        renderer = self._renderer
         try:
+            z = self._depth_pass(data) if depth else None
+            sky_seen = z is None or bool(np.any(z >= self._sky_depth_m))
+            renderer = self._renderer
             renderer.update_scene(data, camera=self._cam)
+            renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = sky_seen
             rgb = renderer.render()
-            z = None
-            if depth:
-                renderer.enable_depth_rendering()
-                try:
-                    z = renderer.render()
-                finally:
-                    renderer.disable_depth_rendering()
         finally:
             self.model.cam_fovy[self._cam] = fovy
         if self._distorter is None:
@@ -165,9 +202,20 @@ class BeltCamera:
             z = self._distorter.apply(z, cv2.INTER_NEAREST)
         return rgb, z
 
+    def _depth_pass(self, data: mujoco.MjData) -> np.ndarray:
+        """The pinhole canvas's depth (height, width) float32 [m along the optical axis]."""
+        if self._depth_renderer is None:
+            self._depth_renderer = single_sample_renderer(self.model, *self._canvas_size)
+            self._depth_renderer.enable_depth_rendering()
+        renderer = self._depth_renderer
+        renderer.update_scene(data, camera=self._cam)
+        return renderer.render()
+
     def close(self) -> None:
-        """Frees the renderer's GL context."""
+        """Frees the renderers' GL contexts."""
         self._renderer.close()
+        if self._depth_renderer is not None:
+            self._depth_renderer.close()
 
     def __enter__(self) -> BeltCamera:
         return self
