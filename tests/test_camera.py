@@ -15,7 +15,7 @@ from sim.cell.camera import (
     camera_id,
     camera_pose,
     marker_points,
-    single_sample_renderer,
+    renderer_with_samples,
     true_camera_matrix,
 )
 from sim.errors import InvalidInput, ModelFileError
@@ -113,6 +113,9 @@ def test_refusals(fixture_model):
         BeltCamera(model, 8, 8)
     with pytest.raises(ModelFileError, match="no camera named"):
         BeltCamera(model, 64, 64, name="nope")
+    for samples in (-1, 17, 2.0):
+        with pytest.raises(InvalidInput, match="camera samples"):
+            BeltCamera(model, 64, 64, samples=samples)
 
 
 def test_depth_map_is_registered_to_the_frame(fixture_model):
@@ -140,7 +143,7 @@ def test_the_depth_pass_is_the_same_on_one_sample(cell_with_items):
     samples = model.vis.quality.offsamples
     assert samples > 1
     multisampled = mujoco.Renderer(model, 360, 640)
-    single = single_sample_renderer(model, 640, 360)
+    single = renderer_with_samples(model, 640, 360, 0)
     assert model.vis.quality.offsamples == samples  # the model keeps its own
     try:
         colours, depths = [], []
@@ -166,3 +169,17 @@ def test_frames_with_depth_leave_out_only_a_sky_nobody_sees(cell_with_items, fix
             frame, _ = camera.render_rgbd(data)
             assert bool(camera._renderer.scene.flags[SKYBOX]) == sky_seen
             assert np.array_equal(frame, camera.render(data))
+
+
+def test_a_camera_renders_at_its_own_sample_count(cell_with_items):
+    """`samples` sets the colour pass's multisampling, the model's count by default; the depth
+    and the model's own setting do not change."""
+    model, data = cell_with_items
+    own = model.vis.quality.offsamples
+    with BeltCamera(model, 640, 360) as default, BeltCamera(model, 640, 360, samples=0) as none:
+        assert default.samples == own and none.samples == 0
+        (frame, depth), (plain, plain_depth) = default.render_rgbd(data), none.render_rgbd(data)
+    assert model.vis.quality.offsamples == own
+    assert np.array_equal(depth, plain_depth)
+    edges = np.any(frame != plain, axis=2)
+    assert 0 < edges.mean() < 0.05  # the multisampled frame differs only along edges
