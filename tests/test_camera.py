@@ -10,11 +10,43 @@ import numpy as np
 import pytest
 
 from perception.camera.rectify import colour_mask
-from sim.cell.camera import BeltCamera, camera_pose, marker_points, true_camera_matrix
+from sim.cell.camera import (
+    BeltCamera,
+    camera_id,
+    camera_pose,
+    marker_points,
+    renderer_with_samples,
+    true_camera_matrix,
+)
 from sim.errors import InvalidInput, ModelFileError
+from sim.flow.catalogue import load_catalogue
 from sim.paths import REPO_ROOT, SCENE_XML
 
 FIXTURE = REPO_ROOT / "tests" / "models" / "belt_camera.xml"
+
+
+SKYBOX = mujoco.mjtRndFlag.mjRND_SKYBOX
+
+
+@pytest.fixture(scope="module")
+def cell_with_items():
+    """The cell with a red can, a white tray and a clear bottle (translucent) under the camera."""
+    catalogue = load_catalogue()
+    spec = mujoco.MjSpec.from_file(str(SCENE_XML))
+    upright, lying = [1, 0, 0, 0], [0.7071068, 0, 0.7071068, 0]
+    items = (
+        ((-1.47, -0.06, 0.0575), upright, mujoco.mjtGeom.mjGEOM_CYLINDER, [0.033, 0.0575], "red"),
+        ((-1.47, 0.05, 0.015), upright, mujoco.mjtGeom.mjGEOM_BOX, [0.1, 0.075, 0.015], "white"),
+        ((-1.60, 0.2, 0.035), lying, mujoco.mjtGeom.mjGEOM_CAPSULE, [0.035, 0.08], "transparent"),
+    )
+    for pos, quat, kind, size, colour in items:
+        body = spec.worldbody.add_body(pos=list(pos), quat=quat)
+        rgba = list(catalogue.colour_rgba(colour))
+        body.add_geom(type=kind, size=size, contype=0, conaffinity=0, rgba=rgba)
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    return model, data
 
 
 @pytest.fixture(scope="module")
@@ -81,6 +113,9 @@ def test_refusals(fixture_model):
         BeltCamera(model, 8, 8)
     with pytest.raises(ModelFileError, match="no camera named"):
         BeltCamera(model, 64, 64, name="nope")
+    for samples in (-1, 17, 2.0):
+        with pytest.raises(InvalidInput, match="camera samples"):
+            BeltCamera(model, 64, 64, samples=samples)
 
 
 def test_depth_map_is_registered_to_the_frame(fixture_model):
@@ -98,3 +133,53 @@ def test_depth_map_is_registered_to_the_frame(fixture_model):
     bright = frame.max(axis=2) > 100
     overlap = (raised & bright).sum() / raised.sum()
     assert raised.sum() > 1000 and overlap > 0.97
+
+
+def test_the_depth_pass_is_the_same_on_one_sample(cell_with_items):
+    """MuJoCo's depth (segmentation) pass turns multisampling off, so the camera renders it on a
+    context of one sample: the same depth as on the model's multisampled context, while the
+    colour differs (the sample count did change)."""
+    model, data = cell_with_items
+    samples = model.vis.quality.offsamples
+    assert samples > 1
+    multisampled = mujoco.Renderer(model, 360, 640)
+    single = renderer_with_samples(model, 640, 360, 0)
+    assert model.vis.quality.offsamples == samples  # the model keeps its own
+    try:
+        colours, depths = [], []
+        for renderer in (multisampled, single):
+            renderer.update_scene(data, camera=camera_id(model))
+            colours.append(renderer.render())
+            renderer.enable_depth_rendering()
+            depths.append(renderer.render())
+    finally:
+        multisampled.close()
+        single.close()
+    assert not np.array_equal(*colours)
+    assert np.array_equal(*depths)
+    assert np.ptp(depths[0]) > 0.1  # the items stand out of the belt
+
+
+def test_frames_with_depth_leave_out_only_a_sky_nobody_sees(cell_with_items, fixture_model):
+    """The colour pass of a frame with depth draws the skybox only when the depth pass leaves
+    some pixel to the sky: in the cell the belt and the floor hide it, and the frame is the
+    same as one drawn with it; the fixture (a belt in the void) keeps it."""
+    for (model, data), sky_seen in ((cell_with_items, False), (fixture_model, True)):
+        with BeltCamera(model, 640, 360) as camera:
+            frame, _ = camera.render_rgbd(data)
+            assert bool(camera._renderer.scene.flags[SKYBOX]) == sky_seen
+            assert np.array_equal(frame, camera.render(data))
+
+
+def test_a_camera_renders_at_its_own_sample_count(cell_with_items):
+    """`samples` sets the colour pass's multisampling, the model's count by default; the depth
+    and the model's own setting do not change."""
+    model, data = cell_with_items
+    own = model.vis.quality.offsamples
+    with BeltCamera(model, 640, 360) as default, BeltCamera(model, 640, 360, samples=0) as none:
+        assert default.samples == own and none.samples == 0
+        (frame, depth), (plain, plain_depth) = default.render_rgbd(data), none.render_rgbd(data)
+    assert model.vis.quality.offsamples == own
+    assert np.array_equal(depth, plain_depth)
+    edges = np.any(frame != plain, axis=2)
+    assert 0 < edges.mean() < 0.05  # the multisampled frame differs only along edges

@@ -8,6 +8,7 @@ import pytest
 from perception.errors import PerceptionInputError
 from perception.items.classifier import ItemClassifier, combine, fuse
 from perception.items.features import FEATURE_NAMES, N_FEATURES, item_features
+from sim.episode.item_classifier import load_table, trained_item_classifier
 
 PIXEL = 0.002
 
@@ -90,15 +91,32 @@ def test_fusion_is_likelihood_times_hmm_posterior():
         combine("colour", hmm, clf, prior)
 
 
-def test_classifier_on_one_thread_gives_the_estimators_probabilities():
-    """`probabilities` limits OpenMP to one thread; the numbers are scikit-learn's own."""
+def _estimators_probabilities(clf: ItemClassifier, features: np.ndarray) -> np.ndarray:
+    columns = [list(clf.estimator.classes_).index(c) for c in clf.material_ids]
+    return clf.estimator.predict_proba(features)[:, columns]
+
+
+def test_classifier_gives_the_estimators_probabilities_to_the_bit():
+    """`probabilities` walks the packed trees; the numbers are scikit-learn's own, missing
+    feature values included."""
     rng = np.random.default_rng(1)
     features = rng.normal(size=(90, N_FEATURES))
     labels = np.repeat([2, 3, 4], 30)
     features[:, 0] += labels  # something to learn
+    features[::7, 3] = np.nan  # the trees learn where missing values go
     clf = ItemClassifier(features, labels)
     test = rng.normal(size=(7, N_FEATURES)) + np.array([2, 3, 4, 2, 3, 4, 3])[:, None]
-    expected = clf.estimator.predict_proba(test)[
-        :, [list(clf.estimator.classes_).index(c) for c in (2, 3, 4)]
-    ]
-    np.testing.assert_array_equal(clf.probabilities(test), expected)
+    test[1, 3] = test[4, 0] = np.nan
+    np.testing.assert_array_equal(clf.probabilities(test), _estimators_probabilities(clf, test))
+    np.testing.assert_array_equal(
+        clf.probabilities(test[2]), _estimators_probabilities(clf, test[2:3])
+    )
+
+
+def test_the_cameras_classifier_gives_the_estimators_probabilities_to_the_bit():
+    """The episode's classifier (300 rounds of 3 trees) on every item of its training table."""
+    clf = trained_item_classifier()
+    features = load_table()["features"]
+    np.testing.assert_array_equal(
+        clf.probabilities(features), _estimators_probabilities(clf, features)
+    )

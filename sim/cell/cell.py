@@ -109,14 +109,15 @@ class Cell:
         mujoco.mj_forward(self.model, self.data)
 
     def belt_camera(self, size: tuple[int, int]):
-        """The belt camera's renderer at `size`, created once and kept for later episodes."""
-        from sim.cell.camera import BeltCamera
+        """The belt camera's renderer at `size` (the perception's multisampling), created once
+        and kept for later episodes."""
+        from sim.cell.camera import PERCEPTION_SAMPLES, BeltCamera
 
         camera = getattr(self, "_camera", None)
         if camera is None or camera.size != tuple(size):
             if camera is not None:
                 camera.close()  # one renderer (GL context) per cell
-            self._camera = BeltCamera(self.model, *size)
+            self._camera = BeltCamera(self.model, *size, samples=PERCEPTION_SAMPLES)
         return self._camera
 
     def tcp(self) -> np.ndarray:

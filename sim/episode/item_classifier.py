@@ -25,7 +25,11 @@ from sim.paths import DATA_DIR, REPO_ROOT
 
 TRAINING_TABLE = DATA_DIR / "item_features.npz"
 CACHE_DIR = REPO_ROOT / "runs" / "cache"
-_CODE = ("perception/items/classifier.py", "perception/items/features.py")
+_CODE = (
+    "perception/items/classifier.py",
+    "perception/items/features.py",
+    "perception/items/tree_ensemble.py",
+)
 FIT_SEED = 0
 
 

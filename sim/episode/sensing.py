@@ -203,7 +203,7 @@ class CameraPerception:
         size: tuple[int, int] = CAMERA_SIZE,
     ):
         from perception.camera.grid import BeltGrid
-        from sim.cell.camera import BeltCamera, camera_pipeline
+        from sim.cell.camera import PERCEPTION_SAMPLES, BeltCamera, camera_pipeline
 
         if classifier not in CLASSIFIER_MODES:
             raise InvalidInput("classifier", " | ".join(CLASSIFIER_MODES), classifier)
@@ -222,7 +222,9 @@ class CameraPerception:
             raise InvalidInput("camera", f"a camera of {size[0]} x {size[1]} px", camera.size)
         self.pipeline = camera_pipeline(model, data, size, grid)
         self._own_camera = camera is None
-        self.camera = BeltCamera(model, *size) if camera is None else camera
+        if camera is None:
+            camera = BeltCamera(model, *size, samples=PERCEPTION_SAMPLES)
+        self.camera = camera
         models, self.cells_per_item = stripe_models(catalogue, mix)
         self.hmm = OnlineStripeHmms(models)
         stripes, n_states = models.pi.shape

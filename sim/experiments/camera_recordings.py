@@ -19,7 +19,7 @@ import numpy as np
 from perception.camera.grid import BeltGrid
 from perception.codes import EMPTY_CODE, VOID
 from perception.errors import PerceptionError
-from sim.cell.camera import BeltCamera, camera_pipeline
+from sim.cell.camera import PERCEPTION_SAMPLES, BeltCamera, camera_pipeline
 from sim.experiments.flow_replay import FlowReplay
 from sim.flow.config import X_CAMERA, FlowConfig, stripe_of
 from sim.flow.ground_truth import flow_rows
@@ -44,7 +44,7 @@ def camera_recording(seed: int, catalogue) -> Recording:
     classes = np.full((n_rows, 5), VOID, dtype=np.int64)
     codes = np.full((n_rows, 5), EMPTY_CODE, dtype=np.int64)
     refused = 0
-    with BeltCamera(replay.model, *FRAME_SIZE) as camera:
+    with BeltCamera(replay.model, *FRAME_SIZE, samples=PERCEPTION_SAMPLES) as camera:
         for k in replay.rows(n_rows):
             try:
                 frame, depth = camera.render_rgbd(replay.data)

@@ -24,7 +24,7 @@ from perception.camera.observe import ColourRules
 from perception.camera.pipeline import CameraPipeline
 from perception.codes import COLOURS, EMPTY_CODE, N_CODES
 from perception.errors import PerceptionError
-from sim.cell.camera import BeltCamera, marker_points
+from sim.cell.camera import PERCEPTION_SAMPLES, BeltCamera, marker_points
 from sim.experiments.flow_replay import FlowReplay
 from sim.flow.catalogue import load_catalogue
 from sim.flow.config import X_CAMERA, FlowConfig
@@ -116,6 +116,7 @@ def evaluate_camera(
     rules: ColourRules | None = None,
     depth: bool = True,
     world: WorldVariation | None = None,
+    samples: int = PERCEPTION_SAMPLES,
 ) -> CameraScore:
     """Runs a flow through the cell and scores every observed row's codes.
 
@@ -131,6 +132,7 @@ def evaluate_camera(
         world: How the items vary (default: the varied world). The truth's codes take each
             item's nominal colour, so in the varied world a printed label or a jittered shade
             that changes a cell's dominant colour counts against the camera.
+        samples: Multisamples per pixel of the frames (default: the episode's camera's).
     """
     start = time.perf_counter()
     catalogue = load_catalogue()
@@ -147,7 +149,7 @@ def evaluate_camera(
     )
     confusion = np.zeros((N_CODES, N_CODES), dtype=np.int64)
     unobserved = 0
-    with BeltCamera(replay.model, *size) as camera:
+    with BeltCamera(replay.model, *size, samples=samples) as camera:
         for k in replay.rows(flow_rows(replay.flow, catalogue)):
             try:
                 if depth:
@@ -177,6 +179,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--height", type=int, default=360)
     parser.add_argument("--plane-z", type=float, default=0.0)
     parser.add_argument("--no-depth", action="store_true", help="frames only, no depth map")
+    parser.add_argument(
+        "--samples", type=int, default=PERCEPTION_SAMPLES, help="multisamples per pixel"
+    )
     args = parser.parse_args(argv)
     for factor in args.speed_factors:
         score = evaluate_camera(
@@ -187,6 +192,7 @@ def main(argv: list[str] | None = None) -> int:
             (args.width, args.height),
             args.plane_z,
             depth=not args.no_depth,
+            samples=args.samples,
         )
         print(score.report(), flush=True)
     return 0
