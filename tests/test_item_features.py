@@ -105,6 +105,7 @@ def test_classifier_gives_the_estimators_probabilities_to_the_bit():
     features[:, 0] += labels  # something to learn
     features[::7, 3] = np.nan  # the trees learn where missing values go
     clf = ItemClassifier(features, labels)
+    assert clf.trees is not None, "this scikit-learn's trees are walked packed"
     test = rng.normal(size=(7, N_FEATURES)) + np.array([2, 3, 4, 2, 3, 4, 3])[:, None]
     test[1, 3] = test[4, 0] = np.nan
     np.testing.assert_array_equal(clf.probabilities(test), _estimators_probabilities(clf, test))

@@ -87,9 +87,14 @@ class ItemClassifier:
         self._columns = [list(self.estimator.classes_).index(c) for c in material_ids]
 
     @functools.cached_property
-    def trees(self) -> PackedTrees:
-        """The estimator's trees as flat arrays, walked all at once (`PackedTrees`)."""
-        return PackedTrees(self.estimator)
+    def trees(self) -> PackedTrees | None:
+        """The estimator's trees as flat arrays, walked all at once (`PackedTrees`); None
+        where this scikit-learn keeps its fitted trees otherwise (`probabilities` then asks the
+        estimator itself)."""
+        try:
+            return PackedTrees(self.estimator)
+        except (AttributeError, KeyError, ValueError, IndexError):
+            return None
 
     def probabilities(self, features: np.ndarray) -> np.ndarray:
         """(n, m) p(class | features) over the m materials (paper, plastic, aluminium).
@@ -102,6 +107,9 @@ class ItemClassifier:
         features = np.atleast_2d(np.asarray(features, dtype=np.float64))
         if features.shape[1] != N_FEATURES:
             raise PerceptionInputError("features", f"(n, {N_FEATURES})", features.shape)
+        if self.trees is None:
+            with _thread_control().limit(limits=1, user_api="openmp"):
+                return self.estimator.predict_proba(features)[:, self._columns]
         return self.trees.probabilities(features)[:, self._columns]
 
 
