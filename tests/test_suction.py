@@ -281,11 +281,8 @@ def test_load_equals_its_numpy_formulation_bit_for_bit_on_the_belt_and_in_the_ai
         if cup.held_slot is not None:
             pairs = d.contact.geom[: d.ncon]
             on_item = np.any(pairs == cell.pool.geom_id(slot), axis=1)
-            seen[
-                "touching"
-                if np.any(on_item & ~np.any(pairs == cup.geom_id, axis=1))
-                else "in the air"
-            ] += 1
+            touching = np.any(on_item & ~np.any(pairs == cup.geom_id, axis=1))
+            seen["touching" if touching else "in the air"] += 1
             assert cup.load(d, slot) == numpy_load(cup, d, slot)
         return update(d)
 
