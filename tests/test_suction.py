@@ -290,3 +290,35 @@ def test_load_equals_its_numpy_formulation_bit_for_bit_on_the_belt_and_in_the_ai
     run = pick_and_place(cell, slot, "paper")
     assert [e.kind for e in run.events] == ["sealed", "released"]
     assert seen["touching"] > 0 and seen["in the air"] > 0, seen
+
+
+def scanned_touched_slot(cup: SuctionCup, data: mujoco.MjData) -> int | None:
+    """The slot the lip touches and lies on, found by scanning the pool for each touched
+    geom's body: what `SuctionCup._touched_slot` finds through its body-to-slot table."""
+    geoms = data.contact.geom[: data.ncon]
+    lip = cup.geom_id
+    for geom in np.concatenate([geoms[geoms[:, 0] == lip, 1], geoms[geoms[:, 1] == lip, 0]]):
+        slots = np.flatnonzero(cup.pool.body_ids == cup.model.geom_bodyid[geom])
+        slot = int(slots[0]) if len(slots) else -1
+        if slot >= 0 and cup.pool.item_ids[slot] >= 0 and cup._lip_on_item(data, slot):
+            return slot
+    return None
+
+
+@pytest.mark.parametrize("off_edge", [False, True])
+def test_touched_slot_equals_a_scan_of_the_pool(off_edge):
+    cell = make_cell()
+    slot = spawn(cell, "carton_box_small", yaw=0.0)
+    cup, update = cell.cup, cell.cup.update
+    found = []
+
+    def checked_update(d):
+        if cup.vacuum and cup.held_slot is None and d.ncon:
+            found.append(scanned_touched_slot(cup, d))
+            assert cup._touched_slot(d) == found[-1]
+        return update(d)
+
+    cup.update = checked_update
+    offset = (0.0, cell.pool.item_type(slot).half_width if off_edge else 0.0)
+    pick_and_place(cell, slot, "paper", offset=offset, hold=0.2)
+    assert found and (slot in found) != off_edge, found

@@ -106,6 +106,8 @@ class SuctionCup:
         self.site_id = model.site(prefix + CUP_SITE).id
         self.grip_ids = pool.grip_ids if prefix == "" else pool.grip_ids_of(prefix)
         """This cup's weld of each pool slot (-1 where the model has none)."""
+        self._slot_of_body = np.full(model.nbody, -1)  # pool slot of each body, -1: none
+        self._slot_of_body[pool.body_ids] = np.arange(pool.size)
         first = model.body_geomadr[self.body_id]
         geoms = np.arange(first, first + model.body_geomnum[self.body_id])
         geoms = geoms[(model.geom_contype[geoms] | model.geom_conaffinity[geoms]) != 0]
@@ -186,7 +188,8 @@ class SuctionCup:
         return events
 
     def _touched_slot(self, data: mujoco.MjData) -> int | None:
-        """Active slot whose item the lip touches and lies on, or None."""
+        """Active slot whose item the lip touches and lies on, or None (the first such among
+        the lip's contacts: those where the lip is the first geom, then the second)."""
         n = data.ncon
         if n == 0:
             return None
@@ -194,10 +197,12 @@ class SuctionCup:
         touching = np.concatenate(
             [geoms[geoms[:, 0] == self.geom_id, 1], geoms[geoms[:, 1] == self.geom_id, 0]]
         )
-        for geom in touching:
-            slots = np.flatnonzero(self.pool.body_ids == self.model.geom_bodyid[geom])
-            slot = int(slots[0]) if len(slots) else -1
-            if slot >= 0 and self.pool.item_ids[slot] >= 0 and self._lip_on_item(data, slot):
+        tried = set()  # a slot the lip touches at several points is judged once
+        for slot in self._slot_of_body[self.model.geom_bodyid[touching]].tolist():
+            if slot < 0 or slot in tried:
+                continue
+            tried.add(slot)
+            if self.pool.item_ids[slot] >= 0 and self._lip_on_item(data, slot):
                 return slot
         return None
 
@@ -248,7 +253,8 @@ class SuctionCup:
         """Force of the cup on the item in `slot` [N, world]: m (a - g) - its other contacts.
 
         Runs every step while the cup holds an item: worked in Python floats (the same
-        operations as on numpy's float64), numpy only for the item's contacts, if any."""
+        operations as on numpy's float64), numpy only to find the item's contacts and for
+        those with anything but the lip (the item still on the belt, touching a neighbour)."""
         body = self.pool.body_ids[slot]
         dof = self.pool.dof_adr[slot]
         mass = float(self.model.body_mass[body])
@@ -256,22 +262,21 @@ class SuctionCup:
         gx, gy, gz = self._gravity
         force = (mass * (ax - gx), mass * (ay - gy), mass * (az - gz))
         n = data.ncon
-        if not n:  # in the air: nothing but the cup acts on the item (the usual case)
+        if not n:
             return force
         geom = self.pool.geom_id(slot)
         pairs = data.contact.geom[:n]
-        on_item = pairs == geom  # (contact, side) of the item's contacts
-        if not on_item.any():  # the other contacts are the belt's and its items'
-            return force
+        # The item's contacts in contact order: (contact, side the item is on, the other geom).
+        contacts, sides = np.nonzero(pairs == geom)
+        others = pairs[contacts, 1 - sides]
         fx, fy, fz = force
-        for i in np.flatnonzero(on_item.ravel()) // 2:
-            pair = pairs[i]
-            if pair[0] == self.geom_id or pair[1] == self.geom_id:
-                continue  # the lip: the force sought
+        for i, side, other in zip(contacts.tolist(), sides.tolist(), others.tolist(), strict=True):
+            if other == self.geom_id:
+                continue  # the lip (the usual contacts while holding): the force sought
             mujoco.mj_contactForce(self.model, data, i, self._force)
             frame = data.contact.frame[i].reshape(3, 3)
             world = frame.T @ self._force[:3]  # force on geom[1] from geom[0], world frame
-            wx, wy, wz = (world if pair[1] == geom else -world).tolist()
+            wx, wy, wz = (world if side == 1 else -world).tolist()
             fx, fy, fz = fx - wx, fy - wy, fz - wz
         return fx, fy, fz
 
