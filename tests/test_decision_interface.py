@@ -105,6 +105,17 @@ def test_tracked_item_validation_and_bin_class():
     assert TrackedItem.certain(2, 0.0, 0.0, 4).class_probs == (0.0, 0.0, 0.0, 1.0)
 
 
+def test_a_moved_tracked_item_equals_one_made_anew_and_refuses_bad_positions():
+    item = TrackedItem(1, 0.2, -0.1, (0.55, 0.1, 0.3, 0.05))
+    moved = item.at(-0.4, 0.25)
+    anew = TrackedItem(1, -0.4, 0.25, (0.55, 0.1, 0.3, 0.05))
+    assert moved == anew and vars(moved) == vars(anew) and moved.bin_class == 3
+    assert (item.x, item.y) == (0.2, -0.1)  # the original stays where it was
+    for x, y in ((float("nan"), 0.0), (0.0, float("inf"))):
+        with pytest.raises(PlannerInputError, match="x, y"):
+            item.at(x, y)
+
+
 def test_expected_value_ranks_a_confident_aluminium_above_an_uncertain_one():
     ctx = _context()
     confident = TrackedItem(1, 0.0, 0.1, (0.0, 0.02, 0.03, 0.95))

@@ -143,3 +143,27 @@ def test_energy_cost_is_linear_in_distance():
     price = EnergyPrice(price_eur_per_kwh=0.3, fixed_j=100.0, per_metre_j=200.0)
     assert price.cost_eur(1.0) == pytest.approx(300.0 / 3.6e6 * 0.3)
     assert np.all(EnergyPrice().cost_eur(np.array([0.5, 2.0])) == 0.0)
+
+
+def test_power_is_the_documented_sums_bit_for_bit():
+    """Driving power sums max(tau omega, 0) (written without the call): the same bits for
+    braking, driving, signed zeros and non-finite readings."""
+    model, data = scene_at_home()
+    meter = EnergyMeter(model, data)
+    ids = [model.actuator(name).id for name in ("motor_1", "motor_2", "motor_3", "axis4")]
+    drive = DriveModel()
+    inverse_km2 = [1.0 / drive.arm_motor_constant**2] * 3 + [1.0 / drive.axis4_motor_constant**2]
+    steps = [  # (tau, omega): braking, driving, signed zeros; then inf - inf speeds (NaN power)
+        ((-2.0, 0.5, -0.0, 3.0), (1.0, -0.0, 0.0, np.inf)),
+        ((1.0, -0.0, 0.0, 0.5), (0.5, 0.0, -0.0, -np.inf)),
+    ]
+    for tau, speed in steps:
+        last = data.actuator_velocity[ids].tolist()
+        data.actuator_force[ids], data.actuator_velocity[ids] = tau, speed
+        mechanical = driving = signed = copper = 0.0
+        for f, v, v0, k in zip(tau, speed, last, inverse_km2, strict=True):
+            power = f * (0.5 * (v + v0))
+            mechanical, driving = mechanical + abs(power), driving + max(power, 0.0)
+            signed, copper = signed + power, copper + f * f * k
+        want = (mechanical, driving / drive.efficiency + copper, signed)
+        assert np.array(meter.power_w()).tobytes() == np.array(want).tobytes()

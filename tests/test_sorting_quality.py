@@ -165,6 +165,11 @@ def test_sure_items_keeps_order_and_filters_below_the_threshold():
     assert [i.item_id for i in sure_items(items, 0.95)] == []
     certain = item(5, (0.0, 0.0, 0.0, 1.0))
     assert sure_items([certain], 1.0) == [certain]
+    # At a threshold <= 0 every item is sure (probabilities are >= 0), as the rule says.
+    for threshold in (0.0, -0.5):
+        assert sure_items(items, threshold) == [
+            i for i in items if not is_unsure(i.class_probs, threshold)
+        ]
 
 
 # ----- the config key --------------------------------------------------------------------------

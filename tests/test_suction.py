@@ -246,3 +246,79 @@ def test_the_configured_cup_diameter_decides_whether_one_kilogram_holds(diameter
     assert (cell.cup.force_budget > 1.2 * peak) if held else (cell.cup.force_budget < 0.8 * peak)
     kinds = [e.kind for e in run.events]
     assert kinds == (["sealed", "released"] if held else ["sealed", "lost"])
+
+
+def numpy_load(cup: SuctionCup, data: mujoco.MjData, slot: int) -> float:
+    """The seal's load worked on numpy arrays throughout: what `SuctionCup.load` computes in
+    Python floats, operation for operation."""
+    m, body, dof = cup.model, cup.pool.body_ids[slot], cup.pool.dof_adr[slot]
+    geom, force = cup.pool.geom_id(slot), np.zeros(6)
+    cup_force = m.body_mass[body] * (data.qacc[dof : dof + 3] - m.opt.gravity)
+    pairs = data.contact.geom[: data.ncon]
+    for i in np.flatnonzero(pairs.ravel() == geom) // 2:
+        if cup.geom_id in pairs[i]:
+            continue
+        mujoco.mj_contactForce(m, data, i, force)
+        world = data.contact.frame[i].reshape(3, 3).T @ force[:3]
+        cup_force -= world if pairs[i][1] == geom else -world
+    fx, fy, fz = cup_force
+    ax, ay, az = data.site_xmat[cup.site_id, 2::3]
+    lip, centre = data.site_xpos[cup.site_id], data.xpos[body]
+    if ax * (centre[0] - lip[0]) + ay * (centre[1] - lip[1]) + az * (centre[2] - lip[2]) < 0:
+        ax, ay, az = -ax, -ay, -az
+    along = fx * ax + fy * ay + fz * az
+    shear = math.sqrt(max(fx * fx + fy * fy + fz * fz - along * along, 0.0))
+    return float(max(0.0, -along) + shear / cup.config.lip_friction)
+
+
+def test_load_equals_its_numpy_formulation_bit_for_bit_on_the_belt_and_in_the_air():
+    cell = make_cell()
+    slot = spawn(cell, "carton_box_small", yaw=0.0)
+    cup, update = cell.cup, cell.cup.update
+    seen = {"touching": 0, "in the air": 0}
+
+    def checked_update(d):
+        if cup.held_slot is not None:
+            pairs = d.contact.geom[: d.ncon]
+            on_item = np.any(pairs == cell.pool.geom_id(slot), axis=1)
+            touching = np.any(on_item & ~np.any(pairs == cup.geom_id, axis=1))
+            seen["touching" if touching else "in the air"] += 1
+            assert cup.load(d, slot) == numpy_load(cup, d, slot)
+        return update(d)
+
+    cup.update = checked_update
+    run = pick_and_place(cell, slot, "paper")
+    assert [e.kind for e in run.events] == ["sealed", "released"]
+    assert seen["touching"] > 0 and seen["in the air"] > 0, seen
+
+
+def scanned_touched_slot(cup: SuctionCup, data: mujoco.MjData) -> int | None:
+    """The slot the lip touches and lies on, found by scanning the pool for each touched
+    geom's body: what `SuctionCup._touched_slot` finds through its body-to-slot table."""
+    geoms = data.contact.geom[: data.ncon]
+    lip = cup.geom_id
+    for geom in np.concatenate([geoms[geoms[:, 0] == lip, 1], geoms[geoms[:, 1] == lip, 0]]):
+        slots = np.flatnonzero(cup.pool.body_ids == cup.model.geom_bodyid[geom])
+        slot = int(slots[0]) if len(slots) else -1
+        if slot >= 0 and cup.pool.item_ids[slot] >= 0 and cup._lip_on_item(data, slot):
+            return slot
+    return None
+
+
+@pytest.mark.parametrize("off_edge", [False, True])
+def test_touched_slot_equals_a_scan_of_the_pool(off_edge):
+    cell = make_cell()
+    slot = spawn(cell, "carton_box_small", yaw=0.0)
+    cup, update = cell.cup, cell.cup.update
+    found = []
+
+    def checked_update(d):
+        if cup.vacuum and cup.held_slot is None and d.ncon:
+            found.append(scanned_touched_slot(cup, d))
+            assert cup._touched_slot(d) == found[-1]
+        return update(d)
+
+    cup.update = checked_update
+    offset = (0.0, cell.pool.item_type(slot).half_width if off_edge else 0.0)
+    pick_and_place(cell, slot, "paper", offset=offset, hold=0.2)
+    assert found and (slot in found) != off_edge, found

@@ -94,6 +94,16 @@ class TrackedItem:
         probs[class_code - 1] = 1.0
         return cls(item_id, float(x), float(y), tuple(probs))
 
+    def at(self, x: float, y: float) -> TrackedItem:
+        """The same item at position (`x`, `y`) [m]: equal to a `TrackedItem` made anew with
+        these positions, without checking its probabilities again (they were when it was made;
+        a tracker re-positions every item at every decision)."""
+        if not (math.isfinite(x) and math.isfinite(y)):
+            raise PlannerInputError("x, y", "finite positions [m]", (x, y))
+        moved = object.__new__(type(self))
+        moved.__dict__.update(self.__dict__, x=x, y=y)
+        return moved
+
     @property
     def bin_class(self) -> int:
         """Most probable material class (2, 3, ...): the bin the item goes to."""

@@ -45,4 +45,6 @@ def items_sorted_by(
         items: Tracked items (positions [m], class probabilities).
         class_ids: Material class ids the robot sorts (2, 3, ...), or None for all of them.
     """
+    if class_ids is None:
+        return list(items)
     return [item for item in items if sorts(class_ids, item)]

@@ -17,6 +17,7 @@ import mujoco
 import numpy as np
 
 from perception.codes import THESIS_MATERIALS, Materials
+from sim.cell.held_slots import held_mask
 from sim.cell.item_pool import ItemPool
 
 BIN_CLASSES = THESIS_MATERIALS.names
@@ -121,7 +122,7 @@ class Bins:
         belt = pool.belt.geometry
         slots = pool.active_slots()
         if held_slot is not None:  # one slot, or a sequence of them (a line's cups)
-            slots = slots[~np.isin(slots, held_slot)]
+            slots = slots[~held_mask(slots, held_slot)]
             self._rest_since[held_slot] = np.nan
         pos = data.xpos[pool.body_ids[slots]]
         vel = data.qvel[pool.dof_adr[slots, None] + np.arange(3)]

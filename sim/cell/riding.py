@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from sim.cell.held_slots import held_mask
 from sim.cell.item_pool import ItemPool
 
 SETTLE_SPEED_MPS = 1e-3
@@ -207,7 +208,7 @@ class ItemRiding:
             settled
             & (data.time - self._born[movers] >= SETTLE_AGE_S)
             & where
-            & ~np.isin(movers, [] if held_slot is None else held_slot)
+            & ~held_mask(movers, held_slot)
         ]
         if self.in_window and busy_paths and len(candidates):
             # In the window: not where a pick under way will pass.

@@ -106,6 +106,8 @@ class SuctionCup:
         self.site_id = model.site(prefix + CUP_SITE).id
         self.grip_ids = pool.grip_ids if prefix == "" else pool.grip_ids_of(prefix)
         """This cup's weld of each pool slot (-1 where the model has none)."""
+        self._slot_of_body = np.full(model.nbody, -1)  # pool slot of each body, -1: none
+        self._slot_of_body[pool.body_ids] = np.arange(pool.size)
         first = model.body_geomadr[self.body_id]
         geoms = np.arange(first, first + model.body_geomnum[self.body_id])
         geoms = geoms[(model.geom_contype[geoms] | model.geom_conaffinity[geoms]) != 0]
@@ -121,7 +123,8 @@ class SuctionCup:
         self.last_load = 0.0
         self.peak_load = 0.0
         self._force = np.zeros(6)
-        self._gravity = model.opt.gravity.copy()  # [m/s^2] (read once: the option never changes)
+        # [m/s^2] (read once: the option never changes)
+        self._gravity = tuple(model.opt.gravity.tolist())
 
     @property
     def area(self) -> float:
@@ -185,7 +188,8 @@ class SuctionCup:
         return events
 
     def _touched_slot(self, data: mujoco.MjData) -> int | None:
-        """Active slot whose item the lip touches and lies on, or None."""
+        """Active slot whose item the lip touches and lies on, or None (the first such among
+        the lip's contacts: those where the lip is the first geom, then the second)."""
         n = data.ncon
         if n == 0:
             return None
@@ -193,10 +197,12 @@ class SuctionCup:
         touching = np.concatenate(
             [geoms[geoms[:, 0] == self.geom_id, 1], geoms[geoms[:, 1] == self.geom_id, 0]]
         )
-        for geom in touching:
-            slots = np.flatnonzero(self.pool.body_ids == self.model.geom_bodyid[geom])
-            slot = int(slots[0]) if len(slots) else -1
-            if slot >= 0 and self.pool.item_ids[slot] >= 0 and self._lip_on_item(data, slot):
+        tried = set()  # a slot the lip touches at several points is judged once
+        for slot in self._slot_of_body[self.model.geom_bodyid[touching]].tolist():
+            if slot < 0 or slot in tried:
+                continue
+            tried.add(slot)
+            if self.pool.item_ids[slot] >= 0 and self._lip_on_item(data, slot):
                 return slot
         return None
 
@@ -243,34 +249,44 @@ class SuctionCup:
         self._held, self._release_at = None, None
         return SuctionEvent(kind, t, int(self.pool.item_ids[slot]), slot, load)
 
-    def cup_force(self, data: mujoco.MjData, slot: int) -> np.ndarray:
-        """Force of the cup on the item in `slot` [N, world]: m (a - g) - its other contacts."""
-        m = self.model
+    def cup_force(self, data: mujoco.MjData, slot: int) -> tuple[float, float, float]:
+        """Force of the cup on the item in `slot` [N, world]: m (a - g) - its other contacts.
+
+        Runs every step while the cup holds an item: worked in Python floats (the same
+        operations as on numpy's float64), numpy only to find the item's contacts and for
+        those with anything but the lip (the item still on the belt, touching a neighbour)."""
         body = self.pool.body_ids[slot]
         dof = self.pool.dof_adr[slot]
-        force = m.body_mass[body] * (data.qacc[dof : dof + 3] - self._gravity)
+        mass = float(self.model.body_mass[body])
+        ax, ay, az = data.qacc[dof : dof + 3].tolist()
+        gx, gy, gz = self._gravity
+        force = (mass * (ax - gx), mass * (ay - gy), mass * (az - gz))
         n = data.ncon
-        if not n:  # in the air: nothing but the cup acts on the item (the usual case)
+        if not n:
             return force
         geom = self.pool.geom_id(slot)
-        pairs = data.contact.geom[:n]  # runs every step while holding: filter at once
-        touching = np.flatnonzero(pairs.ravel() == geom)  # (contact, side) of the item's contacts
-        for i in touching // 2:
-            pair = pairs[i]
-            if pair[0] == self.geom_id or pair[1] == self.geom_id:
-                continue  # the lip: the force sought
-            mujoco.mj_contactForce(m, data, i, self._force)
+        pairs = data.contact.geom[:n]
+        # The item's contacts in contact order: (contact, side the item is on, the other geom).
+        contacts, sides = np.nonzero(pairs == geom)
+        others = pairs[contacts, 1 - sides]
+        fx, fy, fz = force
+        for i, side, other in zip(contacts.tolist(), sides.tolist(), others.tolist(), strict=True):
+            if other == self.geom_id:
+                continue  # the lip (the usual contacts while holding): the force sought
+            mujoco.mj_contactForce(self.model, data, i, self._force)
             frame = data.contact.frame[i].reshape(3, 3)
             world = frame.T @ self._force[:3]  # force on geom[1] from geom[0], world frame
-            force -= world if pair[1] == geom else -world
-        return force
+            wx, wy, wz = (world if side == 1 else -world).tolist()
+            fx, fy, fz = fx - wx, fy - wy, fz - wz
+        return fx, fy, fz
 
     def load(self, data: mujoco.MjData, slot: int) -> float:
         """Equivalent pull-off load on the seal, F_n + F_t / mu_lip [N] (against the budget)."""
         fx, fy, fz = self.cup_force(data, slot)
-        ax, ay, az = data.site_xmat[self.site_id, 2::3]  # the lip's axis (site z) in the world
-        lip, centre = data.site_xpos[self.site_id], data.xpos[self.pool.body_ids[slot]]
-        if ax * (centre[0] - lip[0]) + ay * (centre[1] - lip[1]) + az * (centre[2] - lip[2]) < 0:
+        ax, ay, az = data.site_xmat[self.site_id, 2::3].tolist()  # the lip's axis in the world
+        lx, ly, lz = data.site_xpos[self.site_id].tolist()
+        cx, cy, cz = data.xpos[self.pool.body_ids[slot]].tolist()
+        if ax * (cx - lx) + ay * (cy - ly) + az * (cz - lz) < 0:
             ax, ay, az = -ax, -ay, -az  # unit vector from the lip into the item
         along = fx * ax + fy * ay + fz * az
         pull = max(0.0, -along)  # the cup pulling the item towards itself

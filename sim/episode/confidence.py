@@ -30,5 +30,8 @@ def is_unsure(class_probs: Sequence[float], min_confidence: float) -> bool:
 
 
 def sure_items(items: Iterable[TrackedItem], min_confidence: float) -> list[TrackedItem]:
-    """The items sure enough to be offered to a decision manager, in their order."""
+    """The items sure enough to be offered to a decision manager, in their order (all of them
+    at a `min_confidence` <= 0: a `TrackedItem`'s probabilities are >= 0)."""
+    if min_confidence <= 0.0:
+        return list(items)
     return [item for item in items if not is_unsure(item.class_probs, min_confidence)]

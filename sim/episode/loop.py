@@ -29,6 +29,7 @@ from planner.decision.registry import make_planner
 from sim.cell.bins import Bins
 from sim.cell.cell import PICK_Z_NOMINAL, Cell
 from sim.cell.depth_noise import ZED_CLASS
+from sim.cell.held_slots import held_mask
 from sim.cell.monitors.energy import EnergyMeter
 from sim.cell.monitors.mj_warnings import WarningCounter
 from sim.cell.monitors.thrown import ThrowWatch
@@ -332,6 +333,8 @@ class Episode:
         self.decisions = 0
         self.latencies: dict[str, list[float]] = {"perception": [], "decision": [], "plan": []}
         self._candidates: list[TrackedItem] = []
+        # track id -> (its probabilities, its item) as the last `_tracked_items` made them
+        self._track_items: dict[int, tuple[np.ndarray, TrackedItem]] = {}
         self._last_report = -1.0
         self._closed_out = False
         self._ready = True
@@ -582,14 +585,13 @@ class Episode:
                 throw.reason,
                 doing,
             )
-        for slot in pool.active_slots():
-            if slot in held_slots:
-                continue
-            pos = data.xpos[pool.body_ids[slot]]
-            if pos[0] > self.x_discard and pos[2] > BELOW_BELT_Z:  # passed the robot: discarded
-                item_id = pool.park(data, int(slot))
-                self.metrics.on_missed(item_id)
-                self._book_unsure(self.tracker.remove_true(item_id))
+        active = pool.active_slots()
+        pos = data.xpos[pool.body_ids[active]]
+        passed = (pos[:, 0] > self.x_discard) & (pos[:, 2] > BELOW_BELT_Z)  # passed the robot
+        for slot in active[passed & ~held_mask(active, held_slots)].tolist():  # discarded
+            item_id = pool.park(data, slot)
+            self.metrics.on_missed(item_id)
+            self._book_unsure(self.tracker.remove_true(item_id))
         for item_id in pool.park_missed(data):  # past the belt's end (e.g. pushed along)
             self.metrics.on_missed(item_id)
             self._book_unsure(self.tracker.remove_true(item_id))
@@ -646,13 +648,23 @@ class Episode:
     def _tracked_items(self, t: float) -> list[TrackedItem]:
         """The tracked items every decision manager chooses among: the confidence rule
         (`sim.episode.confidence`) applied here, once for all of them."""
-        items = []
+        items, made = [], {}
         for tr in self.tracker.tracks():
             if self.failures.get(tr.true_id, 0) >= MAX_FAILURES:
                 continue  # truth mode: an item the cup failed on twice is given up
             if self.not_before.get(tr.track_id, 0.0) > t:
                 continue  # the cup could not meet it a moment ago
-            items.append(TrackedItem(tr.track_id, tr.x_at(t, self.speed), tr.y, tuple(tr.probs)))
+            x = tr.x_at(t, self.speed)
+            # The track's item of the last call, moved, while its probabilities are the same
+            # array (the tracker replaces the array when it updates them).
+            probs, item = self._track_items.get(tr.track_id, (None, None))
+            if probs is tr.probs:
+                item = item.at(x, tr.y)
+            else:
+                item = TrackedItem(tr.track_id, x, tr.y, tuple(tr.probs))
+            made[tr.track_id] = (tr.probs, item)
+            items.append(item)
+        self._track_items = made
         return sure_items(items, self.config.min_class_confidence)
 
     def _book_unsure(self, gone: list) -> None:

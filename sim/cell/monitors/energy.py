@@ -123,7 +123,7 @@ class EnergyMeter:
         for f, v, v0, k in zip(tau, velocity, self._last_velocity, self._inverse_km2, strict=True):
             power = f * (0.5 * (v + v0))
             mechanical += abs(power)
-            driving += max(power, 0.0)
+            driving += 0.0 if power < 0.0 else power  # max(power, 0.0), without the call
             signed += power
             copper += f * f * k
         self._last_velocity = velocity

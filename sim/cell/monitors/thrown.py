@@ -21,6 +21,7 @@ import mujoco
 import numpy as np
 
 from sim.cell.conveyor import RAIL_GEOMS
+from sim.cell.held_slots import held_mask
 from sim.cell.item_pool import ItemPool
 from sim.flow.config import X_INFEED
 
@@ -94,7 +95,7 @@ class ThrowWatch:
         pool = self.pool
         slots = pool.active_slots()
         if held_slot is not None:
-            slots = slots[~np.isin(slots, held_slot)]
+            slots = slots[~held_mask(slots, held_slot)]
         if not len(slots):
             return []
         ids = pool.item_ids[slots]
