@@ -167,3 +167,35 @@ def test_power_is_the_documented_sums_bit_for_bit():
             signed, copper = signed + power, copper + f * f * k
         want = (mechanical, driving / drive.efficiency + copper, signed)
         assert np.array(meter.power_w()).tobytes() == np.array(want).tobytes()
+
+
+def test_buffered_integration_is_step_by_step_to_the_bit():
+    """`add` buffers the steps; the totals equal `power_w` integrated one step at a time
+    (`mechanical_j += P dt` in order), over more steps than the buffer holds, with idle
+    blocks' longer durations between them."""
+    model, data = scene_at_home()
+    meter = EnergyMeter(model, data)
+    ids = [model.actuator(name).id for name in ("motor_1", "motor_2", "motor_3", "axis4")]
+    drive = DriveModel()
+    inverse_km2 = [1.0 / drive.arm_motor_constant**2] * 3 + [1.0 / drive.axis4_motor_constant**2]
+    rng = np.random.default_rng(3)
+    last = data.actuator_velocity[ids].tolist()
+    want = [0.0, 0.0, 0.0]
+    for step in range(2 * EnergyMeter.BUFFER_ROWS + 37):
+        tau, speed = rng.normal(0.0, 20.0, 4), rng.normal(0.0, 3.0, 4)
+        data.actuator_force[ids], data.actuator_velocity[ids] = tau, speed
+        duration = 0.001 if step % 50 else 0.001 * (1 + step % 7)
+        meter.add(duration)
+        mechanical = driving = signed = copper = 0.0
+        for f, v, v0, k in zip(tau.tolist(), speed.tolist(), last, inverse_km2, strict=True):
+            power = f * (0.5 * (v + v0))
+            mechanical, driving = mechanical + abs(power), driving + max(power, 0.0)
+            signed, copper = signed + power, copper + f * f * k
+        last = speed.tolist()
+        electrical = driving / drive.efficiency + copper
+        want = [
+            w + p * duration for w, p in zip(want, (mechanical, electrical, signed), strict=True)
+        ]
+        if step in (5, EnergyMeter.BUFFER_ROWS + 3):  # a reading mid-way flushes the buffer
+            assert meter.reading() == (want[0], want[1])
+    assert (meter.mechanical_j, meter.electrical_j, meter.signed_j) == tuple(want)
