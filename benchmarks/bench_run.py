@@ -35,9 +35,11 @@ def run_once(out: Path) -> tuple[float, float, float]:
     cmd = [sys.executable, "-m", "sim.cli", "run", "--out", str(out)]
     cmd += ["--video", str(out / "video.mp4")]
     cpu0, wall0 = _children_cpu_s(), time.perf_counter()
-    subprocess.run(cmd, cwd=ROOT, check=True, stdout=subprocess.DEVNULL)
+    done = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True)
     wall, cpu = time.perf_counter() - wall0, _children_cpu_s() - cpu0
-    with (out / "episode.csv").open(newline="", encoding="utf-8") as f:
+    if done.returncode != 0:
+        raise SystemExit(f"sortsim run failed ({done.returncode}): {done.stderr[-2000:]}")
+    with (out / "episodes.csv").open(newline="", encoding="utf-8") as f:
         simulated = float(next(csv.DictReader(f))["sim_s"])
     return simulated, wall, cpu
 
