@@ -182,6 +182,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--samples", type=int, default=PERCEPTION_SAMPLES, help="multisamples per pixel"
     )
+    parser.add_argument(
+        "--uniform",
+        action="store_true",
+        help="the uniform world (nominal colours and sizes, as tests/test_observe.py scores)",
+    )
     args = parser.parse_args(argv)
     for factor in args.speed_factors:
         score = evaluate_camera(
@@ -192,6 +197,7 @@ def main(argv: list[str] | None = None) -> int:
             (args.width, args.height),
             args.plane_z,
             depth=not args.no_depth,
+            world=WorldVariation.uniform() if args.uniform else None,
             samples=args.samples,
         )
         print(score.report(), flush=True)
