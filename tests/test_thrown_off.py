@@ -2,9 +2,9 @@
 
 The cup flies over a standing can on its way down to a flat board (the plan planned without
 the neighbours would strike the can at over 5 m/s); a board with a can on its edge is not
-picked (lifting it would fling the can); a pick whose seal fails leaves both its item and
-the neighbour beside it on the belt; a held bottle lifts straight up from beside the can
-lying 5 mm upstream of it, which rides on at the belt's speed.
+picked (lifting it would fling the can), while the top sheet of a pile is; a pick whose seal
+fails leaves both its item and the neighbour beside it on the belt; a held bottle lifts
+straight up from beside the can lying 5 mm upstream of it, which rides on at the belt's speed.
 """
 
 from __future__ import annotations
@@ -135,6 +135,30 @@ def test_a_board_with_a_can_on_its_edge_is_not_picked(cell):
     hit = robot.plan(x, y, PAPER)
     assert not hit.feasible
     assert "lies on it" in hit.reason
+
+
+def test_the_top_scrap_of_a_pile_is_picked_and_the_board_under_it_left(cell):
+    """A paper scrap lying on a board: the board is refused (the scrap lies on it), the scrap
+    is picked though the lip pressing it touches the board's top, and the board rides on."""
+    cell.reset(SPEED)
+    board = _spawn(cell, 0, "cardboard_flat", -0.30, -0.20)
+    top = 2 * [t for t in cell.catalogue.types if t.name == "cardboard_flat"][0].size[2]
+    k = [t.name for t in cell.catalogue.types].index("paper_scrap")  # 2 mm thick
+    sheet = cell.pool.spawn(cell.data, 1, k, -0.25, -0.17, 0.0, (1, 1, 1, 1), SPEED, z_drop=top)
+    mujoco.mj_step(cell.model, cell.data, nstep=200)
+    robot = PickController(cell, SPEED)
+    assert robot.lying_under(sheet, robot.neighbours(exclude=sheet)) == [board]
+    x, y = (float(v) for v in cell.data.xpos[cell.pool.body_ids[board], :2])
+    refused = robot.plan(x, y, PAPER)
+    assert not refused.feasible and "lies on it" in refused.reason
+    x, y = (float(v) for v in cell.data.xpos[cell.pool.body_ids[sheet], :2])
+    hit = robot.plan(x, y, PAPER)
+    assert hit.feasible, hit.reason
+    outcome, peak, throws = _play(robot, hit, [board])
+    assert outcome.sealed and outcome.held_to_bin and outcome.item_id == 1
+    assert throws == [] and peak[board] < 0.5, peak
+    mujoco.mj_step(cell.model, cell.data, nstep=300)
+    assert abs(_speed(cell, board) - SPEED) < 0.02
 
 
 def test_a_failed_seal_leaves_the_item_and_its_neighbour_on_the_belt(cell):

@@ -188,8 +188,9 @@ class SuctionCup:
         return events
 
     def _touched_slot(self, data: mujoco.MjData) -> int | None:
-        """Active slot whose item the lip touches and lies on, or None (the first such among
-        the lip's contacts: those where the lip is the first geom, then the second)."""
+        """Active slot whose item the lip touches and lies on, or None. Where it touches
+        several (a scrap lying on a board), the highest (its centre): the surface the lip is
+        pressed against, the top of the pile."""
         n = data.ncon
         if n == 0:
             return None
@@ -198,13 +199,16 @@ class SuctionCup:
             [geoms[geoms[:, 0] == self.geom_id, 1], geoms[geoms[:, 1] == self.geom_id, 0]]
         )
         tried = set()  # a slot the lip touches at several points is judged once
+        best, best_z = None, -math.inf
         for slot in self._slot_of_body[self.model.geom_bodyid[touching]].tolist():
             if slot < 0 or slot in tried:
                 continue
             tried.add(slot)
             if self.pool.item_ids[slot] >= 0 and self._lip_on_item(data, slot):
-                return slot
-        return None
+                z = float(data.xpos[self.pool.body_ids[slot], 2])
+                if z > best_z:
+                    best, best_z = slot, z
+        return best
 
     def _lip_on_item(self, data: mujoco.MjData, slot: int) -> bool:
         """Whether the cup axis meets the item's footprint far enough inside its outline."""

@@ -221,19 +221,31 @@ class PickController:
         """Slots of the neighbours lying on or leaning against the item in `target`: their
         outlines overlap and their centre is higher. Lifting the item at the cup's 100 m/s^2
         would fling them (a standing can on a board's edge left it at 2.7 m/s)."""
+        return [slot for slot, dz in self._overlapping(target, neighbours) if dz > 1e-3]
+
+    def lying_under(self, target: int, neighbours: list[tuple[int, Obstacle]]) -> list[int]:
+        """Slots of the neighbours the item in `target` lies on or leans against: their
+        outlines overlap and their centre is lower. The top item of a pile is picked first;
+        the cup pressing it may touch the one beneath, which it lies on anyway."""
+        return [slot for slot, dz in self._overlapping(target, neighbours) if dz < -1e-3]
+
+    def _overlapping(
+        self, target: int, neighbours: list[tuple[int, Obstacle]]
+    ) -> list[tuple[int, float]]:
+        """(slot, its centre's height over the target's [m]) of the neighbours whose outline
+        the target's outline overlaps."""
         if not neighbours:
             return []
-        shape = self.obstacle_of(target)
-        points = outline_points(shape)
+        points = outline_points(self.obstacle_of(target))
         data, bodies = self.cell.data, self.cell.pool.body_ids
         z = data.xpos[bodies[target], 2]
-        out = []
         obstacles = [o for _, o in neighbours]
         inside = footprint_distances(obstacles, points, np.zeros(len(points))) <= 0.0
-        for (slot, _), overlap in zip(neighbours, inside.any(axis=1), strict=True):
-            if overlap and data.xpos[bodies[slot], 2] > z + 1e-3:
-                out.append(slot)
-        return out
+        return [
+            (slot, float(data.xpos[bodies[slot], 2] - z))
+            for (slot, _), overlap in zip(neighbours, inside.any(axis=1), strict=True)
+            if overlap
+        ]
 
     def top_of(self, slot: int) -> float:
         """Highest point [m] of the item in `slot` as it lies now (a can may have toppled)."""
@@ -263,7 +275,8 @@ class PickController:
         neighbour too low on its way, the corner above the item is raised over that
         neighbour's top (`APPROACH_CLEARANCE_M`) and the pick planned again, so the cup comes
         down straight from above it. The pick is refused, with the reason, when the lip would
-        touch a neighbour on the last way down, or another item lies on this one.
+        touch a neighbour on the last way down (an item this one lies on aside: the top of a
+        pile is picked first), or another item lies on this one.
         """
         self._request = (float(x), float(y), int(bin_class))
         target = self.slot_near(x, y)
@@ -286,6 +299,8 @@ class PickController:
             reason = "another item lies on it (lifting it would fling that one)"
             return Intercept(False, reason, float("nan"), np.full(3, np.nan))
         obstacles = [o for _, o in neighbours]
+        under = set(self.lying_under(target, neighbours)) if target is not None else set()
+        below_lip = [o for slot, o in neighbours if slot not in under]
         approach = self.config.approach_height
         for _ in range(MAX_RAISES + 1):
             config = replace(self.config, lift_height=lift, approach_height=approach)
@@ -312,7 +327,7 @@ class PickController:
             landing = path_conflicts(
                 chain,
                 hit.plan.contact_time,
-                obstacles,
+                below_lip,
                 self.belt_speed,
                 radius,
                 margin_xy=TOUCH_MARGIN_XY,
