@@ -102,6 +102,9 @@ class ItemPool:
         self.label_ids = np.array(geom_ids)[:, len(FAMILIES)]
         self.grip_ids = np.array(grip_ids)
         """The weld `item_<n>_grip` of each slot (the single cell's cup), -1 where none."""
+        self.slot_of_body = np.full(model.nbody, -1)
+        """The pool slot of each body of the model, -1 for a body that is no item."""
+        self.slot_of_body[self.body_ids] = np.arange(len(body_ids))
         self.tree_ids = model.body_treeid[self.body_ids]
         self.qpos_adr = model.jnt_qposadr[model.body_jntadr[self.body_ids]]
         self.dof_adr = model.jnt_dofadr[model.body_jntadr[self.body_ids]]

@@ -145,8 +145,6 @@ class ItemRiding:
         self._rider_of = np.full(pool.size, -1)  # flow item id riding in each slot, -1: none
         self._born = np.full(pool.size, np.inf)  # sim time each slot's item was first seen
         self._seen = np.full(pool.size, -1)
-        self._slot_of_body = np.full(model.nbody, -1)
-        self._slot_of_body[pool.body_ids] = np.arange(pool.size)
         self.rides = 0
         self.wakes = 0
 
@@ -301,7 +299,7 @@ class ItemRiding:
             return set()
         pairs = data.contact.geom[: data.ncon]
         pairs = pairs[(pairs != self.belt_geom).all(axis=1)]
-        slots = self._slot_of_body[self.model.geom_bodyid[pairs]]  # (n, 2), -1: not an item
+        slots = self.pool.slot_of_body[self.model.geom_bodyid[pairs]]  # (n, 2), -1: not an item
         out = set()
         for a, b in slots.tolist():
             if a >= 0 and b >= 0 and a in calm and b in calm:

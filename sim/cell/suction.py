@@ -106,8 +106,6 @@ class SuctionCup:
         self.site_id = model.site(prefix + CUP_SITE).id
         self.grip_ids = pool.grip_ids if prefix == "" else pool.grip_ids_of(prefix)
         """This cup's weld of each pool slot (-1 where the model has none)."""
-        self._slot_of_body = np.full(model.nbody, -1)  # pool slot of each body, -1: none
-        self._slot_of_body[pool.body_ids] = np.arange(pool.size)
         first = model.body_geomadr[self.body_id]
         geoms = np.arange(first, first + model.body_geomnum[self.body_id])
         geoms = geoms[(model.geom_contype[geoms] | model.geom_conaffinity[geoms]) != 0]
@@ -200,7 +198,7 @@ class SuctionCup:
         )
         tried = set()  # a slot the lip touches at several points is judged once
         best, best_z = None, -math.inf
-        for slot in self._slot_of_body[self.model.geom_bodyid[touching]].tolist():
+        for slot in self.pool.slot_of_body[self.model.geom_bodyid[touching]].tolist():
             if slot < 0 or slot in tried:
                 continue
             tried.add(slot)

@@ -44,6 +44,9 @@ from sim.flow.catalogue import Catalogue, ItemType
 
 PRESS_DEPTH_M = 0.003
 """The cup aims this far below the item's top so that its lip touches it [m]."""
+LIES_ON_DZ_M = 1e-3
+"""Of two items whose outlines overlap, the one whose centre is this much higher lies on the
+other [m]."""
 DEFAULT_TOP_Z = 0.02
 """Assumed top of an item when no item is found near the detection [m]."""
 NEAR_M = 0.08
@@ -221,13 +224,13 @@ class PickController:
         """Slots of the neighbours lying on or leaning against the item in `target`: their
         outlines overlap and their centre is higher. Lifting the item at the cup's 100 m/s^2
         would fling them (a standing can on a board's edge left it at 2.7 m/s)."""
-        return [slot for slot, dz in self._overlapping(target, neighbours) if dz > 1e-3]
+        return [slot for slot, dz in self._overlapping(target, neighbours) if dz > LIES_ON_DZ_M]
 
     def lying_under(self, target: int, neighbours: list[tuple[int, Obstacle]]) -> list[int]:
         """Slots of the neighbours the item in `target` lies on or leans against: their
         outlines overlap and their centre is lower. The top item of a pile is picked first;
         the cup pressing it may touch the one beneath, which it lies on anyway."""
-        return [slot for slot, dz in self._overlapping(target, neighbours) if dz < -1e-3]
+        return [slot for slot, dz in self._overlapping(target, neighbours) if dz < -LIES_ON_DZ_M]
 
     def _overlapping(
         self, target: int, neighbours: list[tuple[int, Obstacle]]
@@ -294,12 +297,14 @@ class PickController:
         # Long items overhang the bin towards the belt: keep them above the rails too.
         drop[2] = max(drop[2], self.clear_z + height)
         neighbours = self.neighbours(exclude=target)
-        if target is not None and self.resting_on(target, neighbours):
+        # (slot, height of its centre over the target's) of the neighbours overlapping it.
+        overlaps = self._overlapping(target, neighbours) if target is not None else []
+        if any(dz > LIES_ON_DZ_M for _, dz in overlaps):
             self.neighbour_refusals += 1
             reason = "another item lies on it (lifting it would fling that one)"
             return Intercept(False, reason, float("nan"), np.full(3, np.nan))
         obstacles = [o for _, o in neighbours]
-        under = set(self.lying_under(target, neighbours)) if target is not None else set()
+        under = {slot for slot, dz in overlaps if dz < -LIES_ON_DZ_M}
         below_lip = [o for slot, o in neighbours if slot not in under]
         approach = self.config.approach_height
         for _ in range(MAX_RAISES + 1):
