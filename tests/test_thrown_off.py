@@ -161,6 +161,67 @@ def test_the_top_scrap_of_a_pile_is_picked_and_the_board_under_it_left(cell):
     assert abs(_speed(cell, board) - SPEED) < 0.02
 
 
+def test_a_sheet_tilted_on_another_item_is_picked_at_its_surface(cell):
+    """A folded sheet lying half on a crushed bottle, tilted by about 15 degrees: its highest
+    corner is 5.5 mm above where the lip meets it. The cup comes down to that surface
+    (aimed at the corner, it stopped short of the sheet and never sealed), seals and bins it,
+    and the bottle under it rides on."""
+    cell.reset(SPEED)
+    types = {t.name: t for t in cell.catalogue.types}
+    under = _spawn(cell, 0, "pet_bottle_0l5_crushed", -0.30, -0.20)
+    k = [t.name for t in cell.catalogue.types].index("paper_folded_a6")
+    top_under = 2 * types["pet_bottle_0l5_crushed"].size[2]
+    sheet = cell.pool.spawn(
+        cell.data, 1, k, -0.30, -0.12, 0.0, (1, 1, 1, 1), SPEED, z_drop=top_under
+    )
+    mujoco.mj_step(cell.model, cell.data, nstep=300)
+    body = cell.pool.body_ids[sheet]
+    assert math.degrees(math.acos(cell.data.xmat[body][8])) > 10.0  # tilted
+    robot = PickController(cell, SPEED)
+    x, y = (float(v) for v in cell.data.xpos[body, :2])
+    top = robot.top_of(sheet)
+    assert robot.lip_meets(sheet, x, y, top) < top - 0.004
+    hit = robot.plan(x, y, PAPER)
+    assert hit.feasible, hit.reason
+    outcome, peak, throws = _play(robot, hit, [under])
+    assert outcome.sealed and outcome.held_to_bin and outcome.item_id == 1
+    assert throws == [] and peak[under] < 0.5, peak
+
+
+def test_of_two_bottles_side_by_side_the_higher_is_picked_first(cell):
+    """Two lying bottles touching side by side, both narrower than the lip, 2.6 mm apart in
+    height: the lip coming down on either reaches over the other. The lower one waits (the lip
+    would rest on its higher neighbour); the higher one is picked, the lip pressing the lower
+    one less deep than its own item, then the lower one. (Refusing both left them on the
+    belt, each waiting for the other.)"""
+    cell.reset(SPEED)
+    k = [t.name for t in cell.catalogue.types].index("pet_bottle_0l5")
+    radius = [t for t in cell.catalogue.types if t.name == "pet_bottle_0l5"][0].size[0]
+    high, low = 0.92, 0.88
+    y_low = 0.10 - radius * (high + low)  # touching
+    higher = cell.pool.spawn(
+        cell.data, 0, k, -0.30, 0.10, 0.0, (1, 1, 1, 1), SPEED, scale=(high,) * 3
+    )
+    lower = cell.pool.spawn(
+        cell.data, 1, k, -0.30, y_low, 0.0, (1, 1, 1, 1), SPEED, scale=(low,) * 3
+    )
+    mujoco.mj_step(cell.model, cell.data, nstep=300)
+    robot = PickController(cell, SPEED)
+    assert robot.top_of(higher) - robot.top_of(lower) == pytest.approx(0.0026, abs=5e-4)
+
+    def xy(slot):
+        return tuple(float(v) for v in cell.data.xpos[cell.pool.body_ids[slot], :2])
+
+    waits = robot.plan(*xy(lower), PLASTIC)
+    assert not waits.feasible and "beside a neighbour" in waits.reason
+    hit = robot.plan(*xy(higher), PLASTIC)
+    assert hit.feasible, hit.reason
+    outcome, peak, throws = _play(robot, hit, [lower])
+    assert outcome.sealed and outcome.held_to_bin and outcome.item_id == 0
+    assert throws == [] and abs(peak[lower] - SPEED) < 0.05, peak
+    assert robot.plan(*xy(lower), PLASTIC).feasible
+
+
 def test_a_failed_seal_leaves_the_item_and_its_neighbour_on_the_belt(cell):
     cell.reset(SPEED)
     target = _spawn(cell, 0, "can_330_standing", -0.30, 0.10)
