@@ -267,6 +267,12 @@ RUN_CASES = [
         "robot.place_pause_s",
         {"c.toml": "[robot]\nplace_pause_s = 60\n"},
     ),  # noqa: E501
+    (
+        "config-idle-sleep-text",
+        ["--config", "{tmp}/c.toml"],
+        "robot.idle_sleep",
+        {"c.toml": '[robot]\nidle_sleep = "yes"\n'},
+    ),  # noqa: E501
     ("config-world-unknown", ["--config", "{tmp}/c.toml"], "world", {"c.toml": 'world = "odd"\n'}),
     (
         "config-overlap-share-text",

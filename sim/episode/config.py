@@ -58,6 +58,9 @@ TOML layout (every key optional; defaults are the headline episode)::
     [robot]                     # extra dwell after each pick / place (thesis: ~0.5 s each)
     pick_pause_s = 0.0
     place_pause_s = 0.0
+    idle_sleep = true           # an idle robot sleeps in MuJoCo until its next pick
+                                # (sim/cell/idle_sleep.py); false: the physics to the bit
+                                # as before it
     [video]
     fps = 10.0                  # frames per simulated second
     width = 640
@@ -296,7 +299,8 @@ class QLearning:
 
 @dataclass(frozen=True)
 class Robot:
-    """Extra robot dwell at the pick (after the seal) and at the place (after the release) [s].
+    """Extra robot dwell at the pick (after the seal) and at the place (after the release) [s],
+    and whether an idle robot sleeps in MuJoCo (`sim.cell.idle_sleep`).
 
     0 is the physical robot (ABB's 35 ms of vacuum at each end only). The thesis's simulator
     paused about half a second after each pick and each place (4.2); set both to 0.5 to
@@ -305,11 +309,14 @@ class Robot:
 
     pick_pause_s: float = 0.0
     place_pause_s: float = 0.0
+    idle_sleep: bool = True
 
     def __post_init__(self) -> None:
         for name in ("pick_pause_s", "place_pause_s"):
             v = getattr(self, name)
             _check(_number(v) and 0.0 <= v <= 2.0, f"robot.{name}", "0..2 s", v, None)
+        v = self.idle_sleep
+        _check(isinstance(v, bool), "robot.idle_sleep", "true | false", v, None)
 
 
 @dataclass(frozen=True)

@@ -254,6 +254,7 @@ class Episode:
                 pauses.place_pause_s,
                 items=self.flow.item_types(cell.catalogue),
                 suction=SuctionConfig(vacuum=float(config.cup.vacuum_pa)),
+                idle_sleep=pauses.idle_sleep,
                 **_prefixed(robot_cell),
             )
             for robot_cell in self._robot_cells()
@@ -301,7 +302,10 @@ class Episode:
             # How far the cup, or an item hanging from it, reaches around and below its centre
             # [m] (the riders its planned path passes within this of are woken as a pick starts).
             reach = (robot.suction.radius + radius, 2.0 * radius)
-            energy = EnergyMeter(robot_cell.model, self.data, **_prefixed(robot_cell))
+            asleep = robot.sleep.asleep if robot.sleep.enabled else None
+            energy = EnergyMeter(
+                robot_cell.model, self.data, asleep=asleep, **_prefixed(robot_cell)
+            )
             self.stations.append(RobotStation(k, robot, energy, context, planner, reach))
         self._deciding = None
         period = config.observation_period_s

@@ -38,6 +38,7 @@ from planner.motion.trajectory import State
 from sim.cell.cell import Cell
 from sim.cell.conveyor import rail_top_z
 from sim.cell.executor import Playback
+from sim.cell.idle_sleep import IdleSleep
 from sim.cell.robot import tcp_position
 from sim.cell.suction import SuctionConfig, SuctionCup
 from sim.flow.catalogue import Catalogue, ItemType
@@ -131,6 +132,7 @@ class PickController:
             controller reads ("" for the robot's own names; a robot of a sorting line,
             `sim.cell.line_model`). The trajectories are still planned and played by the
             cell's `generator` and `executor`.
+        idle_sleep: Let the robot sleep in MuJoCo while it is idle (`sim.cell.idle_sleep`).
     """
 
     def __init__(
@@ -143,9 +145,11 @@ class PickController:
         suction: SuctionConfig | None = None,
         *,
         prefix: str = "",
+        idle_sleep: bool = False,
     ):
         self.cell = cell
         self.prefix = prefix
+        self.sleep = IdleSleep(cell.model, cell.data, prefix, idle_sleep)
         self.belt_speed = float(belt_speed)
         base = PickPlaceConfig()
         # Extra dwell (the thesis's pauses): the cup rides with the item after the seal, and
@@ -448,6 +452,7 @@ class PickController:
                 cycle_time=float(plan.chain.duration) + RELEASE_CLEAR_S,
             )
         )
+        self.sleep.busy()
         self._pick = _PickInProgress(
             chain=plan.chain,
             target=int(target),
@@ -515,6 +520,7 @@ class PickController:
         if cup.held_slot is not None:  # finish the release (normally already done)
             return None
         self._pick = None
+        self.sleep.idle()
         sealed = [e for e in pick.events if e.kind == "sealed"]
         item_id = sealed[0].item_id if sealed else -1
         released = any(e.kind == "released" and e.item_id == item_id for e in pick.events)

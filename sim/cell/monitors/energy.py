@@ -78,6 +78,9 @@ class EnergyMeter:
         drive: The drives' losses.
         prefix: Name prefix of the robot metered ("" for the robot's own names; "r1_" for
             robot `r1_` of a sorting line, `sim.cell.line_model`).
+        asleep: f() -> whether the robot sleeps now (`sim.cell.idle_sleep.IdleSleep.asleep`),
+            or None (it never does). Asleep, it is metered holding still with the torques it
+            came to rest with (MuJoCo computes none for a sleeping body).
 
     Attributes:
         mechanical_j: Integral of sum |tau omega| so far [J].
@@ -95,8 +98,10 @@ class EnergyMeter:
         drive: DriveModel | None = None,
         *,
         prefix: str = "",
+        asleep=None,
     ):
         self.data = data
+        self._asleep = asleep
         drive = drive or DriveModel()
         ids = [model.actuator(prefix + name).id for name in ACTUATORS]
         self._actuators = np.array(ids)
@@ -114,6 +119,7 @@ class EnergyMeter:
             ids = self._actuators
             self._views = lambda: (data.actuator_force[ids], data.actuator_velocity[ids])
         self._last_velocity = self._views()[1].tolist()
+        self._last_force = self._views()[0].copy()
         self._totals = [0.0, 0.0, 0.0]  # mechanical, electrical, signed [J]
         self._force = np.empty((self.BUFFER_ROWS, len(ids)))
         self._speed = np.empty((self.BUFFER_ROWS, len(ids)))
@@ -157,7 +163,13 @@ class EnergyMeter:
         """Add the power of the step (or block of idle steps) just made, over its
         `duration_s` [s]."""
         k = self._rows
-        self._force[k], self._speed[k] = self._views()
+        if self._asleep is not None and self._asleep():
+            # Asleep, MuJoCo computes no actuator forces: the motors hold the robot still with
+            # the torques they held it with when it came to rest.
+            self._force[k] = self._force[k - 1] if k else self._last_force
+            self._speed[k] = 0.0
+        else:
+            self._force[k], self._speed[k] = self._views()
         self._duration[k] = duration_s
         self._rows = k + 1
         if self._rows == self.BUFFER_ROWS:
@@ -192,4 +204,5 @@ class EnergyMeter:
             steps[0], steps[1:] = self._totals[i], rate * duration
             self._totals[i] = float(np.cumsum(steps)[-1])
         self._last_velocity = speed[-1].tolist()
+        self._last_force = force[-1].copy()
         self._rows = 0
