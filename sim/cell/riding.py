@@ -111,12 +111,29 @@ class PlannedPath:
         first = min(max(first, 0), len(self.times) - 1)
         ahead = self.times[first:] - self.times[first]
         cup = self.cup[first:]
+        reach = self.reach_xy + PATH_MARGIN_M + radius
+        # Items the cup cannot come near, whichever sample: farther across the belt than
+        # `reach` from every sample, or along it from every sample less the belt's travel
+        # (hypot(dx, dy) is never less than |dx| or |dy|). The rest are checked sample by
+        # sample.
+        along = cup[:, 0] - belt_speed * ahead
+        out = np.zeros(len(centre), dtype=bool)
+        maybe = (
+            (centre[:, 1] > cup[:, 1].min() - reach)
+            & (centre[:, 1] < cup[:, 1].max() + reach)
+            & (centre[:, 0] > along.min() - reach)
+            & (centre[:, 0] < along.max() + reach)
+        )
+        if not maybe.any():
+            return out
+        centre, radius, reach = centre[maybe], radius[maybe], reach[maybe]
         top = centre[:, 2] + radius
         dx = cup[None, :, 0] - (centre[:, 0, None] + belt_speed * ahead[None, :])
         dy = cup[None, :, 1] - centre[:, 1, None]
-        near = np.hypot(dx, dy) < (self.reach_xy + PATH_MARGIN_M + radius)[:, None]
+        near = np.hypot(dx, dy) < reach[:, None]
         low = cup[None, :, 2] < (top + self.reach_z + PATH_MARGIN_M)[:, None]
-        return np.any(near & low, axis=1)
+        out[maybe] = np.any(near & low, axis=1)
+        return out
 
 
 class ItemRiding:
@@ -300,12 +317,9 @@ class ItemRiding:
         pairs = data.contact.geom[: data.ncon]
         pairs = pairs[(pairs != self.belt_geom).all(axis=1)]
         slots = self.pool.slot_of_body[self.model.geom_bodyid[pairs]]  # (n, 2), -1: not an item
-        out = set()
-        for a, b in slots.tolist():
-            if a >= 0 and b >= 0 and a in calm and b in calm:
-                continue  # two settled items touching: they ride on together
-            out.update(x for x in (a, b) if x >= 0)
-        return out
+        if calm:  # two settled items touching: they ride on together
+            slots = slots[~np.isin(slots, np.fromiter(calm, dtype=int)).all(axis=1)]
+        return set(np.unique(slots[slots >= 0]).tolist())
 
     def _ride(self, data: mujoco.MjData, slot: int, belt_speed: float) -> None:
         m, geom, body = self.model, self.pool.geom_id(slot), self.pool.body_ids[slot]
