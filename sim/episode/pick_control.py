@@ -47,6 +47,9 @@ PRESS_DEPTH_M = 0.003
 """The cup aims this far below the item's top so that its lip touches it [m]."""
 LIP_RING_POINTS = 16
 """Points on the lip's rim at which the item's surface under the cup is measured."""
+_RIM_ANGLES = np.linspace(0.0, 2.0 * np.pi, LIP_RING_POINTS, endpoint=False)
+_RIM = np.stack([np.cos(_RIM_ANGLES), np.sin(_RIM_ANGLES)], axis=1)  # unit circle, (n, 2)
+_DOWN = np.array([0.0, 0.0, -1.0])
 TILTED_SURFACE_M = 1e-3
 """The cup aims at the item's surface under its lip, not the item's highest point, where that
 surface lies this much lower (a tilted item, one leaning on another) [m]."""
@@ -183,14 +186,13 @@ class PickController:
                 best, best_d = int(slot), d
         return best
 
-    def item_near(self, x: float, y: float) -> tuple[float, float]:
-        """(top height [m], heading [rad]) of the item nearest (x, y) now.
+    def item_shape(self, slot: int | None) -> tuple[float, float]:
+        """(top height [m], heading [rad]) of the item in `slot` (`slot_near` a detection) now.
 
         The stand-in for what a stereo camera (the thesis's ZED) measures of an item's shape:
         read from the simulation in both perception modes. (DEFAULT_TOP_Z, 0) when no item
-        is near.
+        is near (`slot` None).
         """
-        slot = self.slot_near(x, y)
         if slot is None:
             return DEFAULT_TOP_Z, 0.0
         xmat = self.cell.data.xmat[self.cell.pool.body_ids[slot]]
@@ -211,15 +213,15 @@ class PickController:
         geom = self.cell.pool.geom_id(slot)
         pos, mat = data.geom_xpos[geom], data.geom_xmat[geom]
         size, kind = model.geom_size[geom], int(model.geom_type[geom])
-        angles = np.linspace(0.0, 2.0 * np.pi, LIP_RING_POINTS, endpoint=False)
-        radius = self.suction.radius
-        points = [(x, y)] + [(x + radius * np.cos(a), y + radius * np.sin(a)) for a in angles]
-        down, start_z = np.array([0.0, 0.0, -1.0]), top + 0.05
+        start_z = top + 0.05
+        starts = np.empty((LIP_RING_POINTS + 1, 3))
+        starts[0, :2] = x, y  # the centre, then the rim
+        starts[1:, :2] = (x, y) + self.suction.radius * _RIM
+        starts[:, 2] = start_z
         hits = [
             start_z - dist
-            for px, py in points
-            if (dist := mujoco.mju_rayGeom(pos, mat, size, np.array([px, py, start_z]), down, kind))
-            >= 0.0
+            for start in starts
+            if (dist := mujoco.mju_rayGeom(pos, mat, size, start, _DOWN, kind)) >= 0.0
         ]
         if not hits or top - max(hits) < TILTED_SURFACE_M:
             return top
@@ -227,7 +229,7 @@ class PickController:
 
     def neighbours(self, exclude: int | None) -> list[tuple[int, Obstacle]]:
         """(slot, obstacle) of the items over the belt but `exclude` (a slot), measured now
-        (the same stand-in for a stereo camera as `item_near`)."""
+        (the same stand-in for a stereo camera as `item_shape`)."""
         pool, data = self.cell.pool, self.cell.data
         belt = pool.belt.geometry
         out = []
@@ -322,7 +324,7 @@ class PickController:
         """
         self._request = (float(x), float(y), int(bin_class))
         target = self.slot_near(x, y)
-        top, yaw = self.item_near(x, y)
+        top, yaw = self.item_shape(target)
         # Turn axis 4 on the way so the item's long axis ends along the bins' long side (x).
         # An item looks the same turned by pi: of the turns that align it, take the one that
         # ends axis 4 nearest zero, so its angle never drifts into the joint's +-pi limit.
