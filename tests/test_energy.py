@@ -11,7 +11,8 @@ import pytest
 
 from planner.decision.energy_cost import EnergyPrice
 from planner.errors import PlannerInputError
-from sim.cell.monitors.energy import DriveModel, EnergyMeter
+from sim.cell.idle_sleep import robot_trees
+from sim.cell.monitors.energy import ActuatorLog, DriveModel, EnergyMeter
 from sim.cell.robot import motor_qpos, set_motor_targets
 from sim.episode import config
 from sim.episode.runner import run_episode
@@ -181,7 +182,7 @@ def test_buffered_integration_is_step_by_step_to_the_bit():
     rng = np.random.default_rng(3)
     last = data.actuator_velocity[ids].tolist()
     want = [0.0, 0.0, 0.0]
-    for step in range(2 * EnergyMeter.BUFFER_ROWS + 37):
+    for step in range(2 * ActuatorLog.BUFFER_ROWS + 37):
         tau, speed = rng.normal(0.0, 20.0, 4), rng.normal(0.0, 3.0, 4)
         data.actuator_force[ids], data.actuator_velocity[ids] = tau, speed
         duration = 0.001 if step % 50 else 0.001 * (1 + step % 7)
@@ -196,6 +197,59 @@ def test_buffered_integration_is_step_by_step_to_the_bit():
         want = [
             w + p * duration for w, p in zip(want, (mechanical, electrical, signed), strict=True)
         ]
-        if step in (5, EnergyMeter.BUFFER_ROWS + 3):  # a reading mid-way flushes the buffer
+        if step in (5, ActuatorLog.BUFFER_ROWS + 3):  # a reading mid-way flushes the buffer
             assert meter.reading() == (want[0], want[1])
     assert (meter.mechanical_j, meter.electrical_j, meter.signed_j) == tuple(want)
+
+
+def _step_by_step(rows, last_velocity, last_force):
+    """Reference: (mechanical, electrical, signed) [J] of rows (tau, omega, duration, asleep),
+    one step at a time; asleep, the robot holds the torques of its last awake step, still."""
+    drive = DriveModel()
+    inverse_km2 = [1.0 / drive.arm_motor_constant**2] * 3 + [1.0 / drive.axis4_motor_constant**2]
+    want, last, held = [0.0, 0.0, 0.0], list(last_velocity), list(last_force)
+    for tau, speed, duration, asleep in rows:
+        tau, speed = (held, [0.0] * 4) if asleep else (list(tau), list(speed))
+        mechanical = driving = signed = copper = 0.0
+        for f, v, v0, k in zip(tau, speed, last, inverse_km2, strict=True):
+            power = f * (0.5 * (v + v0))
+            mechanical, driving = mechanical + abs(power), driving + max(power, 0.0)
+            signed, copper = signed + power, copper + f * f * k
+        last, held = speed, tau
+        electrical = driving / drive.efficiency + copper
+        want = [
+            w + p * duration for w, p in zip(want, (mechanical, electrical, signed), strict=True)
+        ]
+    return want
+
+
+def test_meters_sharing_a_log_meter_an_asleep_robot_holding_still_to_the_bit():
+    """Two meters of one robot on one log, recorded once a step: the one that watches the
+    robot's sleep counts the asleep steps with the torques of the robot's last awake step and
+    no speed, the other as recorded; both equal the step-by-step sums to the bit, across
+    the log's flushes and readings mid-way."""
+    model, data = scene_at_home()
+    tree = int(robot_trees(model)[0])
+    log = ActuatorLog(data)
+    ids = [model.actuator(name).id for name in ("motor_1", "motor_2", "motor_3", "axis4")]
+    start = (data.actuator_velocity[ids].tolist(), data.actuator_force[ids].tolist())
+    watching = EnergyMeter(model, data, asleep_tree=tree, log=log)
+    plain = EnergyMeter(model, data, log=log)
+    rng = np.random.default_rng(5)
+    rows = []
+    for step in range(2 * ActuatorLog.BUFFER_ROWS + 91):
+        tau, speed = rng.normal(0.0, 20.0, 4), rng.normal(0.0, 3.0, 4)
+        asleep = step < 3 or (step // 40) % 3 == 1  # asleep from the start, then in spells
+        data.actuator_force[ids], data.actuator_velocity[ids] = tau, speed
+        data.tree_asleep[tree] = 0 if asleep else -1
+        duration = 0.001 if step % 50 else 0.001 * (1 + step % 7)
+        log.record(duration)
+        rows.append((tau.tolist(), speed.tolist(), duration, asleep))
+        if step in (7, ActuatorLog.BUFFER_ROWS + 45):  # a reading mid-way
+            assert watching.reading() == tuple(_step_by_step(rows, *start)[:2])
+    assert [watching.mechanical_j, watching.electrical_j, watching.signed_j] == _step_by_step(
+        rows, *start
+    )
+    awake = [(tau, speed, duration, False) for tau, speed, duration, _ in rows]
+    assert [plain.mechanical_j, plain.electrical_j, plain.signed_j] == _step_by_step(awake, *start)
+    assert watching.mechanical_j < 0.8 * plain.mechanical_j  # the asleep spells count

@@ -68,7 +68,7 @@ def test_a_sleeping_robot_is_metered_holding_still_as_when_awake():
     for enabled in (False, True):
         cell = _settled_cell()
         sleep = IdleSleep(cell.model, cell.data, enabled=enabled)
-        meter = EnergyMeter(cell.model, cell.data, asleep=sleep.asleep if enabled else None)
+        meter = EnergyMeter(cell.model, cell.data, asleep_tree=sleep.tree if enabled else None)
         dt = float(cell.model.opt.timestep)
         for _ in range(2000):
             mujoco.mj_step(cell.model, cell.data)

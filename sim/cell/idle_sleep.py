@@ -60,7 +60,9 @@ class IdleSleep:
     ):
         self.model, self.data, self.enabled = model, data, bool(enabled)
         self.trees = robot_trees(model, prefix)
-        self._tree = int(self.trees[0])
+        self.tree = int(self.trees[0])
+        """One of the robot's trees: all of them sleep and wake together (the loop closures
+        join them into one island)."""
         if self.enabled:
             self.idle()
         else:  # as compiled (a model shared by episodes may have been switched by another)
@@ -79,4 +81,4 @@ class IdleSleep:
 
     def asleep(self) -> bool:
         """Whether the robot sleeps now."""
-        return bool(self.data.tree_asleep[self._tree] >= 0)
+        return bool(self.data.tree_asleep[self.tree] >= 0)

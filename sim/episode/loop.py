@@ -30,7 +30,7 @@ from sim.cell.bins import Bins
 from sim.cell.cell import PICK_Z_NOMINAL, Cell
 from sim.cell.depth_noise import ZED_CLASS
 from sim.cell.held_slots import held_mask
-from sim.cell.monitors.energy import EnergyMeter
+from sim.cell.monitors.energy import ActuatorLog, EnergyMeter
 from sim.cell.monitors.mj_warnings import WarningCounter
 from sim.cell.monitors.thrown import ThrowWatch
 from sim.cell.riding import ItemRiding, PlannedPath
@@ -280,6 +280,7 @@ class Episode:
         self.mj_warnings = WarningCounter(self.data)
         self.throw_watch = ThrowWatch(self.model, cell.pool)
         self._timestep = float(self.model.opt.timestep)  # [s]
+        self.actuator_log = ActuatorLog(self.data)  # read by every robot's energy meter
         self.stations = []
         for k, (robot_cell, robot) in enumerate(zip(self._robot_cells(), robots, strict=True)):
             context = DecisionContext(
@@ -302,9 +303,12 @@ class Episode:
             # How far the cup, or an item hanging from it, reaches around and below its centre
             # [m] (the riders its planned path passes within this of are woken as a pick starts).
             reach = (robot.suction.radius + radius, 2.0 * radius)
-            asleep = robot.sleep.asleep if robot.sleep.enabled else None
             energy = EnergyMeter(
-                robot_cell.model, self.data, asleep=asleep, **_prefixed(robot_cell)
+                robot_cell.model,
+                self.data,
+                asleep_tree=robot.sleep.tree if robot.sleep.enabled else None,
+                log=self.actuator_log,
+                **_prefixed(robot_cell),
             )
             self.stations.append(RobotStation(k, robot, energy, context, planner, reach))
         self._deciding = None
@@ -456,8 +460,7 @@ class Episode:
             station.robot.before_step()
         nstep = 1 if busy else self._idle_steps()
         mujoco.mj_step(self.model, self.data, nstep=nstep)
-        for station in self.stations:
-            station.energy.add(nstep * self._timestep)
+        self.actuator_log.record(nstep * self._timestep)
         for station in busy:
             station.robot.after_step()
         self._after_step()

@@ -60,36 +60,85 @@ ACTUATORS = ("motor_1", "motor_2", "motor_3", "axis4")
 """The robot's actuated joints' actuators, by name in the MJCF."""
 
 
+class ActuatorLog:
+    """The cell's actuator forces and speeds (and its trees' sleep) after each physics step,
+    buffered for the energy meters that read them.
+
+    A line of four robots meters four robots every millisecond: one `record` a step copies the
+    whole model's `actuator_force` and `actuator_velocity` rows (two copies, however many
+    robots) and every meter works out its robot's powers from the buffer in numpy when a figure
+    is read or the buffer is full (`BUFFER_ROWS`).
+
+    Args:
+        data: The cell's data.
+    """
+
+    BUFFER_ROWS = 512
+    """Steps buffered before the meters integrate them."""
+
+    def __init__(self, data: mujoco.MjData):
+        self.data = data
+        n = self.BUFFER_ROWS
+        self.force = np.empty((n, len(data.actuator_force)))
+        self.speed = np.empty((n, len(data.actuator_velocity)))
+        self.duration = np.empty(n)
+        self.tree_asleep: np.ndarray | None = None  # (n, ntree) once a meter watches sleep
+        self.rows = 0
+        self.meters: list[EnergyMeter] = []
+
+    def watch_sleep(self) -> None:
+        """Record the trees' sleep too (a meter of a robot that may sleep reads it)."""
+        if self.tree_asleep is None:
+            if self.rows:
+                raise RuntimeError("watch_sleep after steps were recorded")
+            self.tree_asleep = np.empty((self.BUFFER_ROWS, len(self.data.tree_asleep)), np.int32)
+
+    def record(self, duration_s: float) -> None:
+        """Record the step (or block of idle steps) just made, which covered `duration_s` [s]."""
+        k, data = self.rows, self.data
+        self.force[k] = data.actuator_force
+        self.speed[k] = data.actuator_velocity
+        if self.tree_asleep is not None:
+            self.tree_asleep[k] = data.tree_asleep
+        self.duration[k] = duration_s
+        self.rows = k + 1
+        if self.rows == self.BUFFER_ROWS:
+            for meter in self.meters:
+                meter._integrate()
+            self.rows = 0
+            for meter in self.meters:
+                meter._done = 0
+
+
 class EnergyMeter:
-    """Integrates the motors' mechanical and electrical energy as the physics steps.
+    """Integrates one robot's motors' mechanical and electrical energy as the physics steps.
 
-    Call `add(duration)` after each `mj_step` with the simulated time it covered: the power is
-    taken at the state the step left (for a block of idle steps, the holding torque over the
-    whole block; the motors then stand still and only the copper loss counts).
+    The power of a step is taken at the state it left (for a block of idle steps, the holding
+    torque over the whole block; the motors then stand still and only the copper loss counts).
+    Alone, the meter keeps its own `ActuatorLog`: call `add(duration)` after each `mj_step`
+    with the simulated time it covered. The meters of a line share one log (`log`): call its
+    `record(duration)` once a step instead.
 
-    `add` only copies the step's actuator forces and speeds into a buffer (a line steps four
-    meters every millisecond); the powers and their integrals are computed from the buffer in
-    numpy when a figure is read or the buffer is full (`BUFFER_ROWS`), with the same operations
-    in the same order as `power_w` does one step at a time, so every figure is the same to the
-    bit (tests/test_energy.py).
+    Figures are computed from the log in numpy when read, with the same operations in the same
+    order as `power_w` does one step at a time, so every figure is the same to the bit
+    (tests/test_energy.py).
 
     Args:
         model, data: The cell's model and data.
         drive: The drives' losses.
         prefix: Name prefix of the robot metered ("" for the robot's own names; "r1_" for
             robot `r1_` of a sorting line, `sim.cell.line_model`).
-        asleep: f() -> whether the robot sleeps now (`sim.cell.idle_sleep.IdleSleep.asleep`),
-            or None (it never does). Asleep, it is metered holding still with the torques it
-            came to rest with (MuJoCo computes none for a sleeping body).
+        asleep_tree: A kinematic tree of the robot that sleeps when it does
+            (`sim.cell.idle_sleep.IdleSleep.tree`), or None (it never does). Asleep, it is
+            metered holding still with the torques it came to rest with (MuJoCo computes none
+            for a sleeping body).
+        log: The log shared with the cell's other meters (None: the meter's own).
 
     Attributes:
         mechanical_j: Integral of sum |tau omega| so far [J].
         electrical_j: Regenerative-free electrical energy so far [J].
         signed_j: Net work of the motors so far, driving minus braking [J].
     """
-
-    BUFFER_ROWS = 512
-    """Steps buffered before their energy is integrated."""
 
     def __init__(
         self,
@@ -98,33 +147,24 @@ class EnergyMeter:
         drive: DriveModel | None = None,
         *,
         prefix: str = "",
-        asleep=None,
+        asleep_tree: int | None = None,
+        log: ActuatorLog | None = None,
     ):
         self.data = data
-        self._asleep = asleep
+        self.log = log if log is not None else ActuatorLog(data)
+        self.log.meters.append(self)
+        self._done = self.log.rows  # log rows already integrated
+        self._asleep_tree = asleep_tree
+        if asleep_tree is not None:
+            self.log.watch_sleep()
         drive = drive or DriveModel()
-        ids = [model.actuator(prefix + name).id for name in ACTUATORS]
-        self._actuators = np.array(ids)
+        self._actuators = np.array([model.actuator(prefix + name).id for name in ACTUATORS])
         constants = [drive.arm_motor_constant] * 3 + [drive.axis4_motor_constant]
         self._inverse_km2 = (1.0 / np.square(constants)).tolist()
         self._efficiency = drive.efficiency
-        # Views of the actuators' forces and speeds in `data` (one slice when the actuators are
-        # consecutive, as in the cell).
-        first = int(self._actuators[0])
-        if np.array_equal(self._actuators, np.arange(first, first + len(ids))):
-            span = slice(first, first + len(ids))
-            force, speed = data.actuator_force[span], data.actuator_velocity[span]
-            self._views = lambda: (force, speed)
-        else:
-            ids = self._actuators
-            self._views = lambda: (data.actuator_force[ids], data.actuator_velocity[ids])
-        self._last_velocity = self._views()[1].tolist()
-        self._last_force = self._views()[0].copy()
+        self._last_velocity = data.actuator_velocity[self._actuators].tolist()
+        self._last_force = data.actuator_force[self._actuators].copy()
         self._totals = [0.0, 0.0, 0.0]  # mechanical, electrical, signed [J]
-        self._force = np.empty((self.BUFFER_ROWS, len(ids)))
-        self._speed = np.empty((self.BUFFER_ROWS, len(ids)))
-        self._duration = np.empty(self.BUFFER_ROWS)
-        self._rows = 0
 
     @property
     def mechanical_j(self) -> float:
@@ -147,8 +187,8 @@ class EnergyMeter:
         speed over it (before and after), which makes the signed work exact for MuJoCo's
         integrator (tests/test_energy.py closes the work-energy balance to 0.1 %)."""
         self._integrate()
-        force, speed = self._views()
-        tau, velocity = force.tolist(), speed.tolist()
+        tau = self.data.actuator_force[self._actuators].tolist()
+        velocity = self.data.actuator_velocity[self._actuators].tolist()
         mechanical = driving = signed = copper = 0.0
         for f, v, v0, k in zip(tau, velocity, self._last_velocity, self._inverse_km2, strict=True):
             power = f * (0.5 * (v + v0))
@@ -160,20 +200,9 @@ class EnergyMeter:
         return mechanical, driving / self._efficiency + copper, signed
 
     def add(self, duration_s: float) -> None:
-        """Add the power of the step (or block of idle steps) just made, over its
-        `duration_s` [s]."""
-        k = self._rows
-        if self._asleep is not None and self._asleep():
-            # Asleep, MuJoCo computes no actuator forces: the motors hold the robot still with
-            # the torques they held it with when it came to rest.
-            self._force[k] = self._force[k - 1] if k else self._last_force
-            self._speed[k] = 0.0
-        else:
-            self._force[k], self._speed[k] = self._views()
-        self._duration[k] = duration_s
-        self._rows = k + 1
-        if self._rows == self.BUFFER_ROWS:
-            self._integrate()
+        """Record the step (or block of idle steps) just made, over its `duration_s` [s], in
+        the meter's log (a shared log is recorded once a step by its owner instead)."""
+        self.log.record(duration_s)
 
     def reading(self) -> tuple[float, float]:
         """(mechanical, electrical) energy so far [J]."""
@@ -181,12 +210,25 @@ class EnergyMeter:
         return self._totals[0], self._totals[1]
 
     def _integrate(self) -> None:
-        """The buffered steps' powers (`power_w`'s operations, actuator by actuator in its
-        order) added to the totals step by step (a cumulative sum adds in order)."""
-        n = self._rows
-        if not n:
+        """The log's steps not yet counted: their powers (`power_w`'s operations, actuator by
+        actuator in its order) added to the totals step by step (a cumulative sum adds in
+        order)."""
+        log, start = self.log, self._done
+        n = log.rows - start
+        if n <= 0:
             return
-        force, speed = self._force[:n], self._speed[:n]
+        rows = slice(start, log.rows)
+        force = log.force[rows][:, self._actuators]
+        speed = log.speed[rows][:, self._actuators]
+        if self._asleep_tree is not None:
+            asleep = log.tree_asleep[rows, self._asleep_tree] >= 0
+            if asleep.any():
+                # Asleep, the motors hold the robot still with the torques they held it with
+                # when it came to rest (row -1: the last row before these).
+                last_awake = np.where(asleep, -1, np.arange(n))
+                np.maximum.accumulate(last_awake, out=last_awake)
+                force = np.concatenate([self._last_force[None], force])[last_awake + 1]
+                speed[asleep] = 0.0
         before = np.empty_like(speed)
         before[0], before[1:] = self._last_velocity, speed[:-1]
         power = force * (0.5 * (speed + before))
@@ -198,11 +240,11 @@ class EnergyMeter:
             signed = signed + p
             copper = copper + f * f * k
         electrical = driving / self._efficiency + copper
-        duration = self._duration[:n]
+        duration = log.duration[rows]
         for i, rate in enumerate((mechanical, electrical, signed)):
             steps = np.empty(n + 1)
             steps[0], steps[1:] = self._totals[i], rate * duration
             self._totals[i] = float(np.cumsum(steps)[-1])
         self._last_velocity = speed[-1].tolist()
         self._last_force = force[-1].copy()
-        self._rows = 0
+        self._done = log.rows
