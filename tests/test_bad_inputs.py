@@ -273,6 +273,12 @@ RUN_CASES = [
         "robot.idle_sleep",
         {"c.toml": '[robot]\nidle_sleep = "yes"\n'},
     ),  # noqa: E501
+    (
+        "config-infeed-hold-text",
+        ["--config", "{tmp}/c.toml"],
+        "belt.infeed_hold",
+        {"c.toml": '[belt]\ninfeed_hold = "yes"\n'},
+    ),  # noqa: E501
     ("config-world-unknown", ["--config", "{tmp}/c.toml"], "world", {"c.toml": 'world = "odd"\n'}),
     (
         "config-overlap-share-text",

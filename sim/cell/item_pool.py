@@ -291,14 +291,18 @@ class ItemPool:
         i, t = start, float(data.time)
         while i < len(flow) and flow.t_spawn[i] <= t:
             # Dropped a fraction of a step late: place it where the belt has carried it since.
-            x = X_INFEED + self.belt.speed * (t - float(flow.t_spawn[i]))
-            k, y, yaw = int(flow.variant[i]), float(flow.y[i]), float(flow.yaw[i])
-            self.spawn(
-                data, i, k, x, y, yaw, flow.rgba[i], vx=self.belt.speed, scale=flow.scale[i],
-                label_rgba=flow.label_rgba[i], z_drop=float(flow.z_drop[i]),
-            )  # fmt: skip
+            self.drop(data, flow, i, X_INFEED + self.belt.speed * (t - float(flow.t_spawn[i])))
             i += 1
         return i
+
+    def drop(self, data: mujoco.MjData, flow, i: int, x: float) -> int:
+        """Spawns flow item `i` at `x` along the belt [m], handed over at the belt's speed;
+        returns its slot."""
+        k, y, yaw = int(flow.variant[i]), float(flow.y[i]), float(flow.yaw[i])
+        return self.spawn(
+            data, i, k, x, y, yaw, flow.rgba[i], vx=self.belt.speed, scale=flow.scale[i],
+            label_rgba=flow.label_rgba[i], z_drop=float(flow.z_drop[i]),
+        )  # fmt: skip
 
     def park_missed(self, data: mujoco.MjData) -> list[int]:
         """Parks the items whose centre has passed the belt's discharge end; returns their ids.

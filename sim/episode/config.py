@@ -73,6 +73,9 @@ TOML layout (every key optional; defaults are the headline episode)::
     vacuum_pa = 80000.0         # vacuum below atmosphere, 1000..101325 Pa; holds area x vacuum
     [belt]
     length_m = 4.5              # 4..20 m from the infeed; the discharge end moves (recompiles)
+    infeed_hold = true          # an item that would drop into one already on the belt is held
+                                # back (sim/episode/infeed.py); false: every result to the bit
+                                # as before it
 
 A line's robots one by one, instead of `robots = N` (sim/episode/line_robots.py, docs/line.md;
 `--robots N` replaces the table by N robots at the default spacing)::
@@ -392,15 +395,19 @@ class Cup:
 
 @dataclass(frozen=True)
 class Belt:
-    """The belt's length from its infeed [m] (a model setting: the cell is compiled with it);
-    its discharge end moves, the camera and the robot stay."""
+    """The belt's length from its infeed [m] (a model setting: the cell is compiled with it;
+    its discharge end moves, the camera and the robot stay), and whether the infeed holds an
+    item back while it would drop into one already there (`sim.episode.infeed`)."""
 
     length_m: float = BELT_LENGTH_M
+    infeed_hold: bool = True
 
     def __post_init__(self) -> None:
         lo, hi = BELT_LENGTH_RANGE_M
         n = self.length_m
         _check(_number(n) and lo <= n <= hi, "belt.length_m", f"{lo}..{hi} m", n, None)
+        v = self.infeed_hold
+        _check(isinstance(v, bool), "belt.infeed_hold", "true | false", v, None)
 
 
 @dataclass(frozen=True)

@@ -40,6 +40,7 @@ from sim.episode.attribution import attributed_item
 from sim.episode.confidence import is_unsure, sure_items
 from sim.episode.config import EpisodeConfig
 from sim.episode.cycle_timing import cell_cycle_model
+from sim.episode.infeed import MAX_HOLD_S, dropped_into
 from sim.episode.metrics import EpisodeMetrics, PickRecord
 from sim.episode.pick_control import PRESS_DEPTH_M, PickController, PickOutcome
 from sim.episode.sensing import CameraPerception, TruthPerception
@@ -331,6 +332,9 @@ class Episode:
             )
         # Scheduled events: the next drop, observation, item check and decision [s].
         self.next_spawn = 0
+        self.infeed_holds = 0  # items the infeed held back (sim.episode.infeed)
+        self._infeed_late = False  # an item was held back: the due ones drop at the infeed
+        self._held_item, self._hold_start = -1, 0.0  # the item held back, since when [s]
         self.next_obs = 0.0
         self.next_check = 0.0
         self.failures: dict[int, int] = {}  # failed attempts per true item id (truth mode)
@@ -525,9 +529,14 @@ class Episode:
         station.next_decision = self.data.time
 
     def _spawn(self) -> None:
-        """Hand the due items over to the belt (at its speed, as from an infeed conveyor)."""
+        """Hand the due items over to the belt (at its speed, as from an infeed conveyor); with
+        `belt.infeed_hold`, an item that would drop into one already there is held back
+        (`sim.episode.infeed`)."""
         first = self.next_spawn
-        self.next_spawn = self.cell.pool.feed(self.data, self.flow, first)
+        if self.config.belt.infeed_hold:
+            self.next_spawn = self._feed_holding(first)
+        else:
+            self.next_spawn = self.cell.pool.feed(self.data, self.flow, first)
         mujoco.mj_kinematics(self.model, self.data)  # poses of the new items for the checks
         # An item dropped partly onto a flat one: that one touches again if it was riding.
         landing = [i for i in range(first, self.next_spawn) if self.flow.z_drop[i] > 0]
@@ -535,6 +544,30 @@ class Episode:
             self.riding.wake_near(self.data, [self.cell.pool.slot_of(i) for i in landing])
         for i in range(first, self.next_spawn):
             self.metrics.on_entered(i, int(self.flow.class_id[i]))
+
+    def _feed_holding(self, first: int) -> int:
+        """`ItemPool.feed`, holding an item back while it would drop into an item on the belt
+        (for at most `MAX_HOLD_S`); returns the next flow index. An item held back, and every
+        item due behind it until the infeed has caught up, drops at the infeed's end."""
+        pool, data, flow = self.cell.pool, self.data, self.flow
+        t, i = float(data.time), first
+        while i < len(flow) and flow.t_spawn[i] <= t:
+            late = t - float(flow.t_spawn[i])
+            x = X_INFEED if self._infeed_late else X_INFEED + pool.belt.speed * late
+            slot = pool.drop(data, flow, i, x)
+            held_for = t - self._hold_start if self._held_item == i else 0.0
+            if held_for < MAX_HOLD_S:
+                mujoco.mj_kinematics(self.model, data)
+                if dropped_into(self.model, data, pool, slot):
+                    pool.park(data, slot)
+                    if self._held_item != i:
+                        self.infeed_holds += 1
+                        self._held_item, self._hold_start = i, t
+                    self._infeed_late = True
+                    return i
+            i += 1
+        self._infeed_late = False
+        return i
 
     def _observe(self, t: float) -> None:
         t0 = time.perf_counter()

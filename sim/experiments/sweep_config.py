@@ -280,6 +280,7 @@ LATER_KEYS = {
         for name in ("camera", "cup", "belt")
     },
 }
+LATER_KEYS["belt"] = {**LATER_KEYS["belt"], "infeed_hold": False}  # no hold before it existed
 """Episode-config keys added after sweeps were first identified, with the value that gives the
 behaviour from before they existed (not their default): a grid point at that value is left out
 of the identity, so an old sweep resumes only when its episodes would still run as they did

@@ -1,0 +1,43 @@
+"""The infeed holds an item back while it would drop into an item already on the belt.
+
+The flow places each item as if it rode with the belt from its drop on, clear of the items
+before it (`sim.flow.generator`), and hands it over at the belt's speed. An item that has not
+kept its place (a lying can or bottle that rolled back off the flat item it was dropped on, one
+knocked upstream) can lie where the next item is dropped: spawned inside it, MuJoCo pushes the
+two apart with the force of a deep penetration and throws one of them off the belt (most of
+the items a four-robot line at 3.3 items/s lost, `docs/line.md`). A real feeder cannot drop an
+item into another. `dropped_into` says whether an item just dropped penetrates another item
+deeper than `DEEP_M` (MuJoCo's signed distance of the two geoms, `mj_geomDistance`): the
+episode then takes it back and drops it at the infeed's end a step later, until it drops clear
+(or it has been held for `MAX_HOLD_S`). Shallower overlaps (a few millimetres, frequent at a line's
+densities) are left to the contact solver, which separates them gently.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from sim.cell.item_pool import ItemPool
+
+DEEP_M = 0.01
+"""An item dropped into another deeper than this is held back [m]."""
+MAX_HOLD_S = 2.0
+"""Longest time one item is held back [s] (the belt carries the longest item, 0.35 m, past in
+1.9 s at x1); then it drops, into whatever is still there (a jam at the infeed)."""
+
+
+def dropped_into(model: mujoco.MjModel, data: mujoco.MjData, pool: ItemPool, slot: int) -> bool:
+    """Whether the item just dropped in `slot` (posed: `mj_kinematics` run) penetrates another
+    active item deeper than `DEEP_M`."""
+    geom = pool.geom_id(slot)
+    centre, reach = data.geom_xpos[geom], float(model.geom_rbound[geom])
+    for other in pool.active_slots().tolist():
+        if other == slot:
+            continue
+        g = pool.geom_id(other)
+        if np.linalg.norm(data.geom_xpos[g] - centre) >= reach + model.geom_rbound[g]:
+            continue
+        if mujoco.mj_geomDistance(model, data, geom, g, DEEP_M, None) < -DEEP_M:
+            return True
+    return False
