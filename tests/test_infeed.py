@@ -57,7 +57,7 @@ def _gap_at_drop(hold: bool) -> tuple[int, float]:
     adr, dof = pool.qpos_adr[first], pool.dof_adr[first]
     data.qpos[adr : adr + 2] = x, ep.flow.y[1]
     data.qvel[dof : dof + 6] = (ep.speed, 0.0, 0.0, 0.0, 0.0, 0.0)
-    while ep.next_spawn < 2:
+    while pool.slot_of(1) is None:
         ep._step()
     mujoco.mj_kinematics(ep.model, data)
     geoms = [pool.geom_id(pool.slot_of(i)) for i in (0, 1)]

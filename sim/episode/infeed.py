@@ -9,8 +9,9 @@ the items a four-robot line at 3.3 items/s lost, `docs/line.md`). A real feeder 
 item into another. `dropped_into` says whether an item just dropped penetrates another item
 deeper than `DEEP_M` (MuJoCo's signed distance of the two geoms, `mj_geomDistance`): the
 episode then takes it back and drops it at the infeed's end a step later, until it drops clear
-(or it has been held for `MAX_HOLD_S`). Shallower overlaps (a few millimetres, frequent at a line's
-densities) are left to the contact solver, which separates them gently.
+(or it has been held for `MAX_HOLD_S`); the items due after it drop as planned meanwhile.
+Shallower overlaps (a few millimetres, frequent at a line's densities) are left to the contact
+solver, which separates them gently.
 """
 
 from __future__ import annotations

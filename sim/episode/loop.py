@@ -333,8 +333,7 @@ class Episode:
         # Scheduled events: the next drop, observation, item check and decision [s].
         self.next_spawn = 0
         self.infeed_holds = 0  # items the infeed held back (sim.episode.infeed)
-        self._infeed_late = False  # an item was held back: the due ones drop at the infeed
-        self._held_item, self._hold_start = -1, 0.0  # the item held back, since when [s]
+        self._waiting: dict[int, float] = {}  # flow index of an item held back -> since [s]
         self.next_obs = 0.0
         self.next_check = 0.0
         self.failures: dict[int, int] = {}  # failed attempts per true item id (truth mode)
@@ -482,7 +481,9 @@ class Episode:
     def _after_step(self) -> None:
         """The scheduler: everything due at the current sim time except decisions."""
         t = self.data.time
-        if self.next_spawn < len(self.flow) and self.flow.t_spawn[self.next_spawn] <= t:
+        if self._waiting or (
+            self.next_spawn < len(self.flow) and self.flow.t_spawn[self.next_spawn] <= t
+        ):
             self._spawn()
         if t + 1e-9 >= self.next_obs:
             self._observe(t)
@@ -534,40 +535,42 @@ class Episode:
         (`sim.episode.infeed`)."""
         first = self.next_spawn
         if self.config.belt.infeed_hold:
-            self.next_spawn = self._feed_holding(first)
+            self.next_spawn, dropped = self._feed_holding(first)
         else:
             self.next_spawn = self.cell.pool.feed(self.data, self.flow, first)
+            dropped = range(first, self.next_spawn)
         mujoco.mj_kinematics(self.model, self.data)  # poses of the new items for the checks
         # An item dropped partly onto a flat one: that one touches again if it was riding.
-        landing = [i for i in range(first, self.next_spawn) if self.flow.z_drop[i] > 0]
+        landing = [i for i in dropped if self.flow.z_drop[i] > 0]
         if landing:
             self.riding.wake_near(self.data, [self.cell.pool.slot_of(i) for i in landing])
-        for i in range(first, self.next_spawn):
+        for i in dropped:
             self.metrics.on_entered(i, int(self.flow.class_id[i]))
 
-    def _feed_holding(self, first: int) -> int:
-        """`ItemPool.feed`, holding an item back while it would drop into an item on the belt
-        (for at most `MAX_HOLD_S`); returns the next flow index. An item held back, and every
-        item due behind it until the infeed has caught up, drops at the infeed's end."""
+    def _feed_holding(self, first: int) -> tuple[int, list[int]]:
+        """`ItemPool.feed`, holding back an item that would drop into an item on the belt:
+        it drops at the infeed's end once it drops clear (or has waited `MAX_HOLD_S`), while
+        the items due after it drop as planned. Returns the next flow index and the items
+        dropped now."""
         pool, data, flow = self.cell.pool, self.data, self.flow
         t, i = float(data.time), first
+        dropped, waiting = [], {}
+        due = [(k, X_INFEED, since) for k, since in self._waiting.items()]
         while i < len(flow) and flow.t_spawn[i] <= t:
-            late = t - float(flow.t_spawn[i])
-            x = X_INFEED if self._infeed_late else X_INFEED + pool.belt.speed * late
-            slot = pool.drop(data, flow, i, x)
-            held_for = t - self._hold_start if self._held_item == i else 0.0
-            if held_for < MAX_HOLD_S:
+            due.append((i, X_INFEED + pool.belt.speed * (t - float(flow.t_spawn[i])), t))
+            i += 1
+        for k, x, since in due:
+            slot = pool.drop(data, flow, k, x)
+            if t - since < MAX_HOLD_S:
                 mujoco.mj_kinematics(self.model, data)
                 if dropped_into(self.model, data, pool, slot):
                     pool.park(data, slot)
-                    if self._held_item != i:
-                        self.infeed_holds += 1
-                        self._held_item, self._hold_start = i, t
-                    self._infeed_late = True
-                    return i
-            i += 1
-        self._infeed_late = False
-        return i
+                    self.infeed_holds += k not in self._waiting
+                    waiting[k] = since
+                    continue
+            dropped.append(k)
+        self._waiting = waiting
+        return i, dropped
 
     def _observe(self, t: float) -> None:
         t0 = time.perf_counter()
@@ -719,7 +722,7 @@ class Episode:
         t = self.data.time
         if t >= self.t_cap:
             return True
-        if self.next_spawn < len(self.flow) or len(self.cell.pool.active_slots()):
+        if self.next_spawn < len(self.flow) or self._waiting or len(self.cell.pool.active_slots()):
             return False
         return t >= self.t_last_spawn + SETTLE_S
 
@@ -729,6 +732,8 @@ class Episode:
         events = [self.next_obs, self.next_check, *(s.next_decision for s in self.stations)]
         if self.next_spawn < len(self.flow):
             events.append(float(self.flow.t_spawn[self.next_spawn]))
+        if self._waiting:  # an item held back at the infeed drops as soon as it drops clear
+            events.append(t)
         if self.video is not None:
             events.append(self.video.next_frame_time)
         return max(1, int(math.ceil((min(events) - t) / dt - 1e-9)))
