@@ -201,10 +201,15 @@ def test_episode_config_world_keys():
     uniform_no_gap = config.load(None, world="uniform", min_gap_m=0.0).world_variation
     assert uniform_no_gap.min_gap_m == 0.0 and uniform_no_gap.size_jitter == 0.0
     # Every later key is an episode-config key; at the value LATER_KEYS holds the episode runs
-    # as before the key existed (the uniform world, no depth noise, the HMMs' classes).
-    before = config.load(
-        None, world="uniform", classifier="hmm", depth_noise=False, min_class_confidence=0.0
-    ).to_dict()
+    # as before the key existed (the uniform world, no depth noise, the HMMs' classes, no hold
+    # at the infeed).
+    before = (
+        config.load(
+            None, world="uniform", classifier="hmm", depth_noise=False, min_class_confidence=0.0
+        )
+        .replace(belt=config.Belt(infeed_hold=False))
+        .to_dict()
+    )
     assert all(before[key] == value for key, value in LATER_KEYS.items())
 
 
