@@ -72,3 +72,26 @@ def test_the_infeed_holds_an_item_back_until_it_drops_clear_and_off_drops_it_ins
     assert holds == 0
     assert gap < -DEEP_M  # the overlap the hold avoids
     assert np.isfinite(gap)
+
+
+def test_an_item_that_waited_too_long_is_dropped_onto_what_is_in_its_way():
+    """A jam at the infeed: after `MAX_HOLD_S` the item is raised until it clears the item in
+    its way and lands on it, not inside it."""
+    cfg = config.load(None, perception="truth", items=5, duration_s=5.0, seed=0)
+    ep = Episode(cfg, config_cell(cfg))
+    ep.reset()
+    while ep.data.time < float(ep.flow.t_spawn[1]) - 0.1:
+        ep._step()
+    pool, data = ep.cell.pool, ep.data
+    first = pool.slot_of(0)
+    adr = pool.qpos_adr[first]
+    data.qpos[adr : adr + 2] = X_INFEED, ep.flow.y[1]
+    slot = pool.drop(data, ep.flow, 1, X_INFEED)
+    mujoco.mj_kinematics(ep.model, data)
+    assert dropped_into(ep.model, data, pool, slot)
+    ep._drop_above(1, X_INFEED, slot)
+    mujoco.mj_kinematics(ep.model, data)
+    lifted = pool.slot_of(1)
+    assert not dropped_into(ep.model, data, pool, lifted)
+    z = [float(data.xpos[pool.body_ids[s], 2]) for s in (first, lifted)]
+    assert z[1] > z[0]

@@ -295,13 +295,13 @@ class ItemPool:
             i += 1
         return i
 
-    def drop(self, data: mujoco.MjData, flow, i: int, x: float) -> int:
-        """Spawns flow item `i` at `x` along the belt [m], handed over at the belt's speed;
-        returns its slot."""
+    def drop(self, data: mujoco.MjData, flow, i: int, x: float, raise_m: float = 0.0) -> int:
+        """Spawns flow item `i` at `x` along the belt [m], handed over at the belt's speed,
+        `raise_m` [m] higher than the flow drops it; returns its slot."""
         k, y, yaw = int(flow.variant[i]), float(flow.y[i]), float(flow.yaw[i])
         return self.spawn(
             data, i, k, x, y, yaw, flow.rgba[i], vx=self.belt.speed, scale=flow.scale[i],
-            label_rgba=flow.label_rgba[i], z_drop=float(flow.z_drop[i]),
+            label_rgba=flow.label_rgba[i], z_drop=float(flow.z_drop[i]) + raise_m,
         )  # fmt: skip
 
     def park_missed(self, data: mujoco.MjData) -> list[int]:

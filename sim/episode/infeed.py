@@ -9,9 +9,9 @@ the items a four-robot line at 3.3 items/s lost, `docs/line.md`). A real feeder 
 item into another. `dropped_into` says whether an item just dropped penetrates another item
 deeper than `DEEP_M` (MuJoCo's signed distance of the two geoms, `mj_geomDistance`): the
 episode then takes it back and drops it at the infeed's end a step later, until it drops clear
-(or it has been held for `MAX_HOLD_S`); the items due after it drop as planned meanwhile.
-Shallower overlaps (a few millimetres, frequent at a line's densities) are left to the contact
-solver, which separates them gently.
+(after `MAX_HOLD_S` it is dropped onto what is still there); the items due after it drop as
+planned meanwhile. Shallower overlaps (a few millimetres, frequent at a line's densities) are
+left to the contact solver, which separates them gently.
 """
 
 from __future__ import annotations
@@ -25,7 +25,12 @@ DEEP_M = 0.01
 """An item dropped into another deeper than this is held back [m]."""
 MAX_HOLD_S = 2.0
 """Longest time one item is held back [s] (the belt carries the longest item, 0.35 m, past in
-1.9 s at x1); then it drops, into whatever is still there (a jam at the infeed)."""
+1.9 s at x1); then what still lies there is stuck (a jam at the infeed) and the item is dropped
+onto it, raised in steps of `RAISE_STEP_M` until it clears it."""
+RAISE_STEP_M = 0.01
+"""Step by which an item that waited `MAX_HOLD_S` is raised above the item in its way [m]."""
+MAX_RAISE_M = 0.2
+"""Highest it is raised [m] (above the tallest item standing)."""
 
 
 def dropped_into(model: mujoco.MjModel, data: mujoco.MjData, pool: ItemPool, slot: int) -> bool:

@@ -40,7 +40,7 @@ from sim.episode.attribution import attributed_item
 from sim.episode.confidence import is_unsure, sure_items
 from sim.episode.config import EpisodeConfig
 from sim.episode.cycle_timing import cell_cycle_model
-from sim.episode.infeed import MAX_HOLD_S, dropped_into
+from sim.episode.infeed import MAX_HOLD_S, MAX_RAISE_M, RAISE_STEP_M, dropped_into
 from sim.episode.metrics import EpisodeMetrics, PickRecord
 from sim.episode.pick_control import PRESS_DEPTH_M, PickController, PickOutcome
 from sim.episode.sensing import CameraPerception, TruthPerception
@@ -561,16 +561,29 @@ class Episode:
             i += 1
         for k, x, since in due:
             slot = pool.drop(data, flow, k, x)
-            if t - since < MAX_HOLD_S:
-                mujoco.mj_kinematics(self.model, data)
-                if dropped_into(self.model, data, pool, slot):
+            mujoco.mj_kinematics(self.model, data)
+            if dropped_into(self.model, data, pool, slot):
+                if t - since < MAX_HOLD_S:
                     pool.park(data, slot)
                     self.infeed_holds += k not in self._waiting
                     waiting[k] = since
                     continue
+                # Waited long enough (an item stuck at the infeed): dropped onto it instead.
+                self._drop_above(k, x, slot)
             dropped.append(k)
         self._waiting = waiting
         return i, dropped
+
+    def _drop_above(self, k: int, x: float, slot: int) -> None:
+        """Drop flow item `k`, which lies in `slot` inside another item, raised in steps of
+        `RAISE_STEP_M` until it clears every item (at most `MAX_RAISE_M`), as off a chute."""
+        pool, data = self.cell.pool, self.data
+        lift = 0.0
+        while lift < MAX_RAISE_M and dropped_into(self.model, data, pool, slot):
+            pool.park(data, slot)
+            lift += RAISE_STEP_M
+            slot = pool.drop(data, self.flow, k, x, raise_m=lift)
+            mujoco.mj_kinematics(self.model, data)
 
     def _observe(self, t: float) -> None:
         t0 = time.perf_counter()
