@@ -37,13 +37,12 @@ def dropped_into(model: mujoco.MjModel, data: mujoco.MjData, pool: ItemPool, slo
     """Whether the item just dropped in `slot` (posed: `mj_kinematics` run) penetrates another
     active item deeper than `DEEP_M`."""
     geom = pool.geom_id(slot)
-    centre, reach = data.geom_xpos[geom], float(model.geom_rbound[geom])
-    for other in pool.active_slots().tolist():
-        if other == slot:
-            continue
-        g = pool.geom_id(other)
-        if np.linalg.norm(data.geom_xpos[g] - centre) >= reach + model.geom_rbound[g]:
-            continue
-        if mujoco.mj_geomDistance(model, data, geom, g, DEEP_M, None) < -DEEP_M:
-            return True
-    return False
+    others = pool.active_geom[pool.active_slots()]
+    others = others[others != geom]
+    # Only the items whose bounding spheres overlap its own can lie inside it.
+    gap = np.linalg.norm(data.geom_xpos[others] - data.geom_xpos[geom], axis=1)
+    near = others[gap < model.geom_rbound[geom] + model.geom_rbound[others]]
+    return any(
+        mujoco.mj_geomDistance(model, data, geom, int(g), DEEP_M, None) < -DEEP_M
+        for g in near.tolist()
+    )

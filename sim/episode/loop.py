@@ -579,11 +579,13 @@ class Episode:
         `RAISE_STEP_M` until it clears every item (at most `MAX_RAISE_M`), as off a chute."""
         pool, data = self.cell.pool, self.data
         lift = 0.0
-        while lift < MAX_RAISE_M and dropped_into(self.model, data, pool, slot):
+        while True:
             pool.park(data, slot)
             lift += RAISE_STEP_M
             slot = pool.drop(data, self.flow, k, x, raise_m=lift)
             mujoco.mj_kinematics(self.model, data)
+            if lift >= MAX_RAISE_M or not dropped_into(self.model, data, pool, slot):
+                return
 
     def _observe(self, t: float) -> None:
         t0 = time.perf_counter()

@@ -218,8 +218,8 @@ class EnergyMeter:
         if n <= 0:
             return
         rows = slice(start, log.rows)
-        force = log.force[rows][:, self._actuators]
-        speed = log.speed[rows][:, self._actuators]
+        force = log.force[rows, self._actuators]
+        speed = log.speed[rows, self._actuators]
         if self._asleep_tree is not None:
             asleep = log.tree_asleep[rows, self._asleep_tree] >= 0
             if asleep.any():
