@@ -26,6 +26,13 @@ ROWS = 4
 STRIPES_Y = (-0.26, 0.0, 0.26)
 
 
+def _step(m, d, riding: ItemRiding, steps: int) -> None:
+    """`steps` MuJoCo steps in one block, the riders carried on after it (as an episode does)."""
+    mujoco.mj_step(m, d, nstep=steps)
+    riding.carry(steps * m.opt.timestep)
+    riding.sync(d)
+
+
 def _drop_rows(cell: Cell, rows: int, first_type: int = 0) -> None:
     """`rows` rows of 3 items (catalogue types in turn), 0.4 m apart, handed over at belt
     speed, headings within 0.3 rad of the belt's direction (neighbours never touch)."""
@@ -48,7 +55,7 @@ def _run(enabled: bool, seconds: float, speed: float = 0.185):
     most = 0
     steps = int(round(CHECK_S / m.opt.timestep))
     while d.time < seconds:
-        mujoco.mj_step(m, d, nstep=steps)
+        _step(m, d, riding, steps)
         riding.update(d)
         most = max(most, len(riding.riding()))
     slots = cell.pool.active_slots()
@@ -91,18 +98,108 @@ def test_riders_move_at_the_belt_velocity_without_contacts():
     riding = ItemRiding(cell.model, cell.pool, cell.wake_x)
     m, d = cell.model, cell.data
     while len(riding.riding()) < 6 and d.time < 2.0:
-        mujoco.mj_step(m, d, nstep=20)
+        _step(m, d, riding, 20)
         riding.update(d)
     riders = riding.riding()
     assert len(riders) == 6
     adr = cell.pool.qpos_adr[riders]
     start = d.qpos[adr[:, None] + np.arange(7)].copy()
-    mujoco.mj_step(m, d, nstep=1000)
+    awake_before = int(d.nv_awake)
+    for _ in range(500):  # 1 s, in blocks of one and three steps (an episode's both kinds)
+        _step(m, d, riding, 1)
+        _step(m, d, riding, 3)
     moved = d.qpos[adr[:, None] + np.arange(7)] - start
-    np.testing.assert_allclose(moved[:, 0], cell.belt.speed * 1.0, atol=1e-9)
+    np.testing.assert_allclose(moved[:, 0], cell.belt.speed * 2000 * m.opt.timestep, atol=1e-9)
     np.testing.assert_allclose(moved[:, 1:], 0.0, atol=1e-12)  # no sinking, drifting, turning
     geoms = {cell.pool.geom_id(int(s)) for s in riders}
     assert not any(g in geoms for g in d.contact.geom[: d.ncon].ravel())
+    # Outside MuJoCo's integrator: asleep all the way, their dofs out of the awake ones.
+    bodies = cell.pool.body_ids[riders]
+    assert np.all(d.body_awake[bodies] == int(mujoco.mjtSleepState.mjS_ASLEEP))
+    assert int(d.nv_awake) <= awake_before - 6 * len(riders)
+    # Their frames where MuJoCo's kinematics puts them (the camera draws the geoms' frames).
+    carried = {"xpos": d.xpos[bodies].copy()}
+    carried["geom_xpos"] = d.geom_xpos[[cell.pool.geom_id(int(s)) for s in riders]].copy()
+    awake = mujoco.MjData(m)
+    awake.qpos[:] = d.qpos
+    m.opt.enableflags &= ~int(mujoco.mjtEnableBit.mjENBL_SLEEP)
+    try:
+        mujoco.mj_kinematics(m, awake)
+    finally:
+        m.opt.enableflags |= int(mujoco.mjtEnableBit.mjENBL_SLEEP)
+    np.testing.assert_allclose(carried["xpos"], awake.xpos[bodies], atol=1e-12)
+    geom_ids = [cell.pool.geom_id(int(s)) for s in riders]
+    np.testing.assert_allclose(carried["geom_xpos"], awake.geom_xpos[geom_ids], atol=1e-12)
+
+
+def test_riders_stand_still_asleep_until_synced():
+    """`carry` only adds up the belt's time; `sync` moves the riders on by all of it at once."""
+    cell = Cell()
+    cell.reset(0.185)
+    _drop_rows(cell, 1)
+    riding = ItemRiding(cell.model, cell.pool, cell.wake_x)
+    m, d = cell.model, cell.data
+    while len(riding.riding()) < 3 and d.time < 2.0:
+        _step(m, d, riding, 20)
+        riding.update(d)
+    riders = riding.riding()
+    assert len(riders) == 3
+    _step(m, d, riding, 2)  # asleep now
+    bodies = cell.pool.body_ids[riders]
+    start = d.xpos[bodies].copy()
+    for _ in range(3):
+        mujoco.mj_step(m, d, nstep=7)
+        riding.carry(7 * m.opt.timestep)
+    assert riding.behind_s == pytest.approx(21 * m.opt.timestep, abs=1e-15)
+    np.testing.assert_array_equal(d.xpos[bodies], start)  # still, and still asleep
+    assert np.all(d.body_awake[bodies] == int(mujoco.mjtSleepState.mjS_ASLEEP))
+    riding.sync(d)
+    assert riding.behind_s == 0.0
+    moved = d.xpos[bodies] - start
+    np.testing.assert_allclose(moved[:, 0], 0.185 * 21 * m.opt.timestep, atol=1e-12)
+    np.testing.assert_array_equal(moved[:, 1:], 0.0)
+    mujoco.mj_step(m, d)  # MuJoCo finds them where their poses say: still asleep
+    assert np.all(d.body_awake[bodies] == int(mujoco.mjtSleepState.mjS_ASLEEP))
+    vel = riding.linear_velocity(d, riders)
+    np.testing.assert_array_equal(vel, np.tile([0.185, 0.0, 0.0], (3, 1)))
+
+
+def test_an_episode_syncs_the_riders_before_anything_reads_them():
+    """In an episode, whenever the perception observes or a decision is due, no rider lags
+    behind the belt and every rider's frame is where its pose puts it."""
+    from sim.episode.loop import Episode
+    from sim.episode.runner import config_cell
+
+    settings = episode_config.load(None, perception="truth", items=40, duration_s=25.0, seed=3)
+    seen = {"observations": 0, "decisions": 0, "riders": 0}
+
+    def check(episode, what):
+        riding, pool, d = episode.riding, episode.cell.pool, episode.data
+        assert riding.behind_s == 0.0, what
+        riders = riding.riding()
+        body = pool.body_ids[riders]
+        # Asleep (all but those that started riding at this step): frames where poses put them.
+        body = body[d.body_awake[body] == int(mujoco.mjtSleepState.mjS_ASLEEP)]
+        x = d.qpos[episode.model.jnt_qposadr[episode.model.body_jntadr[body]]]
+        np.testing.assert_array_equal(d.xpos[body, 0], x)
+        seen[what] += 1
+        seen["riders"] = max(seen["riders"], len(body))
+
+    with Episode(settings, config_cell(settings)) as episode:
+        episode.reset()
+        observe = episode.perception.observe
+
+        def watched(t):
+            check(episode, "observations")
+            return observe(t)
+
+        episode.perception.observe = watched
+        while episode.step_until_decision():
+            check(episode, "decisions")
+            episode.apply(episode.choose())
+        picked = episode.metrics.row()["picked"]
+    assert seen["observations"] > 40 and seen["decisions"] > 20 and seen["riders"] >= 3
+    assert picked == 40
 
 
 def test_a_loose_item_wakes_the_rider_it_comes_near():
@@ -112,13 +209,13 @@ def test_a_loose_item_wakes_the_rider_it_comes_near():
     pool.spawn(d, 0, 0, -2.5, 0.0, 0.0, (1, 1, 1, 1), cell.belt.speed)
     riding = ItemRiding(m, pool, cell.wake_x)
     while not len(riding.riding()) and d.time < 1.0:
-        mujoco.mj_step(m, d, nstep=20)
+        _step(m, d, riding, 20)
         riding.update(d)
     assert list(riding.riding()) == [0]
     # A can dropped at rest just upstream: it slips on the belt, not yet moving with it.
     x = d.xpos[pool.body_ids[0], 0] - 0.25
     pool.spawn(d, 1, 9, x, 0.0, 0.0, (1, 1, 1, 1), vx=0.0)
-    mujoco.mj_step(m, d, nstep=5)
+    _step(m, d, riding, 5)
     riding.update(d)
     assert len(riding.riding()) == 0 and riding.wakes == 1
 
@@ -142,7 +239,7 @@ def test_item_riding_is_a_validated_setting():
 def _ride_all(cell, riding, count, limit_s=3.0):
     m, d = cell.model, cell.data
     while len(riding.riding()) < count and d.time < limit_s:
-        mujoco.mj_step(m, d, nstep=20)
+        _step(m, d, riding, 20)
         riding.update(d)
     return riding.riding()
 
@@ -181,7 +278,7 @@ def test_no_item_starts_riding_in_the_window_while_a_pick_is_under_way():
     pool.spawn(d, 0, 0, cell.wake_x + 0.1, 0.0, 0.0, (1, 1, 1, 1), cell.belt.speed)
     riding = ItemRiding(m, pool, cell.wake_x, in_window=True)
     while d.time < 1.0:
-        mujoco.mj_step(m, d, nstep=20)
+        _step(m, d, riding, 20)
         riding.update(d, robot_busy=True)
     assert len(riding.riding()) == 0
     riding.update(d, robot_busy=False)

@@ -265,7 +265,7 @@ def test_varied_episode_settles_every_item_at_its_scaled_rest_height(cell):
                 if X_CAMERA - 0.2 <= x < X_CAMERA:  # the last rows before the camera line
                     samples[int(pool.item_ids[slot])] = (
                         z - pool.belt.geometry.top_z,
-                        data.qvel[pool.dof_adr[slot]],
+                        episode.riding.linear_velocity(data, [slot])[0, 0],
                         float(cell.model.body_mass[pool.body_ids[slot]]),
                     )
             return observe(t)

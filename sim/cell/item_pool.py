@@ -9,8 +9,8 @@ mass and inertia (all as MuJoCo's compiler derives them for that geom alone, fro
 model compiled once per item type and scale), gravity, and a pose just above the belt (or above
 the flat item it partly lies on) at rest. Parking hides it again, 2 m below the cell,
 gravity-compensated and touching nothing, where MuJoCo puts it to sleep. Spawning and parking
-are the only places item poses or velocities are written; while an item rides, only contacts
-move it.
+write item poses and velocities here; besides them only `sim.cell.riding` does, carrying
+settled items on at the belt's speed outside the integrator; otherwise only contacts move them.
 """
 
 from __future__ import annotations

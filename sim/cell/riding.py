@@ -3,9 +3,17 @@
 An item that has settled on the belt (moving with it, not turning, touching nothing but the belt)
 stays in that state until something else touches it: between the infeed and the robot nothing
 does, so the contact solver would spend every step reproducing "moves at the belt's velocity".
-Such an item is switched to riding: its geom stops colliding and its gravity is compensated, so
-the free body moves on at exactly the belt's velocity, at the height and heading it settled at,
-integrated by MuJoCo like any other body (the camera renders it, the truth perception reads it).
+Such an item is switched to riding: its geom stops colliding, its gravity is compensated, and it
+is carried on at the belt's velocity, at the height and heading it settled at, outside MuJoCo's
+integrator. Its velocity is zeroed and MuJoCo puts its tree to sleep at the end of the next step
+(sleeping is enabled for the item pool; a sleeping tree's dynamics are skipped). `carry` adds
+up the belt's time after each step, and `sync` moves every rider on by the belt's travel since
+the last sync: its pose, its body's frame and its geoms' frames alike, so that MuJoCo's check of
+a sleeping body (its pose from `qpos` against its stored frame) finds nothing changed and leaves
+it asleep. `sync` is called before anything reads or renders item poses (an episode's scheduled
+checks, observations, drops, video frames and decisions); nothing in the physics touches a
+rider in between. The camera renders it where it is, the truth perception reads it there. Its
+`qvel` reads zero meanwhile: `linear_velocity` gives items' velocities, a rider's the belt's.
 It wakes, with its contacts and gravity back, before it reaches `wake_x`, upstream of anything the
 robot or a held item can touch, and from then on it is simulated in full: the pick is physics.
 
@@ -162,6 +170,8 @@ class ItemRiding:
         self._rider_of = np.full(pool.size, -1)  # flow item id riding in each slot, -1: none
         self._born = np.full(pool.size, np.inf)  # sim time each slot's item was first seen
         self._seen = np.full(pool.size, -1)
+        self._carried: tuple | None = None  # `sync`'s data, views and indices; None: stale
+        self._owed = 0.0  # belt time the riders have not been carried on by yet [s]
         self.rides = 0
         self.wakes = 0
 
@@ -187,7 +197,10 @@ class ItemRiding:
         active = pool.active_slots()
         # A slot parked or re-spawned since the last call is no longer riding.
         stale = (self._rider_of >= 0) & (self._rider_of != pool.item_ids)
-        self._rider_of[stale] = -1
+        if stale.any():
+            self._rider_of[stale] = -1
+            self._carried = None
+        self.sync(data)
         new = active[self._seen[active] != pool.item_ids[active]]
         self._seen[new] = pool.item_ids[new]
         self._born[new] = data.time
@@ -215,7 +228,7 @@ class ItemRiding:
                 reach = reach + (2.0 * self.check_period) * speed[:, None]
             wake = np.union1d(wake, riders[np.any(gap < reach, axis=0)])
         for slot in wake:
-            self._wake(int(slot))
+            self._wake(data, int(slot))
         # Ride the settled items upstream of the robot that touch nothing but the belt.
         upstream = data.xpos[pool.body_ids[movers], 0] < self.wake_x - RIDE_MARGIN_M
         where = upstream | (self.in_window and (busy_paths is not None or not robot_busy))
@@ -244,6 +257,7 @@ class ItemRiding:
     def wake_near(self, data: mujoco.MjData, slots) -> None:
         """Wakes the riders within `PROXIMITY_M` of the items in `slots` (e.g. just dropped
         onto them)."""
+        self.sync(data)
         riders = self.riding()
         if not len(riders) or not len(slots):
             return
@@ -253,7 +267,7 @@ class ItemRiding:
         gap = np.linalg.norm(near_xy[:, None, :] - rider_xy[None, :, :], axis=-1)
         reach = self._radius(slots)[:, None] + self._radius(riders)[None, :] + PROXIMITY_M
         for slot in riders[np.any(gap < reach, axis=0)]:
-            self._wake(int(slot))
+            self._wake(data, int(slot))
 
     def wake_along(
         self,
@@ -279,6 +293,7 @@ class ItemRiding:
     def wake_on_path(self, data: mujoco.MjData, path: PlannedPath, belt_speed: float) -> int:
         """Wakes the riders the rest of the planned `path` passes near (`PlannedPath.
         passes_near`), and the riders touching those; returns how many."""
+        self.sync(data)
         riders = self.riding()
         if not len(riders):
             return 0
@@ -291,7 +306,7 @@ class ItemRiding:
             woken = grown
             grown = self._within(data, riders, woken)
         for slot in woken:
-            self._wake(int(slot))
+            self._wake(data, int(slot))
         return len(woken)
 
     def _within(self, data: mujoco.MjData, riders: np.ndarray, slots: np.ndarray) -> np.ndarray:
@@ -321,20 +336,78 @@ class ItemRiding:
             slots = slots[~np.isin(slots, np.fromiter(calm, dtype=int)).all(axis=1)]
         return set(np.unique(slots[slots >= 0]).tolist())
 
+    def linear_velocity(self, data: mujoco.MjData, slots) -> np.ndarray:
+        """(n, 3) linear velocities [m/s] of the items in pool `slots`: a rider's is the belt's
+        (MuJoCo holds it still, asleep, its `qvel` zero), any other's MuJoCo's."""
+        slots = np.asarray(slots, dtype=int)
+        vel = data.qvel[self.pool.dof_adr[slots, None] + np.arange(3)].copy()
+        riding = (self._rider_of[slots] >= 0) & (self._rider_of[slots] == self.pool.item_ids[slots])
+        vel[riding] = (self.pool.belt.speed, 0.0, 0.0)
+        return vel
+
+    @property
+    def behind_s(self) -> float:
+        """Belt time the riders have not been carried on by yet (0 after `sync`) [s]."""
+        return self._owed
+
+    def carry(self, duration: float) -> None:
+        """The belt has run `duration` [s] more (call after every `mj_step`, with the duration
+        of its block of steps); `sync` carries the riders on by its travel."""
+        self._owed += duration
+
+    def sync(self, data: mujoco.MjData) -> None:
+        """Carries the riders on by the belt's travel since the last sync: their `qpos`, their
+        bodies' frames and their geoms' frames move along x alike (a sleeping MuJoCo body keeps
+        its frames; the inertial frames `xipos`, which nothing reads while it sleeps, MuJoCo
+        recomputes when it wakes). Call before anything reads or renders item poses; the
+        riders touch nothing, so the physics in between does not depend on where they are."""
+        if not self._owed:
+            return
+        if self._carried is None or self._carried[0] is not data:
+            self._carried = self._carry_indices(data)
+        _, qpos, xpos, geom_xpos, qpos_x, body_x, geom_x = self._carried
+        if len(qpos_x):
+            dx = self.pool.belt.speed * self._owed
+            x = qpos[qpos_x]
+            x += dx
+            qpos[qpos_x] = x
+            xpos[body_x] = x  # a free body's frame is its pose
+            geom_xpos[geom_x] += dx
+        self._owed = 0.0
+
+    def _carry_indices(self, data: mujoco.MjData) -> tuple:
+        """`data`, flat views of its `qpos`, `xpos` and `geom_xpos`, and the riders' x in
+        them."""
+        m, riders = self.model, self.riding()
+        body = self.pool.body_ids[riders]
+        qpos_x = m.jnt_qposadr[m.body_jntadr[body]]
+        count = m.body_geomnum[body]
+        first = np.repeat(m.body_geomadr[body] - (np.cumsum(count) - count), count)
+        geom = first + np.arange(int(count.sum()))  # every geom of every rider's body
+        views = (data.qpos, data.xpos.reshape(-1), data.geom_xpos.reshape(-1))
+        return (data, *views, qpos_x, 3 * body, 3 * geom)
+
     def _ride(self, data: mujoco.MjData, slot: int, belt_speed: float) -> None:
         m, geom, body = self.model, self.pool.geom_id(slot), self.pool.body_ids[slot]
         m.geom_contype[geom] = m.geom_conaffinity[geom] = 0
         m.body_contype[body] = m.body_conaffinity[body] = 0
         m.body_gravcomp[body] = 1.0
         dof = self.pool.dof_adr[slot]
-        data.qvel[dof : dof + 6] = (belt_speed, 0.0, 0.0, 0.0, 0.0, 0.0)
+        data.qvel[dof : dof + 6] = 0.0  # `carry` moves it
+        tree = m.body_treeid[body]
+        if data.tree_asleep[tree] < 0:  # awake: ready to sleep (MuJoCo sleeps it next step)
+            data.tree_asleep[tree] = -1
         self._rider_of[slot] = self.pool.item_ids[slot]
+        self._carried = None
         self.rides += 1
 
-    def _wake(self, slot: int) -> None:
+    def _wake(self, data: mujoco.MjData, slot: int) -> None:
         m, geom, body = self.model, self.pool.geom_id(slot), self.pool.body_ids[slot]
         m.geom_contype[geom] = m.geom_conaffinity[geom] = 1
         m.body_contype[body] = m.body_conaffinity[body] = 1
         m.body_gravcomp[body] = 0.0
+        dof = self.pool.dof_adr[slot]
+        data.qvel[dof] = self.pool.belt.speed  # moving: MuJoCo wakes it at the next step
         self._rider_of[slot] = -1
+        self._carried = None
         self.wakes += 1

@@ -381,8 +381,10 @@ class Episode:
                     self._candidates = self._offered(station, items, t)
                     if self._candidates:
                         self._deciding = station
+                        self.riding.sync(self.data)  # a decision and a plan read the items
                         return True
             self._step()
+        self.riding.sync(self.data)
         readings = [s.energy.reading() for s in self.stations]
         self.metrics.on_energy(*(sum(r[i] for r in readings) for i in (0, 1)))
         self._close_out()
@@ -463,6 +465,7 @@ class Episode:
             station.robot.before_step()
         nstep = 1 if busy else self._idle_steps()
         mujoco.mj_step(self.model, self.data, nstep=nstep)
+        self.riding.carry(nstep * self._timestep)
         self.actuator_log.record(nstep * self._timestep)
         for station in busy:
             station.robot.after_step()
@@ -481,9 +484,16 @@ class Episode:
     def _after_step(self) -> None:
         """The scheduler: everything due at the current sim time except decisions."""
         t = self.data.time
-        if self._waiting or (
+        spawn_due = self._waiting or (
             self.next_spawn < len(self.flow) and self.flow.t_spawn[self.next_spawn] <= t
+        )
+        if (
+            spawn_due
+            or t + 1e-9 >= min(self.next_obs, self.next_check)
+            or (self.video is not None and self.video.due(t))
         ):
+            self.riding.sync(self.data)  # the riders where the belt has carried them
+        if spawn_due:
             self._spawn()
         if t + 1e-9 >= self.next_obs:
             self._observe(t)
