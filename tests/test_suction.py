@@ -105,14 +105,16 @@ def pick_and_place(
     payload: float | None = None,
     offset=(0.0, 0.0),
     hold: float = 0.6,
+    top: float | None = None,
 ) -> PickRun:
-    """Plans and plays one pick from the moving belt into `bin_name`'s drop point."""
+    """Plans and plays one pick from the moving belt into `bin_name`'s drop point (`top`: the
+    item's top above the belt's centre plane [m]; None: as it rests)."""
     m, d, pool = cell.model, cell.data, cell.pool
     item_type = pool.item_type(slot)
     mass = payload or m.body_mass[pool.body_ids[slot]]
     gen = RuckigTrajectoryGenerator(limits_for_payload(mass), geometry_from_model(m))
     start = State.at_rest(tcp_position(m, d))
-    top = 2 * item_type.rest_height
+    top = 2 * item_type.rest_height if top is None else top
     speed = cell.belt.speed
     pos0 = pool.position(d, slot)
     drop = d.site(f"bin_{bin_name}_drop").xpos + np.array([0.0, 0.0, top + RAIL_CLEARANCE])
@@ -189,6 +191,25 @@ def test_cup_landing_off_the_item_does_not_seal():
     assert run.first_contact is not None  # the lip did touch the item's edge
     assert run.events == []
     assert cell.pool.slot_of(0) is not None and not run.landings  # still riding the belt
+
+
+def test_a_toppled_standing_can_is_picked_by_its_side():
+    """A standing can that has fallen over lies like a lying can: the cup seals on its side."""
+    cell = make_cell(1.5)
+    slot = spawn(cell, "can_330_standing", yaw=0.0)
+    radius = cell.pool.item_type(slot).size[0]
+    m, d, body = cell.model, cell.data, cell.pool.body_ids[slot]
+    adr = m.jnt_qposadr[m.body_jntadr[body]]
+    # Over on its side, its axis across the belt: 90 deg about the belt's direction.
+    d.qpos[adr + 2] = radius + 0.002
+    d.qpos[adr + 3 : adr + 7] = (math.sqrt(0.5), math.sqrt(0.5), 0.0, 0.0)
+    d.qvel[cell.pool.dof_adr[slot] : cell.pool.dof_adr[slot] + 6] = (cell.belt.speed, 0, 0, 0, 0, 0)
+    for _ in range(300):
+        mujoco.mj_step(m, d)
+    assert abs(d.xmat[body][8]) < 0.05  # lying on its side
+    run = pick_and_place(cell, slot, "aluminium", top=2 * radius, hold=1.0)
+    assert [e.kind for e in run.events] == ["sealed", "released"]
+    assert len(run.landings) == 1 and run.landings[0].correct
 
 
 def one_kg_run(radius: float | None) -> tuple[Cell, PickRun]:

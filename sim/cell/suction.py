@@ -37,6 +37,9 @@ from sim.errors import InvalidInput
 
 CUP_BODY = "cup_link"
 CUP_SITE = "cup_site"
+TOPPLED_AXIS_Z = math.sqrt(0.5)
+"""A standing item whose axis is less upright than this (its vertical component; 45 deg) has
+toppled: the cup meets its side, as a lying item's."""
 
 
 @dataclass(frozen=True)
@@ -211,16 +214,25 @@ class SuctionCup:
     def _lip_on_item(self, data: mujoco.MjData, slot: int) -> bool:
         """Whether the cup axis meets the item's footprint far enough inside its outline."""
         body = self.pool.body_ids[slot]
-        local = data.xmat[body].reshape(3, 3).T @ (data.site_xpos[self.site_id] - data.xpos[body])
+        rot = data.xmat[body].reshape(3, 3)
+        local = rot.T @ (data.site_xpos[self.site_id] - data.xpos[body])
         item_type = self.pool.item_type(slot)
         margin = self.config.edge_margin * self.radius
         kind, a, b = item_type.footprint
         lx, ly = abs(local[0]), abs(local[1])
-        if item_type.pose == "lying":  # a can or bottle may roll about its long axis (body x)
-            axis = data.xmat[body].reshape(3, 3)[:, 0]
+        toppled = item_type.pose == "standing" and abs(rot[2, 2]) < TOPPLED_AXIS_Z
+        if toppled or item_type.pose == "lying":
+            # A can or bottle lying on its side may roll about its axis (a lying item's body x,
+            # a toppled standing can's body z): the lip's offset along the axis, and across it
+            # in the belt's plane.
+            axis = rot[:, 2] if toppled else rot[:, 0]
             d = data.site_xpos[self.site_id] - data.xpos[body]
-            perp = d - (d @ axis) * axis
+            along = float(d @ axis)
+            perp = d - along * axis
             ly = math.hypot(perp[0], perp[1])
+            if toppled:  # its side under the lip as a lying can's
+                radius, half = item_type.size
+                kind, a, b, lx = "rect", half, radius, abs(along)
         if kind == "disc":
             return bool(math.hypot(lx, ly) <= a - margin)
         if kind == "rect":
