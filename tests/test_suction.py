@@ -193,6 +193,29 @@ def test_cup_landing_off_the_item_does_not_seal():
     assert cell.pool.slot_of(0) is not None and not run.landings  # still riding the belt
 
 
+@pytest.mark.parametrize(
+    ("gap_ms", "sealed_at_ms"),
+    [(0, 35), (1, 35), (2, 35), (3, 45)],  # a 3 ms break restarts the build-up at 10 ms
+)
+def test_the_seal_builds_through_a_lip_chattering_for_a_step(gap_ms, sealed_at_ms):
+    """The lip on the item from 0 ms, off it for `gap_ms` from 7 ms, then on: the seal forms
+    35 ms after the first touch when the break is at most `SEAL_GAP_S`, else 35 ms after it."""
+    cell = make_cell()
+    slot = spawn(cell, "carton_box_small")
+    cup, d = cell.cup, cell.data
+    # The cup's contact with the item, scripted: what the test is about is the build-up.
+    cup._touched_slot = lambda data: None if 7 <= round(data.time * 1e3) - t0 < 7 + gap_ms else slot
+    cup.vacuum_on()
+    t0 = round(d.time * 1e3)
+    for step in range(60):
+        d.time = (t0 + step) * 1e-3
+        events = cup.update(d)
+        if events:
+            break
+    assert [e.kind for e in events] == ["sealed"]
+    assert round(d.time * 1e3) - t0 == sealed_at_ms
+
+
 def test_a_toppled_standing_can_is_picked_by_its_side():
     """A standing can that has fallen over lies like a lying can: the cup seals on its side."""
     cell = make_cell(1.5)

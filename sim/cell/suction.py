@@ -5,7 +5,11 @@ Model (numbers and reasons in docs/suction.md):
   geom) touches the item and the lip lies on the item: the cup's axis meets the item's footprint
   at least `edge_margin` x the cup radius inside its outline (a bellows lip may hang over a
   rounded edge by half its radius, not more). The vacuum then builds up for `seal_time` (35 ms,
-  ABB's Cycle 1 figure) of continuous contact; then the item is held.
+  ABB's Cycle 1 figure) of contact; then the item is held. A light item chatters under the
+  pressing lip (MuJoCo's contact comes and goes for a step at a time): a break in the contact
+  of at most `SEAL_GAP_S` does not restart the build-up (the cup's air cannot rush back in a
+  millisecond through a gap of a fraction of a millimetre); a longer one, or the lip on another
+  item, does.
 - Hold. A held item is welded to `cup_link` (the pool's `item_<n>_grip` weld, activated with the
   current relative pose written into `eq_data`, so the seal forms where the cup touched and
   nothing jumps). A weld carries the loads exactly as a sealed cup does and lets us read the
@@ -37,6 +41,8 @@ from sim.errors import InvalidInput
 
 CUP_BODY = "cup_link"
 CUP_SITE = "cup_site"
+SEAL_GAP_S = 0.002
+"""Longest break in the lip's contact that does not restart the seal's build-up [s]."""
 TOPPLED_AXIS_Z = math.sqrt(0.5)
 """A standing item whose axis is less upright than this (its vertical component; 45 deg) has
 toppled: the cup meets its side, as a lying item's."""
@@ -117,7 +123,8 @@ class SuctionCup:
         self.geom_id = int(geoms[0])
         self.radius = float(model.geom_size[self.geom_id, 0])
         self._vacuum = False
-        self._sealing: tuple[int, float] | None = None  # (slot, time the lip touched)
+        # (slot, time the lip touched it, last time it touched it)
+        self._sealing: tuple[int, float, float] | None = None
         self._held: int | None = None
         self._release_at: float | None = None
         self.events: list[SuctionEvent] = []
@@ -177,14 +184,17 @@ class SuctionCup:
                 if load > self.force_budget:
                     events.append(self._drop(data, "lost", t, load))
         elif self._vacuum:
-            slot = self._touched_slot(data)
-            if slot is None or (self._sealing is not None and self._sealing[0] != slot):
-                self._sealing = None if slot is None else (slot, t)
-            elif self._sealing is None:
-                self._sealing = (slot, t)
-            elif t - self._sealing[1] >= self.config.seal_time - 1e-9:
+            slot, sealing = self._touched_slot(data), self._sealing
+            if slot is None:  # a short break keeps the build-up
+                if sealing is not None and t - sealing[2] > SEAL_GAP_S + 1e-9:
+                    self._sealing = None
+            elif sealing is None or sealing[0] != slot:
+                self._sealing = (slot, t, t)
+            elif t - sealing[1] >= self.config.seal_time - 1e-9:
                 self._seal(data, slot)
                 events.append(SuctionEvent("sealed", t, int(self.pool.item_ids[slot]), slot))
+            else:
+                self._sealing = (slot, sealing[1], t)
         self.events += events
         return events
 
