@@ -91,17 +91,20 @@ def test_riders_end_where_contact_dynamics_puts_them(runs):
         assert cell.model.body_gravcomp[cell.pool.body_ids[slot]] == 0.0
 
 
-def test_riders_move_at_the_belt_velocity_without_contacts():
+def _rows_riding(speed: float, rows: int, first_type: int = 0):
+    """A cell with `rows` rows dropped at belt `speed` [m/s], once all of them ride."""
     cell = Cell()
-    cell.reset(0.2775)
-    _drop_rows(cell, 2, first_type=6)
+    cell.reset(speed)
+    _drop_rows(cell, rows, first_type)
     riding = ItemRiding(cell.model, cell.pool, cell.wake_x)
+    riders = _ride_all(cell, riding, 3 * rows, limit_s=2.0)
+    assert len(riders) == 3 * rows
+    return cell, riding, riders
+
+
+def test_riders_move_at_the_belt_velocity_without_contacts():
+    cell, riding, riders = _rows_riding(0.2775, 2, first_type=6)
     m, d = cell.model, cell.data
-    while len(riding.riding()) < 6 and d.time < 2.0:
-        _step(m, d, riding, 20)
-        riding.update(d)
-    riders = riding.riding()
-    assert len(riders) == 6
     adr = cell.pool.qpos_adr[riders]
     start = d.qpos[adr[:, None] + np.arange(7)].copy()
     awake_before = int(d.nv_awake)
@@ -134,16 +137,8 @@ def test_riders_move_at_the_belt_velocity_without_contacts():
 
 def test_riders_stand_still_asleep_until_synced():
     """`carry` only adds up the belt's time; `sync` moves the riders on by all of it at once."""
-    cell = Cell()
-    cell.reset(0.185)
-    _drop_rows(cell, 1)
-    riding = ItemRiding(cell.model, cell.pool, cell.wake_x)
+    cell, riding, riders = _rows_riding(0.185, 1)
     m, d = cell.model, cell.data
-    while len(riding.riding()) < 3 and d.time < 2.0:
-        _step(m, d, riding, 20)
-        riding.update(d)
-    riders = riding.riding()
-    assert len(riders) == 3
     _step(m, d, riding, 2)  # asleep now
     bodies = cell.pool.body_ids[riders]
     start = d.xpos[bodies].copy()
