@@ -75,6 +75,9 @@ def test_every_experiment_config_loads_and_has_its_grid():
         "table_4_5_paused": 5 * 2 * 10,
         "table_4_6_paused": 5 * 2 * 10,
         "planners": 5 * 3,
+        "line": 6 * 3 * 5,
+        "line_saturated": 2 * 2 * 5,
+        "line_saturated_x15": 2 * 2 * 5,
     }
     for name, size in sizes.items():
         sweep = sweep_config.load(EXPERIMENTS_DIR / f"{name}.toml")
