@@ -177,7 +177,11 @@ class ItemRiding:
 
     def riding(self) -> np.ndarray:
         """Slots whose item rides now."""
-        return np.flatnonzero((self._rider_of >= 0) & (self._rider_of == self.pool.item_ids))
+        return np.flatnonzero(self._riding_mask())
+
+    def _riding_mask(self) -> np.ndarray:
+        """(pool size,) whether each slot's item rides now."""
+        return (self._rider_of >= 0) & (self._rider_of == self.pool.item_ids)
 
     def update(
         self,
@@ -341,8 +345,7 @@ class ItemRiding:
         (MuJoCo holds it still, asleep, its `qvel` zero), any other's MuJoCo's."""
         slots = np.asarray(slots, dtype=int)
         vel = data.qvel[self.pool.dof_adr[slots, None] + np.arange(3)].copy()
-        riding = (self._rider_of[slots] >= 0) & (self._rider_of[slots] == self.pool.item_ids[slots])
-        vel[riding] = (self.pool.belt.speed, 0.0, 0.0)
+        vel[self._riding_mask()[slots]] = (self.pool.belt.speed, 0.0, 0.0)
         return vel
 
     @property

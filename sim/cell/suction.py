@@ -225,7 +225,8 @@ class SuctionCup:
         """Whether the cup axis meets the item's footprint far enough inside its outline."""
         body = self.pool.body_ids[slot]
         rot = data.xmat[body].reshape(3, 3)
-        local = rot.T @ (data.site_xpos[self.site_id] - data.xpos[body])
+        d = data.site_xpos[self.site_id] - data.xpos[body]  # the cup's axis from the centre
+        local = rot.T @ d
         item_type = self.pool.item_type(slot)
         margin = self.config.edge_margin * self.radius
         kind, a, b = item_type.footprint
@@ -236,7 +237,6 @@ class SuctionCup:
             # a toppled standing can's body z): the lip's offset along the axis, and across it
             # in the belt's plane.
             axis = rot[:, 2] if toppled else rot[:, 0]
-            d = data.site_xpos[self.site_id] - data.xpos[body]
             along = float(d @ axis)
             perp = d - along * axis
             ly = math.hypot(perp[0], perp[1])

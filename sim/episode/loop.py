@@ -465,8 +465,9 @@ class Episode:
             station.robot.before_step()
         nstep = 1 if busy else self._idle_steps()
         mujoco.mj_step(self.model, self.data, nstep=nstep)
-        self.riding.carry(nstep * self._timestep)
-        self.actuator_log.record(nstep * self._timestep)
+        duration = nstep * self._timestep
+        self.riding.carry(duration)
+        self.actuator_log.record(duration)
         for station in busy:
             station.robot.after_step()
         self._after_step()
@@ -487,21 +488,20 @@ class Episode:
         spawn_due = self._waiting or (
             self.next_spawn < len(self.flow) and self.flow.t_spawn[self.next_spawn] <= t
         )
-        if (
-            spawn_due
-            or t + 1e-9 >= min(self.next_obs, self.next_check)
-            or (self.video is not None and self.video.due(t))
-        ):
+        observe_due = t + 1e-9 >= self.next_obs
+        check_due = t + 1e-9 >= self.next_check
+        frame_due = self.video is not None and self.video.due(t)
+        if spawn_due or observe_due or check_due or frame_due:
             self.riding.sync(self.data)  # the riders where the belt has carried them
         if spawn_due:
             self._spawn()
-        if t + 1e-9 >= self.next_obs:
+        if observe_due:
             self._observe(t)
             self.next_obs += self.config.observation_period_s
-        if t + 1e-9 >= self.next_check:
+        if check_due:
             self._check_items(t)
             self.next_check += CHECK_PERIOD_S
-        if self.video is not None and self.video.due(t):
+        if frame_due:
             t0 = time.perf_counter()
             self.video.capture(self.data, overlay_of(self, t))
             self.timings["video"] += time.perf_counter() - t0
