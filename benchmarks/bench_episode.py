@@ -122,7 +122,7 @@ def main() -> int:
             f"dense belt (400 items over 191 s, truth): median {r['cpu_rtf']:.2f}x real time by "
             f"CPU time, {r['rtf']:.2f}x wall ({time.perf_counter() - t0:.0f} s)"
         )
-    from sim.experiments.cycle1 import run_cycle1
+    from sim.evaluation.cycle1 import run_cycle1
 
     report = run_cycle1(1.0)
     print(

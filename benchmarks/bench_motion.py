@@ -23,9 +23,9 @@ from planner.motion.pick_cycle import plan_cycle1, plan_pick_place
 from planner.motion.ruckig_trajectory import RuckigTrajectoryGenerator
 from planner.motion.trajectory import State
 from sim.cell.executor import TrajectoryExecutor, lumped_dynamics
-from sim.cell.mjcf import load_robot
 from sim.cell.robot import geometry_from_model, set_configuration
-from sim.experiments.cycle1 import CYCLE1_START, run_cycle1
+from sim.evaluation.cycle1 import CYCLE1_START, run_cycle1
+from sim.model.mjcf import load_robot
 
 BINS = ((0.0, -0.51, 0.06), (-0.21, 0.51, 0.06), (0.21, 0.51, 0.06))
 SPEEDS = (0.185, 0.222, 0.2775)

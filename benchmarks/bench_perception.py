@@ -28,10 +28,10 @@ from perception.camera.pipeline import CameraPipeline
 from sim.cell.camera import BeltCamera, marker_points
 from sim.cell.conveyor import Belt
 from sim.cell.item_pool import ItemPool
-from sim.cell.mjcf import load_scene
 from sim.cli.calibrate import DEFAULT_CALIBRATION
-from sim.experiments.camera_checks import grid_corner_errors
+from sim.evaluation.camera_checks import grid_corner_errors
 from sim.flow.catalogue import load_catalogue
+from sim.model.mjcf import load_scene
 
 N_ITEMS = 15
 SPEED = 0.185

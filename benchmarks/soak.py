@@ -2,9 +2,9 @@
 
 Random truth-perception episodes (items up to 12 per metre of belt, belt x1 / x1.2 / x1.5, the
 decision managers qlearning, proximity, fifo and greedy, every riding mode, random seeds, flows
-of 20-60 s; `sim.episode.soak.draw_configs`) run in worker processes, one compiled cell each.
+of 20-60 s; `sim.experiments.soak.draw_configs`) run in worker processes, one compiled cell each.
 Every episode is checked for the accounting identities, MuJoCo warnings, a finite state and
-items thrown off the belt (`sim.episode.soak.soak_episode`). One line per episode, then a
+items thrown off the belt (`sim.experiments.soak.soak_episode`). One line per episode, then a
 summary; the exit status is 1 if any episode failed a check.
 
     python benchmarks/soak.py [--episodes 200] [--workers 2] [--seed 0] [--lines]
@@ -23,7 +23,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from sim.episode.soak import SoakResult, draw_configs, soak_episode  # noqa: E402
+from sim.experiments.soak import SoakResult, draw_configs, soak_episode  # noqa: E402
 
 
 def _run(job: tuple[int, object]) -> tuple[int, SoakResult | str]:

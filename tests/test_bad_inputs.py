@@ -27,8 +27,8 @@ import pytest
 
 from perception.errors import RefusedInput
 from sim.cli.main import main
-from sim.episode import outputs
 from sim.paths import CAMERA_CALIBRATION_JSON, MODELS_DIR, REPO_ROOT, ROBOT_XML, SCENE_XML
+from sim.results import outputs
 
 # ----- helpers ---------------------------------------------------------------------------------
 
@@ -599,7 +599,7 @@ def _mjcf(tmp_path: Path, edit) -> Path:
 )  # noqa: E501
 def test_cycle_refuses_a_broken_robot_model(capfd, tmp_path, monkeypatch, sentinel, edit, word):
     path = _mjcf(tmp_path, edit)
-    monkeypatch.setattr("sim.experiments.cycle1.ROBOT_XML", path)
+    monkeypatch.setattr("sim.evaluation.cycle1.ROBOT_XML", path)
     before = snapshot(sentinel)
     line = refused(capfd, ["cycle", "--payload", "1"])
     assert str(path) in line and word in line, line
@@ -610,7 +610,7 @@ def test_cycle_refuses_a_broken_robot_model(capfd, tmp_path, monkeypatch, sentin
     ("edit", "word"), [c[1:] for c in MJCF_CASES], ids=[c[0] for c in MJCF_CASES]
 )  # noqa: E501
 def test_robot_loader_refuses_in_one_line(tmp_path, edit, word):
-    from sim.cell.mjcf import load_robot
+    from sim.model.mjcf import load_robot
 
     path = _mjcf(tmp_path, edit)
     with pytest.raises(RefusedInput) as exc:
@@ -642,7 +642,7 @@ SCENE_CASES = [
     ("edit", "word"), [c[1:] for c in SCENE_CASES], ids=[c[0] for c in SCENE_CASES]
 )  # noqa: E501
 def test_scene_loader_names_the_missing_element(tmp_path, edit, word):
-    from sim.cell.mjcf import load_scene
+    from sim.model.mjcf import load_scene
 
     path = _scene(tmp_path, *edit)
     with pytest.raises(RefusedInput) as exc:
@@ -1119,7 +1119,7 @@ def _write_hmm(path: Path, content) -> Path:
     ("content", "word"), [c[1:] for c in HMM_CASES], ids=[c[0] for c in HMM_CASES]
 )  # noqa: E501
 def test_cached_hmms_refused_in_one_line(tmp_path, content, word):
-    from sim.episode.stripe_hmms import read_cache
+    from sim.sensing.stripe_hmms import read_cache
 
     path = _write_hmm(tmp_path / "stripe_hmms.npz", content)
     with pytest.raises(RefusedInput) as exc:
@@ -1134,7 +1134,7 @@ def test_camera_run_refuses_a_bad_hmm_cache_before_the_episode(
     capfd, tmp_path, sentinel, monkeypatch, case
 ):
     path = _write_hmm(tmp_path / "stripe_hmms.npz", dict((c[0], c[1]) for c in HMM_CASES)[case])
-    monkeypatch.setattr("sim.episode.sensing.hmm_cache_path", lambda *_args: path)
+    monkeypatch.setattr("sim.sensing.perception.hmm_cache_path", lambda *_args: path)
     before = snapshot(sentinel)
     line = refused(capfd, ["run", "--perception", "camera", "--out", sentinel, "--quiet"])
     assert str(path) in line

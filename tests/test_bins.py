@@ -6,10 +6,10 @@ import mujoco
 import numpy as np
 import pytest
 
-from sim.cell.bins import Bins
 from sim.cell.conveyor import Belt
 from sim.cell.item_pool import ItemPool
 from sim.flow.catalogue import load_catalogue
+from sim.monitors.bins import Bins
 from tests.utils import scene_at_home
 
 CATALOGUE = load_catalogue()

@@ -8,7 +8,7 @@ features, the shipped classifier fused with the HMMs).
 import numpy as np
 import pytest
 
-from sim.experiments.item_features import record
+from sim.evaluation.item_features import record
 
 pytestmark = pytest.mark.slow
 
@@ -27,7 +27,7 @@ def test_every_report_is_one_true_item(items):
 
 def test_fused_classes_beat_the_hmms_alone(items):
     from perception.items.classifier import combine
-    from sim.episode.item_classifier import trained_item_classifier
+    from sim.sensing.item_classifier import trained_item_classifier
 
     clf = trained_item_classifier()
     known = items["class_id"] > 0

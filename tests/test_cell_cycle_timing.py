@@ -57,7 +57,7 @@ def started_picks(cell):
 
 def test_cell_model_times_the_physics_picks(started_picks):
     """The cell's calibrated model predicts the controller's cycle times without bias (within
-    40 ms on average, 70 ms rms; fitted on other seeds: sim.experiments.cell_cycle_fit); the
+    40 ms on average, 70 ms rms; fitted on other seeds: sim.evaluation.cell_cycle_fit); the
     bare-pick calibration it replaced was more than 0.1 s a pick too short."""
     speed, picks = started_picks
     assert len(picks) >= 15

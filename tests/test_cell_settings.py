@@ -15,22 +15,22 @@ import pytest
 from perception.codes import EMPTY_CODE
 from sim.cell.conveyor import Belt
 from sim.cell.item_pool import ItemPool
-from sim.cell.mjcf import CELL_ELEMENTS, compile_spec, load_scene, load_spec
-from sim.cell.scene_edits import (
+from sim.cell.suction import SuctionConfig, SuctionCup
+from sim.episode import config
+from sim.episode.loop import Episode
+from sim.episode.runner import shared_cell
+from sim.errors import InvalidInput
+from sim.evaluation.perception_eval import evaluate_camera
+from sim.flow.catalogue import load_catalogue
+from sim.flow.world import WorldVariation
+from sim.model.mjcf import CELL_ELEMENTS, compile_spec, load_scene, load_spec
+from sim.model.scene_edits import (
     BELT_LENGTH_M,
     CUP_DIAMETER_M,
     CellSettings,
     apply_settings,
     compile_scene,
 )
-from sim.cell.suction import SuctionConfig, SuctionCup
-from sim.episode import config
-from sim.episode.loop import Episode
-from sim.episode.runner import shared_cell
-from sim.errors import InvalidInput
-from sim.experiments.perception_eval import evaluate_camera
-from sim.flow.catalogue import load_catalogue
-from sim.flow.world import WorldVariation
 from sim.paths import SCENE_XML
 
 CATALOGUE = load_catalogue()

@@ -9,7 +9,7 @@ import imageio.v2 as imageio
 import numpy as np
 import pytest
 
-from sim.episode import outputs
+from sim.results import outputs
 from tests.test_outputs import DESIGN_EPISODE_COLUMNS, DESIGN_PICK_COLUMNS
 
 

@@ -7,7 +7,7 @@ import json
 import pytest
 
 from sim.cli.main import main as cli_main
-from sim.experiments.cycle1 import run_cycle1
+from sim.evaluation.cycle1 import run_cycle1
 
 ABB_1KG_S = 60.0 / 150.0  # IRB 360-3/1130: 150 cycles/min at 0.1 kg and at 1 kg
 
@@ -76,7 +76,7 @@ def test_torque_feedforward_is_what_makes_1mm():
     from planner.motion.ruckig_trajectory import RuckigTrajectoryGenerator
     from sim.cell.executor import TrajectoryExecutor, lumped_dynamics
     from sim.cell.robot import geometry_from_model, set_configuration
-    from sim.experiments.cycle1 import CYCLE1_START, model_with_payload
+    from sim.evaluation.cycle1 import CYCLE1_START, model_with_payload
 
     model = model_with_payload(0.0)
     geom = geometry_from_model(model)

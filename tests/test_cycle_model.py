@@ -15,8 +15,8 @@ from planner.motion.cycle_model import CycleTimeModel, jerk_limited_time
 from planner.motion.limits import limits_for_payload
 from planner.motion.ruckig_trajectory import RuckigTrajectoryGenerator
 from sim.cell.executor import lumped_dynamics
-from sim.cell.mjcf import load_robot
 from sim.cell.robot import geometry_from_model
+from sim.model.mjcf import load_robot
 
 BINS = ((0.0, -0.51, 0.06), (-0.21, 0.51, 0.06), (0.21, 0.51, 0.06))
 N_FRESH = 60

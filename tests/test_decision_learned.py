@@ -14,7 +14,7 @@ from planner.decision.managers.fifo import FifoPlanner
 from planner.decision.managers.learned import POLICY_FILE, TERMS, LearnedPlanner, SlotPolicy
 from planner.errors import PlannerInputError
 from sim.episode.decision_view import cell_context
-from sim.experiments.policy_training import TRAIN_SEED_BASE, TrainingConfig, fifo_start, train
+from sim.evaluation.policy_training import TRAIN_SEED_BASE, TrainingConfig, fifo_start, train
 
 
 def test_the_shipped_policy_loads_and_round_trips(tmp_path):

@@ -1,4 +1,4 @@
-"""The motors' energy (sim.cell.monitors.energy): the work-energy balance of MuJoCo's own
+"""The motors' energy (sim.monitors.energy): the work-energy balance of MuJoCo's own
 energy closes on the meter's signed work; holding still costs copper loss only; per-pick and
 per-episode figures in the CSVs add up; the planners' energy price (planner.decision.energy_cost).
 """
@@ -12,11 +12,11 @@ import pytest
 from planner.decision.energy_cost import EnergyPrice
 from planner.errors import PlannerInputError
 from sim.cell.idle_sleep import robot_trees
-from sim.cell.monitors.energy import ActuatorLog, DriveModel, EnergyMeter
 from sim.cell.robot import motor_qpos, set_motor_targets
 from sim.episode import config
 from sim.episode.runner import run_episode
 from sim.errors import InvalidInput
+from sim.monitors.energy import ActuatorLog, DriveModel, EnergyMeter
 from tests.utils import scene_at_home
 
 PERIOD_S = 0.6

@@ -7,8 +7,9 @@ import sys
 
 import pytest
 
-from sim.episode import config, outputs
+from sim.episode import config
 from sim.episode.runner import run_episode
+from sim.results import outputs
 
 SHORT = dict(items=8, duration_s=6.0, perception="truth", planner="proximity", seed=3)
 
@@ -70,7 +71,7 @@ def test_another_seed_gives_another_flow(cell, short_run):
 _CHILD = """
 import sys
 from sim.episode import config
-from sim.episode import outputs
+from sim.results import outputs
 from sim.episode.runner import run_episode
 c = config.load(None, items=5, duration_s=4.0, perception="truth", planner="qlearning", seed=11)
 r = run_episode(c)

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from sim.episode import outputs
+from sim.results import outputs
 
 UMASKS = (0o022, 0o002, 0o027, 0o077)
 

@@ -85,8 +85,8 @@ def test_cells_per_item_are_stored_and_checked(tmp_path, models):
 
 
 def test_trained_models_are_cached(tmp_path):
-    from sim.episode.stripe_hmms import trained_models
     from sim.flow.catalogue import load_catalogue
+    from sim.sensing.stripe_hmms import trained_models
 
     catalogue = load_catalogue()
     cache = tmp_path / "cache.npz"

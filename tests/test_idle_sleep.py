@@ -12,9 +12,9 @@ import numpy as np
 from perception.codes import PAPER
 from sim.cell.cell import Cell
 from sim.cell.idle_sleep import COMPILED_POLICY, IdleSleep, robot_trees
-from sim.cell.monitors.energy import EnergyMeter
 from sim.cell.robot import loop_closure_error, tcp_position
 from sim.episode.pick_control import PickController
+from sim.monitors.energy import EnergyMeter
 from tests.utils import play_pick
 
 SPEED = 0.185

@@ -31,8 +31,8 @@ from planner.motion.pick_cycle import PickPlaceConfig, pick_place_waypoints, pla
 from planner.motion.ruckig_trajectory import RuckigTrajectoryGenerator
 from planner.motion.trajectory import State
 from sim.cell.executor import lumped_dynamics
-from sim.cell.mjcf import load_robot
 from sim.cell.robot import geometry_from_model
+from sim.model.mjcf import load_robot
 
 SPEEDS = (0.185, 0.222, 0.2775)
 PICK_Z = 0.02

@@ -8,7 +8,7 @@ import pytest
 from perception.errors import PerceptionInputError
 from perception.items.classifier import ItemClassifier, combine, fuse
 from perception.items.features import FEATURE_NAMES, N_FEATURES, item_features
-from sim.episode.item_classifier import load_table, trained_item_classifier
+from sim.sensing.item_classifier import load_table, trained_item_classifier
 
 PIXEL = 0.002
 

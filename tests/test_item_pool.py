@@ -8,10 +8,10 @@ import pytest
 
 from sim.cell.conveyor import Belt
 from sim.cell.item_pool import ItemPool
-from sim.cell.item_pool_xml import ITEMS_XML, pool_xml
 from sim.errors import InvalidInput
 from sim.flow.catalogue import load_catalogue
 from sim.flow.generator import POOL_CAPACITY_REQUIRED
+from sim.model.item_pool_xml import ITEMS_XML, pool_xml
 from sim.paths import REPO_ROOT
 
 CATALOGUE = load_catalogue()
@@ -26,7 +26,7 @@ def belt_scene():
 
 
 def test_committed_items_xml_is_up_to_date():
-    assert ITEMS_XML.read_text() == pool_xml(CATALOGUE), "run: python -m sim.cell.item_pool_xml"
+    assert ITEMS_XML.read_text() == pool_xml(CATALOGUE), "run: python -m sim.model.item_pool_xml"
 
 
 def test_pool_holds_the_flow_capacity_parked_asleep_and_still():

@@ -18,8 +18,8 @@ from pathlib import Path
 
 import pytest
 
-from sim.episode import outputs
 from sim.paths import REPO_ROOT
+from sim.results import outputs
 
 ENV = {**os.environ, "MUJOCO_GL": "egl", "PYOPENGL_PLATFORM": "egl"}
 

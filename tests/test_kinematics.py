@@ -20,7 +20,6 @@ from planner.motion.kinematics import (
     jacobian,
     reachable_mask,
 )
-from sim.cell.mjcf import load_scene
 from sim.cell.robot import (
     MOTOR_JOINTS,
     geometry_from_model,
@@ -28,6 +27,7 @@ from sim.cell.robot import (
     settle_loop,
     tcp_position,
 )
+from sim.model.mjcf import load_scene
 
 N_CONFIGS = 500
 WORKING_RADIUS = 0.565  # half of ABB's 1130 mm working diameter [m]

@@ -1,4 +1,4 @@
-"""The sorting line's model (`sim.cell.line_model`): one to four IRB 360s over one belt.
+"""The sorting line's model (`sim.model.line_model`): one to four IRB 360s over one belt.
 
 Figures (printed with `pytest -s tests/test_line_model.py`): the cost of one 1 ms step of the
 4-robot line at home with the items parked.
@@ -19,7 +19,11 @@ from planner.motion.trajectory import State
 from sim.cell.conveyor import Belt
 from sim.cell.executor import TrajectoryExecutor, lumped_dynamics
 from sim.cell.item_pool import ItemPool
-from sim.cell.line_model import (
+from sim.cell.robot import geometry_from_model, loop_closure_error, tcp_position
+from sim.cell.suction import SuctionCup
+from sim.errors import InvalidInput
+from sim.flow.catalogue import load_catalogue
+from sim.model.line_model import (
     CAGE_GEOMS,
     LineLayout,
     compile_line,
@@ -27,13 +31,9 @@ from sim.cell.line_model import (
     robot_ctrl_index,
     robot_qpos_index,
 )
-from sim.cell.mjcf import load_robot
-from sim.cell.monitors.energy import EnergyMeter
-from sim.cell.robot import geometry_from_model, loop_closure_error, tcp_position
-from sim.cell.scene_edits import CellSettings, compile_scene
-from sim.cell.suction import SuctionCup
-from sim.errors import InvalidInput
-from sim.flow.catalogue import load_catalogue
+from sim.model.mjcf import load_robot
+from sim.model.scene_edits import CellSettings, compile_scene
+from sim.monitors.energy import EnergyMeter
 from sim.paths import REPO_ROOT
 
 FOUR = REPO_ROOT / "experiments" / "catalogues" / "pet_hdpe.toml"

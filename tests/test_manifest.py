@@ -13,10 +13,10 @@ import pytest
 import sim
 from sim.cli.sweep import seeds, sweep_manifest_config
 from sim.episode import config as episode_config
-from sim.episode import manifest
 from sim.errors import InvalidInput
 from sim.experiments import sweep_config
 from sim.paths import REPO_ROOT
+from sim.results import manifest
 from tests.test_cli_run import run_dir  # noqa: F401  (the module's `sortsim run` fixture)
 
 
@@ -66,8 +66,8 @@ def test_a_run_repeats_byte_for_byte_from_its_manifest(tmp_path):
     import shutil
 
     from sim.cli.main import main
-    from sim.episode import outputs
     from sim.paths import REPO_ROOT
+    from sim.results import outputs
 
     catalogue = tmp_path / "pet_hdpe.toml"
     shutil.copy(REPO_ROOT / "experiments" / "catalogues" / "pet_hdpe.toml", catalogue)

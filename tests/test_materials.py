@@ -17,17 +17,17 @@ from perception.items.from_grid import cells_per_item, items_components
 from planner.decision.interface import DecisionContext, TrackedItem
 from planner.errors import PlannerInputError
 from planner.motion.kinematics import reachable_mask
-from sim.cell.bin_layout import bin_centres
-from sim.cell.mjcf import cell_elements, load_scene, require_elements
 from sim.cell.robot import geometry_from_model
 from sim.episode import config as episode_config
-from sim.episode import outputs
 from sim.errors import InvalidInput
 from sim.flow.catalogue import load_catalogue
 from sim.flow.config import FlowConfig
 from sim.flow.generator import generate_flow
 from sim.flow.ground_truth import flow_truth
+from sim.model.bin_layout import bin_centres
+from sim.model.mjcf import cell_elements, load_scene, require_elements
 from sim.paths import REPO_ROOT
+from sim.results import outputs
 
 FOUR = REPO_ROOT / "experiments" / "catalogues" / "pet_hdpe.toml"
 EXAMPLE = REPO_ROOT / "experiments" / "four_materials.toml"

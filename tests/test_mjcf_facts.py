@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from perception.camera.grid import BeltGrid
-from sim.cell.mjcf import load_scene
 from sim.flow import config as flow_config
+from sim.model.mjcf import load_scene
 
 
 @pytest.fixture(scope="module")

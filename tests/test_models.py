@@ -10,9 +10,9 @@ import mujoco
 import numpy as np
 import pytest
 
-from sim.cell.mjcf import load_model
 from sim.cli import main as cli
 from sim.errors import InvalidInput, ModelFileError
+from sim.model.mjcf import load_model
 from sim.paths import MODELS_DIR, ROBOT_XML, SCENE_XML
 
 MODEL_FILES = sorted({ROBOT_XML, *MODELS_DIR.glob("**/scene*.xml")})

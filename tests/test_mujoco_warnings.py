@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from sim.cell.cell import Cell
-from sim.cell.monitors.mj_warnings import KINDS, MujocoWarning, WarningCounter
 from sim.episode import config as episode_config
 from sim.episode.loop import Episode
+from sim.monitors.mj_warnings import KINDS, MujocoWarning, WarningCounter
 
 FREE_BALL = """
 <mujoco><worldbody><body><freejoint/><geom size="0.1"/></body></worldbody></mujoco>

@@ -15,7 +15,7 @@ from perception.codes import COLOURS, EMPTY_CODE, code_of_cell, observation_code
 from perception.errors import PerceptionError, PerceptionInputError
 from sim.cell.camera import BeltCamera, marker_points
 from sim.cli.calibrate import DEFAULT_CALIBRATION
-from sim.experiments.perception_eval import evaluate_camera
+from sim.evaluation.perception_eval import evaluate_camera
 from sim.flow.catalogue import load_catalogue
 from sim.flow.world import WorldVariation
 from sim.paths import REPO_ROOT, SCENE_XML

@@ -6,7 +6,7 @@ import os
 
 import pytest
 
-from sim.episode import outputs
+from sim.results import outputs
 
 DESIGN_EPISODE_COLUMNS = (
     "seed, planner, speed_factor, belt_speed_mps, n_items, picked, picked_paper, picked_plastic, "

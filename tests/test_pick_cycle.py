@@ -20,8 +20,8 @@ from planner.motion.pick_cycle import (
 from planner.motion.ruckig_trajectory import RuckigTrajectoryGenerator
 from planner.motion.trajectory import State
 from sim.cell.executor import lumped_dynamics
-from sim.cell.mjcf import load_robot
 from sim.cell.robot import geometry_from_model
+from sim.model.mjcf import load_robot
 
 A = np.array([-0.1525, 0.0, 0.05])
 

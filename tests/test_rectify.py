@@ -15,7 +15,7 @@ from perception.camera.rectify import BeltRectifier, TopDownRaster, locate_belt,
 from perception.errors import PerceptionError
 from sim.cell.camera import BeltCamera, camera_pose, marker_points
 from sim.cli.calibrate import DEFAULT_CALIBRATION
-from sim.experiments.camera_checks import edge_residual, grid_corner_errors
+from sim.evaluation.camera_checks import edge_residual, grid_corner_errors
 from sim.paths import REPO_ROOT, SCENE_XML
 
 FIXTURE = REPO_ROOT / "tests" / "models" / "belt_camera.xml"

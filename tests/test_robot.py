@@ -13,7 +13,6 @@ import numpy as np
 import pytest
 
 from planner.motion.kinematics import forward_kinematics, inverse_kinematics, is_reachable, jacobian
-from sim.cell.mjcf import load_robot
 from sim.cell.robot import (
     geometry_from_model,
     loop_closure_error,
@@ -24,6 +23,7 @@ from sim.cell.robot import (
     set_motor_targets,
     tcp_position,
 )
+from sim.model.mjcf import load_robot
 
 V_MAX = 10.0  # ABB's maximum TCP speed [m/s]
 A_MAX = 100.0  # ABB's maximum TCP acceleration [m/s^2]

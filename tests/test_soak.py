@@ -1,6 +1,6 @@
 """The soak's checks: accounting identities, and (slow) a few random episodes that pass them all.
 
-`make soak` runs 200 random episodes through `sim.episode.soak`; the slow test here runs six,
+`make soak` runs 200 random episodes through `sim.experiments.soak`; the slow test here runs six,
 in this process, with the same checks: every count adds up, no MuJoCo warning, a finite state
 throughout, no item thrown off the belt.
 """
@@ -10,9 +10,7 @@ from __future__ import annotations
 import pytest
 
 from perception.codes import ALUMINIUM, PAPER, PLASTIC
-from sim.cell.monitors.thrown import Throw
-from sim.episode.metrics import EpisodeMetrics, PickRecord
-from sim.episode.soak import (
+from sim.experiments.soak import (
     LINE_DENSITY_PER_M,
     PLANNERS,
     RIDINGS,
@@ -21,6 +19,8 @@ from sim.episode.soak import (
     soak_episode,
 )
 from sim.flow.config import MAX_ITEMS_PER_METRE
+from sim.monitors.thrown import Throw
+from sim.results.metrics import EpisodeMetrics, PickRecord
 
 VALUES = {PAPER: 0.22, PLASTIC: 0.25, ALUMINIUM: 0.27}
 

@@ -8,15 +8,16 @@ import pytest
 
 from perception.codes import ALUMINIUM, PAPER, PLASTIC
 from planner.decision.interface import TrackedItem
-from sim.episode import config, outputs
-from sim.episode.attribution import attributed_item
-from sim.episode.confidence import is_unsure, sure_items, top_class_probability
+from sim.episode import config
 from sim.episode.loop import Episode
-from sim.episode.metrics import EpisodeMetrics, PickRecord
 from sim.episode.runner import run_episode
-from sim.episode.tracking import Detection, Track
 from sim.errors import InvalidInput
 from sim.experiments import sweep_config
+from sim.results import outputs
+from sim.results.metrics import EpisodeMetrics, PickRecord
+from sim.sensing.attribution import attributed_item
+from sim.sensing.confidence import is_unsure, sure_items, top_class_probability
+from sim.sensing.tracking import Detection, Track
 
 VALUES = {PAPER: 0.22, PLASTIC: 0.25, ALUMINIUM: 0.27}
 CLASS_OF = {"paper": PAPER, "plastic": PLASTIC, "aluminium": ALUMINIUM}

@@ -19,15 +19,15 @@ from planner.motion.limits import limits_for_payload
 from planner.motion.pick_cycle import PickPlaceConfig, PickPlan, plan_pick_place
 from planner.motion.ruckig_trajectory import RuckigTrajectoryGenerator
 from planner.motion.trajectory import State
-from sim.cell.bins import Bins, Landing
 from sim.cell.conveyor import Belt
 from sim.cell.executor import TrajectoryExecutor
 from sim.cell.item_pool import ItemPool
 from sim.cell.robot import geometry_from_model, tcp_position
-from sim.cell.scene_edits import CellSettings, compile_scene
 from sim.cell.suction import SuctionConfig, SuctionCup, SuctionEvent
 from sim.errors import InvalidInput
 from sim.flow.catalogue import load_catalogue
+from sim.model.scene_edits import CellSettings, compile_scene
+from sim.monitors.bins import Bins, Landing
 from sim.paths import SCENE_XML
 
 CATALOGUE = load_catalogue()

@@ -9,10 +9,10 @@ import tomllib
 import pytest
 
 from sim.cli import main as cli
-from sim.episode import outputs
 from sim.experiments import sweep_config, thesis_report
 from sim.experiments import sweep_runner as sweep
 from sim.flow.world import WorldVariation
+from sim.results import outputs
 
 GRID = """
 [sweep]

@@ -15,9 +15,9 @@ import stat
 
 import pytest
 
-from sim.episode import outputs
 from sim.experiments import sweep_config
 from sim.experiments import sweep_runner as sweep
+from sim.results import outputs
 
 PATIENT = '''
 """A decision manager that starts its episode only once another episode's row is written."""

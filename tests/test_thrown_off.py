@@ -21,9 +21,9 @@ from planner.motion.clearance import path_conflicts
 from planner.motion.intercept import intercept_item
 from planner.motion.trajectory import State
 from sim.cell.cell import Cell
-from sim.cell.monitors.thrown import THROW_SPEED_MPS, ThrowWatch, rail_outer_y
 from sim.cell.suction import SuctionConfig, SuctionCup
 from sim.episode.pick_control import PRESS_DEPTH_M, PickController
+from sim.monitors.thrown import THROW_SPEED_MPS, ThrowWatch, rail_outer_y
 
 SPEED = 0.185
 

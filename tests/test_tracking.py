@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from sim.episode.metrics import EpisodeMetrics, PickRecord
-from sim.episode.tracking import Detection, Tracker
+from sim.results.metrics import EpisodeMetrics, PickRecord
+from sim.sensing.tracking import Detection, Tracker
 
 AL = (0.0, 0.0, 0.1, 0.9)
 PAPER = (0.0, 1.0, 0.0, 0.0)

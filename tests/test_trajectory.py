@@ -25,8 +25,8 @@ from planner.motion.ruckig_trajectory import (
 )
 from planner.motion.trajectory import Chain, Dwell, State
 from sim.cell.executor import lumped_dynamics
-from sim.cell.mjcf import load_robot
 from sim.cell.robot import geometry_from_model
+from sim.model.mjcf import load_robot
 
 N_PAIRS = 1000
 BOUNDARY_TOL = 1e-8

@@ -13,8 +13,8 @@ import pytest
 from planner.decision.registry import make_planner
 from planner.errors import PlannerInputError
 from sim.episode import config as episode_config
-from sim.episode import outputs
 from sim.episode.runner import run_episode
+from sim.results import outputs
 
 USER_MODULE = '''
 """A user's decision manager: the most valuable reachable item, whatever its urgency."""

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sim.cell.video import (
+from sim.render.video import (
     GHOSTED_PREFIXES,
     LABEL_OFFSETS,
     Overlay,

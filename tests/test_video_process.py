@@ -23,7 +23,9 @@ import pytest
 
 from sim.cell.conveyor import Belt
 from sim.cell.item_pool import ItemPool
-from sim.cell.video import (
+from sim.errors import InvalidInput
+from sim.paths import REPO_ROOT
+from sim.render.video import (
     FramePainter,
     ModelWatch,
     Overlay,
@@ -35,8 +37,6 @@ from sim.cell.video import (
     ghosted_geoms,
     view_camera,
 )
-from sim.errors import InvalidInput
-from sim.paths import REPO_ROOT
 from tests.utils import scene_at_home
 
 SIZE = (320, 184)

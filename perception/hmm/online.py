@@ -8,7 +8,7 @@ now known"), with the trained models as Dirichlet pseudo-counts of weight `ancho
 a short window refines the models without forgetting them. Rows live in a fixed ring buffer, so
 a step costs the same at row 10 and at row 10 000.
 
-Use in an episode (models and cells per item from `sim.episode.stripe_hmms.trained_models`):
+Use in an episode (models and cells per item from `sim.sensing.stripe_hmms.trained_models`):
 
     online = OnlineStripeHmms(models)
     estimate = online.step(row_codes)          # every period: (5,) codes -> RowEstimate

@@ -1,7 +1,7 @@
 """An item's material from its features, and its fusion with the stripe HMMs' prediction.
 
 `ItemClassifier` is a scikit-learn gradient-boosted tree ensemble over `item_features`, trained
-on labelled items of flows disjoint from every evaluation (`sim.experiments.item_features`).
+on labelled items of flows disjoint from every evaluation (`sim.evaluation.item_features`).
 The stripe HMMs (the thesis's method) carry the belt's sequence: classes come in runs along a
 stripe. Their prediction of an item's class from the codes of its stripe before it (the
 predicted state distribution of the item's first row, before its own codes are seen) is a prior
@@ -15,7 +15,7 @@ classifier's posterior into a likelihood up to a constant). The HMMs' posterior 
 own cells (what the thesis's path decides from) is not used as the prior: it already holds the
 item's own colour and size codes, which the features hold too, and counting them twice makes
 the fusion overconfident where the codes mislead (a white pot coded as paper);
-`sim.experiments.item_features evaluate` measures both. Three modes (`CLASSIFIER_MODES`): `hmm`
+`sim.evaluation.item_features evaluate` measures both. Three modes (`CLASSIFIER_MODES`): `hmm`
 (the thesis's path alone: the HMMs' posterior), `features` (the classifier alone), `fused`.
 
 Probabilities are over (paper, plastic, aluminium), class ids 2, 3, 4.

@@ -3,7 +3,7 @@ names the robot's energy as the next term of its reward).
 
 A pick's electrical energy is modelled as linear in the thesis's distance d (start -> item ->
 bin, in the belt's plane): E(d) = `fixed_j` + `per_metre_j` x d, fitted to the energy the
-physics measures per pick (`sim.cell.monitors.energy`, the regenerative-free electrical
+physics measures per pick (`sim.monitors.energy`, the regenerative-free electrical
 estimate) by `benchmarks/pick_energy.py` on truth episodes of seeds 100-104 (disjoint from the
 evaluation seeds). At `price_eur_per_kwh` a pick costs E(d) / 3.6e6 x price, and every planner
 ranks and keeps items by their expected value net of that cost (`DecisionContext.net_value`):

@@ -42,6 +42,8 @@ from sim.paths import CAMERA_CALIBRATION_JSON
 CAMERA_NAME = "belt_camera"
 MARKER_NAMES = ("marker_0", "marker_1", "marker_2", "marker_3")
 DEFAULT_CALIBRATION = CAMERA_CALIBRATION_JSON
+FRAME_SIZE = (640, 360)
+"""The belt camera's frame size by default [px] (an episode config's `[camera]` may change it)."""
 
 
 def camera_id(model: mujoco.MjModel, name: str = CAMERA_NAME) -> int:
@@ -106,8 +108,8 @@ def marker_points(
 PERCEPTION_SAMPLES = 0
 """Multisamples per pixel of the frames the camera perception reads: none. Against four (the
 model's), on seeds 0-2 at x1, x1.2 and x1.5: the codes agree with the truth on 98.52 % of 8790
-cells against 98.38 % (`sim.experiments.perception_eval`, uniform world, 150 items in 90 s);
-the items' classes (`sim.experiments.item_features evaluate`, varied world, 100 items) are
+cells against 98.38 % (`sim.evaluation.perception_eval`, uniform world, 150 items in 90 s);
+the items' classes (`sim.evaluation.item_features evaluate`, varied world, 100 items) are
 right for 0.982 against 0.980 from the features alone and 0.976 against 0.980 fused (the
 classifier was trained on four-sample frames). The colour pass costs about half: 13 against
 28 ms for the 640 x 360 frame's 896 x 508 canvas on Mesa's software renderer."""

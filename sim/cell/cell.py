@@ -21,8 +21,8 @@ from sim.cell.executor import TrajectoryExecutor, lumped_dynamics
 from sim.cell.item_pool import ItemPool
 from sim.cell.riding import wake_line
 from sim.cell.robot import geometry_from_model, tcp_position
-from sim.cell.scene_edits import CUP_DIAMETER_M, CellSettings, compile_scene
 from sim.flow.catalogue import Catalogue, load_catalogue
+from sim.model.scene_edits import CUP_DIAMETER_M, CellSettings, compile_scene
 
 PICK_Z_NOMINAL = 0.02
 """TCP height of the reachable window the planners use (a typical item top) [m]."""
@@ -36,7 +36,7 @@ class Cell:
     Args:
         model: A compiled cell; `models/cell/scene.xml` compiled with `settings` and one bin
             per material of `catalogue` when omitted.
-        settings: The cup's diameter and the belt's length (`sim.cell.scene_edits`); the
+        settings: The cup's diameter and the belt's length (`sim.model.scene_edits`); the
             scene's own when None. Only with `model` omitted.
         catalogue: The item catalogue (its materials name the bins); the default one
             (`sim/data/items.toml`, the thesis's paper, plastic and aluminium) when omitted.

@@ -7,7 +7,7 @@ TCP tracking error, the motors' torques (`actuator_force`) against their `forcer
 platform's tilt. The planner's trajectory objects are only read (`at_time`, `duration`).
 
 `lumped_dynamics` and `TrajectoryExecutor` take a keyword `prefix` (default "": the robot's own
-names): the name prefix of one robot of a sorting line (`sim.cell.line_model`), which they then
+names): the name prefix of one robot of a sorting line (`sim.model.line_model`), which they then
 read and drive, leaving the other robots' actuators alone.
 """
 

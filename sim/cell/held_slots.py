@@ -1,6 +1,6 @@
 """The pool slots the cups hold, as the item monitors are given them.
 
-The monitors (`sim.cell.riding`, `sim.cell.bins`, `sim.cell.monitors.thrown`) take the held
+The monitors (`sim.cell.riding`, `sim.monitors.bins`, `sim.monitors.thrown`) take the held
 slots as None (no cup holds an item), one slot (one robot's cup) or a sequence of them (a
 line's cups), and leave those items out every few milliseconds of simulated time.
 """

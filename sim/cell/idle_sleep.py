@@ -13,7 +13,7 @@ waking the robot, when a pick starts. It falls asleep once its speeds have staye
 model's `sleep_tolerance` (1 mm/s) for MuJoCo's few steps, and stands exactly there until woken
 (about 40 ms after it stops moving; its servos' torques are then within about 1 % of where they
 settle, `tests/test_idle_sleep.py`); its motors still hold it against gravity, which the energy
-meter counts with the torques it came to rest with (`sim.cell.monitors.energy`).
+meter counts with the torques it came to rest with (`sim.monitors.energy`).
 
 `IdleSleep(model, data, prefix, enabled=False)` restores the compiled policy: every result is
 then the same to the bit as without it.

@@ -1,6 +1,6 @@
 """The item lifecycle on a fixed pool of bodies: spawn at the infeed, park when done.
 
-The pool (`models/cell/items.xml`, see `sim.cell.item_pool_xml`) holds `item_<n>` free bodies, each
+The pool (`models/cell/items.xml`, see `sim.model.item_pool_xml`) holds `item_<n>` free bodies, each
 with one geom per shape-and-pose family and a visual-only label sleeve. Spawning turns a parked
 slot into one flow item: its family's geom takes the item's (scaled) size, friction and bounding
 volumes (`geom_rbound`, `geom_aabb`, which MuJoCo's broad and mid phases use), collides and is
@@ -21,10 +21,10 @@ import mujoco
 import numpy as np
 
 from sim.cell.conveyor import Belt
-from sim.cell.item_pool_xml import HIDDEN_GROUP, ITEM_GROUP, LABEL, geom_name
 from sim.errors import InvalidInput
 from sim.flow.catalogue import FAMILIES, Catalogue, ItemType
 from sim.flow.config import X_INFEED
+from sim.model.item_pool_xml import HIDDEN_GROUP, ITEM_GROUP, LABEL, geom_name
 
 DROP_CLEARANCE = 0.002
 """Gap between the belt and a spawned item's lowest point [m]."""
@@ -119,7 +119,7 @@ class ItemPool:
 
     def grip_ids_of(self, prefix: str) -> np.ndarray:
         """The welds `<prefix>item_<n>_grip` of each slot: robot `prefix`'s cup in a sorting line
-        (`sim.cell.line_model`), -1 where the model has none."""
+        (`sim.model.line_model`), -1 where the model has none."""
         name2id, kind = mujoco.mj_name2id, mujoco.mjtObj.mjOBJ_EQUALITY
         names = (f"{prefix}item_{n}_grip" for n in range(self.size))
         return np.array([name2id(self.model, kind, name) for name in names])

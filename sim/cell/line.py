@@ -25,8 +25,8 @@ from sim.cell.executor import TrajectoryExecutor, lumped_dynamics
 from sim.cell.item_pool import ItemPool
 from sim.cell.riding import wake_line
 from sim.cell.robot import geometry_from_model, tcp_position
-from sim.cell.scene_edits import CUP_DIAMETER_M, CellSettings
 from sim.flow.catalogue import Catalogue, load_catalogue
+from sim.model.scene_edits import CUP_DIAMETER_M, CellSettings
 
 
 class RobotCell:
@@ -76,7 +76,7 @@ class LineCell:
     """The compiled line (model, data), its belt and pool, and one `RobotCell` per robot.
 
     Args:
-        model: The compiled line (`sim.cell.line_model`).
+        model: The compiled line (`sim.model.line_model`).
         prefixes: The robots' name prefixes, upstream first.
         catalogue: The item catalogue (its materials name the bins); the default when None.
         settings: What the model was compiled with (cup, belt); the defaults when None.
@@ -98,7 +98,7 @@ class LineCell:
         self.pool = ItemPool(model, self.catalogue, self.belt)
         self.robot_cells = [RobotCell(self, p) for p in prefixes]
         self._home_key = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, "home")
-        """Every robot at its home pose (`sim.cell.line_model`)."""
+        """Every robot at its home pose (`sim.model.line_model`)."""
         self.item_radius = max(
             float(self.pool.props(k)["geom_rbound"]) for k in range(len(self.catalogue.types))
         )

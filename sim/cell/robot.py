@@ -6,7 +6,7 @@ into the state the analytic kinematics predicts, so a simulation can start anywh
 
 Every function takes a keyword `prefix` (default "": the robot's own names, as in the robot's
 file and the single cell): the name prefix of one robot of a sorting line
-(`sim.cell.line_model`, e.g. "r1_" for `r1_motor_1_joint`, `r1_cup_site`).
+(`sim.model.line_model`, e.g. "r1_" for `r1_motor_1_joint`, `r1_cup_site`).
 """
 
 from __future__ import annotations

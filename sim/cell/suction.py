@@ -23,7 +23,7 @@ Model (numbers and reasons in docs/suction.md):
   mu_lip on what is left).
 - Release. Vacuum off: the item stays held for `release_time` (35 ms of air), then drops.
 
-A robot of a sorting line (`sim.cell.line_model`) has its own cup: `SuctionCup(..., prefix="r1_")`
+A robot of a sorting line (`sim.model.line_model`) has its own cup: `SuctionCup(..., prefix="r1_")`
 acts through `r1_cup_link`, `r1_cup_site` and the pool's welds `r1_item_<n>_grip`.
 """
 

@@ -41,8 +41,8 @@ def check(args: argparse.Namespace) -> None:
     The frame must have the cell camera's 16:9 shape: the episodes scale the calibration to
     their 640x360 frames.
     """
-    from sim.episode import outputs
     from sim.errors import InvalidInput
+    from sim.results import outputs
 
     lo, hi = POSES
     if not lo <= args.poses <= hi:
@@ -56,8 +56,8 @@ def check(args: argparse.Namespace) -> None:
         allowed = f"the camera's 16:9: {args.width * 9 / 16:g} px for --width {args.width}"
         raise InvalidInput("--height", allowed, args.height)
     outputs.check_output_file(args.out, "--out", (".json",), "a JSON file")
-    from sim.cell.mjcf import load_model
     from sim.cell.rendering import check_backend
+    from sim.model.mjcf import load_model
 
     load_model(args.scene, ((("camera",), "belt_camera"),))
     check_backend()
@@ -68,8 +68,8 @@ def main(args: argparse.Namespace) -> int:
     check(args)
     args.out = Path(args.out)
     from perception.camera.calibration import calibrate
-    from sim.cell.calibration_rig import Checkerboard, render_views
     from sim.paths import remove_stale_temporaries
+    from sim.render.calibration_rig import Checkerboard, render_views
 
     remove_stale_temporaries(args.out.parent)
     board = Checkerboard()

@@ -17,7 +17,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Runs Cycle 1 with the payload and prints its figures (or one JSON object)."""
-    from sim.experiments.cycle1 import run_cycle1
+    from sim.evaluation.cycle1 import run_cycle1
 
     report = run_cycle1(args.payload)
     if args.json:

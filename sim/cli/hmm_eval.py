@@ -112,7 +112,7 @@ def check(args: argparse.Namespace) -> None:
     if not 1 <= args.batch_rows <= 1000:
         raise InvalidInput("--batch-rows", "1..1000", args.batch_rows)
     if args.save is not None:
-        from sim.episode import outputs
+        from sim.results import outputs
 
         save = Path(args.save)
         if not args.save.strip() or args.save.endswith(("/", os.sep)) or save.is_dir():
@@ -130,7 +130,7 @@ def check(args: argparse.Namespace) -> None:
 
 def _recordings(seeds, catalogue, perception):
     if perception == "camera":
-        from sim.experiments.camera_recordings import camera_recording as record
+        from sim.evaluation.camera_recordings import camera_recording as record
     else:
         from sim.flow.labelled_grids import record
     return [record(s, catalogue) for s in seeds]
@@ -140,7 +140,7 @@ def _items(train, test, evaluation, batch_rows):
 
     from perception.items.from_grid import GridGeometry, items_components, items_kmeans
     from perception.items.scoring import pooled, score_items
-    from sim.episode.stripe_hmms import item_sizes
+    from sim.sensing.stripe_hmms import item_sizes
 
     size = item_sizes(train)
     scores = {}
@@ -278,7 +278,7 @@ def main(args: argparse.Namespace) -> int:
     if not args.no_items:
         _items(train_recs, test_recs, ev, args.batch_rows)
     if args.save:
-        from sim.episode.stripe_hmms import item_sizes
+        from sim.sensing.stripe_hmms import item_sizes
 
         print(f"\nsaved {save_models(args.save, models, item_sizes(train_recs))}")
     print(

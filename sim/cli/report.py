@@ -17,8 +17,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Write the report and list its files."""
-    from sim.episode.outputs import check_output_dir
     from sim.experiments.report import read_folders, write_report
+    from sim.results.outputs import check_output_dir
 
     out = args.out if args.out is not None else args.dirs[0] / "report"
     check_output_dir(out, "--out")

@@ -217,7 +217,7 @@ def preflight(config, out: Path, video: str | Path | None) -> None:
         out: The output folder (episodes.csv, picks.csv).
         video: The MP4 path as given (a trailing separator means a folder), or None.
     """
-    from sim.episode import outputs
+    from sim.results import outputs
 
     outputs.check_output_dir(out, "--out")
     for name in ("episodes.csv", "picks.csv"):
@@ -227,7 +227,7 @@ def preflight(config, out: Path, video: str | Path | None) -> None:
     check_perception(config)
     if video is not None:
         from sim.cell.rendering import check_backend
-        from sim.cell.video import check_encoder
+        from sim.render.video import check_encoder
 
         check_backend()
         check_encoder()
@@ -245,30 +245,30 @@ def check_perception(config) -> None:
 
     CameraCalibration.load(DEFAULT_CALIBRATION)
     check_backend()
-    from sim.episode.sensing import hmm_cache_path
-    from sim.episode.stripe_hmms import read_cache
+    from sim.sensing.perception import hmm_cache_path
+    from sim.sensing.stripe_hmms import read_cache
 
     catalogue, mix = config.item_catalogue, config.flow.flow_kwargs()
     cache = hmm_cache_path(catalogue, mix)
     if cache.exists():
         read_cache(cache, n_states=catalogue.materials.n_states)
     if config.classifier != "hmm" and not config.catalogue:
-        from sim.episode.item_classifier import trained_item_classifier
+        from sim.sensing.item_classifier import trained_item_classifier
 
         trained_item_classifier()  # a missing or broken training table, refused now
 
 
 def main(args: argparse.Namespace) -> int:
     """Run one episode and write its files."""
-    from sim.episode import outputs
     from sim.paths import CACHE_DIR, remove_stale_temporaries
+    from sim.results import outputs
 
     config = load_config(args)
     out = Path(args.out)
     preflight(config, out, args.video)
     video = None if args.video is None else Path(args.video)
     remove_stale_temporaries(out, CACHE_DIR, *([] if video is None else [video.parent]))
-    from sim.experiments.item_features import prepare_camera
+    from sim.evaluation.item_features import prepare_camera
 
     prepare_camera(config)  # a custom catalogue's item classifier table, recorded once
     from sim.episode.runner import run_episode
@@ -280,7 +280,7 @@ def main(args: argparse.Namespace) -> int:
     columns = outputs.episode_columns(config.materials) + outputs.line_columns(config.robots)
     outputs.write_episodes(out / "episodes.csv", [result.episode_row], columns)
     outputs.write_picks(out / "picks.csv", result.pick_rows)
-    from sim.episode import manifest
+    from sim.results import manifest
 
     record = manifest.build("run", config.to_dict(), [config.seed])
     record["catalogue_digest"] = config.item_catalogue.digest  # checked when repeated

@@ -69,15 +69,15 @@ def main(args: argparse.Namespace) -> int:
         spec.config.perception == "camera" and spec.config.classifier != "hmm"
         for spec in config.episodes
     ):
-        from sim.episode.item_classifier import trained_item_classifier
+        from sim.sensing.item_classifier import trained_item_classifier
 
         trained_item_classifier()  # a missing training table refused before any episode
 
     from sim.cli.run import Progress
-    from sim.episode import manifest
+    from sim.results import manifest
 
     manifest.write(args.out, manifest.build("sweep", sweep_manifest_config(config), seeds(config)))
-    from sim.experiments.item_features import prepare_camera
+    from sim.evaluation.item_features import prepare_camera
 
     prepared = set()
     for spec in config.episodes:  # a custom catalogue's item classifier table, recorded once

@@ -1,6 +1,6 @@
 """`sortsim train`: trains the `learned` pick-order policy on sortsim/PickOrder-v0.
 
-The cross-entropy method over a linear slot scorer (`sim.experiments.policy_training`), seeded:
+The cross-entropy method over a linear slot scorer (`sim.evaluation.policy_training`), seeded:
 the same seed writes the same weights. The default output is the policy the `learned` decision
 manager ships with.
 """
@@ -27,9 +27,9 @@ def main(args: argparse.Namespace) -> int:
     from dataclasses import fields
 
     from planner.decision.managers.learned import POLICY_FILE
-    from sim.episode.outputs import check_output_file, write_atomic
     from sim.errors import InvalidInput
-    from sim.experiments.policy_training import TrainingConfig, train
+    from sim.evaluation.policy_training import TrainingConfig, train
+    from sim.results.outputs import check_output_file, write_atomic
 
     overrides = {
         f.name: getattr(args, f.name)

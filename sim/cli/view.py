@@ -4,7 +4,7 @@ The episode is the one `sortsim run` would run with the same options (`--config`
 `--items`, `--planner`, `--perception`, ...; `sim.cli.run.add_episode_arguments`), shown in
 `mujoco.viewer.launch_passive` from the video's viewpoint, with the tracked items drawn as
 spheres in their predicted class's colour and the counters in the corner
-(`sim.cell.live_view`). It is paced to `--real-time-factor` simulated seconds per wall second
+(`sim.render.live_view`). It is paced to `--real-time-factor` simulated seconds per wall second
 (default 1, real time; 0: as fast as the machine steps). It writes no file; at the end it prints
 the episode's summary, as `sortsim run` does. Closing the window stops the episode (exit code 0,
 one line with the counters so far).
@@ -44,7 +44,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Show one episode in the viewer, then print its summary."""
-    from sim.cell.live_view import check_display, check_real_time_factor
+    from sim.render.live_view import check_display, check_real_time_factor
 
     check_display()
     check_real_time_factor(args.real_time_factor)
@@ -52,15 +52,15 @@ def main(args: argparse.Namespace) -> int:
 
     config = load_config(args)
     if config.perception == "camera":
-        from sim.cell.live_view import check_camera_beside_viewer
+        from sim.render.live_view import check_camera_beside_viewer
 
         check_camera_beside_viewer()
     check_perception(config)
-    from sim.experiments.item_features import prepare_camera
+    from sim.evaluation.item_features import prepare_camera
 
     prepare_camera(config)
-    from sim.cell.live_view import LiveView, ViewerClosed
     from sim.episode.runner import config_cell, run_episode
+    from sim.render.live_view import LiveView, ViewerClosed
 
     cell = config_cell(config)
     view = LiveView(cell.model, cell.data, args.real_time_factor, panels=args.panels)

@@ -17,7 +17,7 @@ TOML layout (every key optional; defaults are the headline episode)::
     item_riding = "path"        # path | settled | contact (see sim/cell/riding.py)
     energy_price_eur_per_kwh = 0.0  # > 0: every planner nets each pick's motor energy cost
     min_class_confidence = 0.0  # 0..1: an item whose most probable class is less probable is
-                                # left on the belt (sim/episode/confidence.py); 0: none is
+                                # left on the belt (sim/sensing/confidence.py); 0: none is
     classifier = "fused"        # camera items' class: fused | features | hmm (the thesis's)
     depth_noise = true          # the stereo camera's depth error (sim/cell/depth_noise.py)
     world = "varied"            # varied | uniform: how items vary (sim/flow/world.py,
@@ -104,18 +104,19 @@ from planner.decision.registry import ALLOWED as ALLOWED_PLANNERS
 from planner.decision.registry import check_planner
 from planner.decision.robot_materials import class_ids_of
 from planner.motion.belt_speeds import SPEED_RANGE_MPS, SPEED_TOLERANCE_MPS, SPEED_X1_MPS
-from sim.cell.scene_edits import (
+from sim.cell.camera import FRAME_SIZE
+from sim.episode.line_robots import LineRobotSpec, check_robots_table, robots_table
+from sim.errors import InvalidInput, RefusedInput
+from sim.flow.catalogue import DEFAULT_CATALOGUE, Catalogue, load_catalogue
+from sim.flow.config import LINE_MAX_ITEMS_PER_METRE, MAX_ITEMS_PER_METRE, FlowConfig
+from sim.flow.world import WorldVariation
+from sim.model.scene_edits import (
     BELT_LENGTH_M,
     BELT_LENGTH_RANGE_M,
     CUP_DIAMETER_M,
     CUP_DIAMETER_RANGE_M,
     CellSettings,
 )
-from sim.episode.line_robots import LineRobotSpec, check_robots_table, robots_table
-from sim.errors import InvalidInput, RefusedInput
-from sim.flow.catalogue import DEFAULT_CATALOGUE, Catalogue, load_catalogue
-from sim.flow.config import LINE_MAX_ITEMS_PER_METRE, MAX_ITEMS_PER_METRE, FlowConfig
-from sim.flow.world import WorldVariation
 
 BELT_SPEED_X1_MPS = SPEED_X1_MPS
 BELT_SPEED_RANGE_MPS = SPEED_RANGE_MPS
@@ -357,8 +358,8 @@ class Camera:
     """The belt camera's frame size [px]: the calibration is scaled to it, the stereo depth
     (and its noise, correlated over pixels) comes at it, so coarser frames see coarser items."""
 
-    width: int = 640
-    height: int = 360
+    width: int = FRAME_SIZE[0]
+    height: int = FRAME_SIZE[1]
 
     def __post_init__(self) -> None:
         lo, hi = CAMERA_WIDTH_RANGE
@@ -553,7 +554,7 @@ class EpisodeConfig:
     @property
     def robot_positions_m(self) -> tuple[float, ...]:
         """x of each robot's base along the belt, upstream first [m] (the `[[robots]]` table's
-        `x_m`); () when not given: the line's default spacing (`sim.cell.line_model`)."""
+        `x_m`); () when not given: the line's default spacing (`sim.model.line_model`)."""
         return tuple(s.x_m for s in self.robot_table if s.x_m is not None)
 
     @functools.cached_property

@@ -13,7 +13,7 @@ by then.
 
 `CELL_PICK_COEF` and `CELL_PLACE_COEF` are the same closed form fitted to the plans the
 controller made in physics episodes on training seeds (every decision manager, the thesis's
-three belt speeds, busy and saturated belts): `python -m sim.experiments.cell_cycle_fit`,
+three belt speeds, busy and saturated belts): `python -m sim.evaluation.cell_cycle_fit`,
 which also prints the errors on held-out episodes. Every decision manager of an episode and the
 planner-level benchmark's kinematic belt use it (`cell_cycle_model`).
 """

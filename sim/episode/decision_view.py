@@ -25,11 +25,11 @@ PAYLOAD_KG = 1.0  # the payload the runner plans trajectories for
 def cell_parts():
     """(window, bins, cycle model) of the scene in models/cell."""
     from sim.cell.conveyor import rail_top_z
-    from sim.cell.mjcf import load_scene
     from sim.cell.robot import geometry_from_model
     from sim.episode.cycle_timing import cell_cycle_model
     from sim.episode.pick_control import PRESS_DEPTH_M, clear_height
     from sim.flow.catalogue import load_catalogue
+    from sim.model.mjcf import load_scene
 
     model = load_scene()
     data = mujoco.MjData(model)

@@ -10,7 +10,7 @@ sorting every material) or an array of 1..4 tables, one per robot, upstream firs
     x_m = 2.0
 
 `x_m` is given for every robot or for none (then 0, 1.8, 3.6, ... m); given, the robots keep
-the line model's rules (`sim.cell.line_model.LineLayout`): the first at x >= 0, each at least
+the line model's rules (`sim.model.line_model.LineLayout`): the first at x >= 0, each at least
 `MIN_SPACING_M` past the one before, the last at most `MAX_LAST_X_M`. `materials` names the
 catalogue's materials, each once; every material must be sorted by at least one robot. A robot
 keeps one bin per material of the catalogue whatever it sorts. Each refusal is one line naming
@@ -127,7 +127,7 @@ def check_robots_table(
 
 def _check_positions(specs: Sequence[LineRobotSpec], where: str | None) -> None:
     """The robots' `x_m`: all given or none; given, the line model's spacing rules."""
-    from sim.cell.line_model import MAX_LAST_X_M, MIN_SPACING_M
+    from sim.model.line_model import MAX_LAST_X_M, MIN_SPACING_M
 
     given = [spec.x_m is not None for spec in specs]
     if not any(given):

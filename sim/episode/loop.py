@@ -26,29 +26,29 @@ from planner.decision.energy_cost import EnergyPrice
 from planner.decision.interface import Choice, DecisionContext, RobotState, TrackedItem
 from planner.decision.line_coordination import LineRobot, offered_items
 from planner.decision.registry import make_planner
-from sim.cell.bins import Bins
 from sim.cell.cell import PICK_Z_NOMINAL, Cell
 from sim.cell.depth_noise import ZED_CLASS
 from sim.cell.held_slots import held_mask
-from sim.cell.monitors.energy import ActuatorLog, EnergyMeter
-from sim.cell.monitors.mj_warnings import WarningCounter
-from sim.cell.monitors.thrown import ThrowWatch
 from sim.cell.riding import ItemRiding, PlannedPath
 from sim.cell.suction import SuctionConfig
-from sim.cell.video import overlay_of
-from sim.episode.attribution import attributed_item
-from sim.episode.confidence import is_unsure, sure_items
 from sim.episode.config import EpisodeConfig
 from sim.episode.cycle_timing import cell_cycle_model
 from sim.episode.infeed import MAX_HOLD_S, MAX_RAISE_M, RAISE_STEP_M, dropped_into
-from sim.episode.metrics import EpisodeMetrics, PickRecord
 from sim.episode.pick_control import PRESS_DEPTH_M, PickController, PickOutcome
-from sim.episode.sensing import CameraPerception, TruthPerception
-from sim.episode.tracking import Tracker
 from sim.errors import InvalidInput
 from sim.flow.config import X_INFEED
 from sim.flow.generator import generate_flow
 from sim.flow.ground_truth import yaw_from_xmat
+from sim.monitors.bins import Bins
+from sim.monitors.energy import ActuatorLog, EnergyMeter
+from sim.monitors.mj_warnings import WarningCounter
+from sim.monitors.thrown import ThrowWatch
+from sim.render.video import overlay_of
+from sim.results.metrics import EpisodeMetrics, PickRecord
+from sim.sensing.attribution import attributed_item
+from sim.sensing.confidence import is_unsure, sure_items
+from sim.sensing.perception import CameraPerception, TruthPerception
+from sim.sensing.tracking import Tracker
 
 log = logging.getLogger(__name__)
 
@@ -156,9 +156,9 @@ class Episode:
     Args:
         config: The episode's configuration.
         cell: The compiled cell it runs on (reset by `reset`).
-        video: A `sim.cell.video.VideoRecorder`, anything with its interface (`due`,
+        video: A `sim.render.video.VideoRecorder`, anything with its interface (`due`,
             `next_frame_time`, `capture(data, overlay)`, `close`, `abort`; e.g.
-            `sim.cell.live_view.LiveView`), or None.
+            `sim.render.live_view.LiveView`), or None.
         progress: Called with (fraction, status line) about once per simulated second.
         planner: A decision manager object (`choose`, `reset`); the config's when omitted.
     """
@@ -608,7 +608,7 @@ class Episode:
 
     def _attribute(self, created: list, t: float) -> None:
         """Book the true items the new tracks are of (the metrics' `never_detected`;
-        `sim.episode.attribution`: bookkeeping the robot never sees)."""
+        `sim.sensing.attribution`: bookkeeping the robot never sees)."""
         if not created:
             return
         items_xy, shapes = {}, {}
@@ -630,7 +630,7 @@ class Episode:
 
     def _check_items(self, t: float) -> None:
         """Every `CHECK_PERIOD_S`: MuJoCo's new warnings, items thrown off the belt
-        (`sim.cell.monitors.thrown`), items past the robot or the belt's end, landings, riding."""
+        (`sim.monitors.thrown`), items past the robot or the belt's end, landings, riding."""
         pool, data = self.cell.pool, self.data
         held_slots = self._held_slots()
         held = held_slots[0] if len(held_slots) == 1 else None
@@ -697,7 +697,7 @@ class Episode:
 
     def robot_columns(self, sim_s: float) -> dict[str, object]:
         """A line's episodes.csv columns: robots, coordination, each robot's picks, picks per
-        minute, utilisation and energy (`sim.episode.outputs.line_columns`); none for one."""
+        minute, utilisation and energy (`sim.results.outputs.line_columns`); none for one."""
         if len(self.stations) <= 1:
             return {}
         out: dict[str, object] = {
@@ -715,7 +715,7 @@ class Episode:
 
     def _tracked_items(self, t: float) -> list[TrackedItem]:
         """The tracked items every decision manager chooses among: the confidence rule
-        (`sim.episode.confidence`) applied here, once for all of them."""
+        (`sim.sensing.confidence`) applied here, once for all of them."""
         items, made = [], {}
         for tr in self.tracker.tracks():
             if self.failures.get(tr.true_id, 0) >= MAX_FAILURES:

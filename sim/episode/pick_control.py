@@ -133,7 +133,7 @@ class PickController:
         suction: The cup's vacuum settings; `SuctionConfig()` when None.
         prefix: Name prefix of the robot in the cell's model whose axis 4, TCP and cup this
             controller reads ("" for the robot's own names; a robot of a sorting line,
-            `sim.cell.line_model`). The trajectories are still planned and played by the
+            `sim.model.line_model`). The trajectories are still planned and played by the
             cell's `generator` and `executor`.
         idle_sleep: Let the robot sleep in MuJoCo while it is idle (`sim.cell.idle_sleep`).
     """

@@ -21,9 +21,9 @@ import time
 from dataclasses import dataclass, field
 
 from sim.cell.cell import Cell
-from sim.cell.scene_edits import CellSettings
 from sim.episode.config import EpisodeConfig
 from sim.episode.loop import Episode, make_decision_manager
+from sim.model.scene_edits import CellSettings
 
 __all__ = [
     "Cell",
@@ -68,8 +68,8 @@ def shared_cell(
     once per process, settings and catalogue, reused by every episode run here with them, so a
     sweep over the cup's diameter, the belt's length or the catalogue gets each its own model.
     A line of `robots` stands at `positions_m` along the belt [m] (() the default spacing,
-    `sim.cell.line_model.LineLayout`); one robot away from x = 0 runs on a line's model."""
-    from sim.cell.line_model import LineLayout, compile_line
+    `sim.model.line_model.LineLayout`); one robot away from x = 0 runs on a line's model."""
+    from sim.model.line_model import LineLayout, compile_line
 
     if catalogue is None:
         from sim.flow.catalogue import load_catalogue
@@ -124,7 +124,7 @@ def run_episode(
         planner: A decision manager object (`choose`, `reset`) to use instead of the config's;
             its `name` attribute (else its class name) goes into episodes.csv.
         recorder: Instead of an MP4, anything with the video recorder's interface that the
-            loop hands its frames to (`sim.cell.live_view.LiveView`: MuJoCo's viewer);
+            loop hands its frames to (`sim.render.live_view.LiveView`: MuJoCo's viewer);
             not with `video_path`.
     """
     if recorder is not None and video_path is not None:
@@ -134,7 +134,7 @@ def run_episode(
         cell = config_cell(config)
     video = recorder
     if video_path is not None:
-        from sim.cell.video import VideoRecorder
+        from sim.render.video import VideoRecorder
 
         v = config.video
         video = VideoRecorder(cell.model, video_path, v.fps, v.width, v.height)

@@ -25,8 +25,8 @@ from collections import defaultdict
 from dataclasses import dataclass
 from pathlib import Path
 
-from sim.episode import outputs
 from sim.errors import InvalidInput
+from sim.results import outputs
 
 GROUP_KEYS = ("variant", "perception", "speed_factor", "n_items", "planner")
 METRICS = (

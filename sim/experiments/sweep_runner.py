@@ -26,10 +26,10 @@ import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
-from sim.episode import outputs
 from sim.errors import InvalidInput, RefusedInput
 from sim.experiments.sweep_config import EpisodeSpec, SweepConfig, episode_key, variant_values
 from sim.paths import remove_stale_temporaries
+from sim.results import outputs
 
 IDENTITY_FILE = "sweep.json"
 """The file beside `episodes.csv` that names the sweep its rows belong to."""

@@ -147,7 +147,7 @@ def main(argv: list[str] | None = None) -> int:
     DIR`."""
     import argparse
 
-    from sim.episode import outputs
+    from sim.results import outputs
 
     parser = argparse.ArgumentParser(
         prog="python -m sim.experiments.thesis_report", description=main.__doc__

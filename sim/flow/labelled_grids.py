@@ -4,7 +4,7 @@ One recording per seed. The seed also picks the belt speed (x1, x1.2, x1.5) and 
 (50, 100, 120, 150 items per 90 s, thesis table 4.2), so a set of seeds mixes the conditions the
 thesis recorded. Codes come from the flow's ground truth (`sim.flow.ground_truth`) or, in camera
 mode, from
-the camera pipeline in MuJoCo (`sim.experiments.camera_recordings`).
+the camera pipeline in MuJoCo (`sim.evaluation.camera_recordings`).
 """
 
 from __future__ import annotations
@@ -55,7 +55,7 @@ def conditions(seed: int) -> tuple[float, int]:
 
 def record(seed: int, catalogue, mix: dict | None = None) -> Recording:
     """Generate the flow of `seed` and its labelled grid (true codes; the camera's recordings
-    of the same flows are `sim.experiments.camera_recordings.camera_recording`).
+    of the same flows are `sim.evaluation.camera_recordings.camera_recording`).
 
     `mix`: the flow's class mix (`FlowConfig`'s stripe_priors, transitions, class_priors) when
     not the default of the catalogue's materials."""

@@ -3,7 +3,7 @@
 The policy scores each of the K most urgent candidates (`planner.decision.slot_features`) with a
 linear function of its features and a few ratios of them, and picks the best; it waits when
 the best score is below a learned waiting score. Its weights are trained by the cross-entropy
-method on planner-level belts (`sim.experiments.policy_training`, `sortsim train`) and shipped
+method on planner-level belts (`sim.evaluation.policy_training`, `sortsim train`) and shipped
 as a small JSON file (`planner/decision/managers/data/learned_policy.json`). A linear scorer can
 express FIFO (weight on the time left), greedy on value per second and mixtures of them;
 training finds the mixture that earns most on the training belts.

@@ -58,7 +58,7 @@ class Bins:
     """Judges where items come to rest; keeps the records.
 
     Args:
-        model: The cell (a bin `bin_<material>` per material: `sim.cell.bin_layout`).
+        model: The cell (a bin `bin_<material>` per material: `sim.model.bin_layout`).
         data: Its data (the bins are static; their interiors are read once).
         pool: The item pool whose items are judged and parked.
         materials: The cell's materials (the thesis's by default).

@@ -96,7 +96,7 @@ def main() -> int:
     import argparse
 
     parser = argparse.ArgumentParser(
-        prog="python -m sim.experiments.camera_checks", description=main.__doc__
+        prog="python -m sim.evaluation.camera_checks", description=main.__doc__
     )
     parser.add_argument("--figure", default=None, help="PNG of raw / undistorted / grid frames")
     args = parser.parse_args()

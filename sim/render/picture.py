@@ -1,6 +1,6 @@
 """The README's picture of the cell: one off-screen frame from the `overview_camera`.
 
-Run `MUJOCO_GL=egl python -m sim.cell.picture docs/cell.png` to regenerate it.
+Run `MUJOCO_GL=egl python -m sim.render.picture docs/cell.png` to regenerate it.
 """
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from sim.cell.mjcf import load_model
 from sim.cell.robot import set_configuration
+from sim.model.mjcf import load_model
 from sim.paths import REPO_ROOT, SCENE_XML
 
 DEFAULT_PATH = REPO_ROOT / "docs" / "cell.png"
@@ -54,7 +54,7 @@ def save_picture(path: Path | str = DEFAULT_PATH, width: int = 800, height: int 
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Command line: `python -m sim.cell.picture [PATH] [--width W] [--height H]`."""
+    """Command line: `python -m sim.render.picture [PATH] [--width W] [--height H]`."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("path", nargs="?", default=str(DEFAULT_PATH), help="output PNG")
     parser.add_argument("--width", type=int, default=800, help="image width [px]")

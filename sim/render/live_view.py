@@ -26,8 +26,8 @@ import mujoco
 import numpy as np
 
 from sim.cell.rendering import quiet_stderr
-from sim.cell.video import Overlay
 from sim.errors import InvalidInput
+from sim.render.video import Overlay
 
 FRAME_RATE_HZ = 30.0
 """Viewer updates per wall-clock second at the wanted pace."""

@@ -4,11 +4,11 @@
 limit of 12 items per metre, belt speeds x1 / x1.2 / x1.5, every built-in decision manager but
 the oracle, every riding mode, random seeds and durations); `soak_episode` runs one and checks:
 
-- the accounting identities of `sim.episode.metrics` (entered = picked + missed + dropped, ...)
+- the accounting identities of `sim.results.metrics` (entered = picked + missed + dropped, ...)
   and that every item of the flow entered the belt and left it before the time cap;
 - no MuJoCo warning (`data.warning`, all kinds) during the episode;
 - a finite state (positions, velocities, controls) at every decision and at the end;
-- no item thrown off the belt (`sim.cell.monitors.thrown`).
+- no item thrown off the belt (`sim.monitors.thrown`).
 
 `benchmarks/soak.py` runs many of them in worker processes (`make soak`); `tests/test_soak.py`
 runs a few.

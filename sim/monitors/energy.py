@@ -127,7 +127,7 @@ class EnergyMeter:
         model, data: The cell's model and data.
         drive: The drives' losses.
         prefix: Name prefix of the robot metered ("" for the robot's own names; "r1_" for
-            robot `r1_` of a sorting line, `sim.cell.line_model`).
+            robot `r1_` of a sorting line, `sim.model.line_model`).
         asleep_tree: A kinematic tree of the robot that sleeps when it does
             (`sim.cell.idle_sleep.IdleSleep.tree`), or None (it never does). Asleep, it is
             metered holding still with the torques it came to rest with (MuJoCo computes none

@@ -1,8 +1,8 @@
 """The camera's items scored against the truth item by item: detected, split, merged, missed.
 
-A flow rides the belt in physics (`sim.experiments.flow_replay.FlowReplay`, robot at home) and
+A flow rides the belt in physics (`sim.evaluation.flow_replay.FlowReplay`, robot at home) and
 once per observation period the episode's own camera perception
-(`sim.episode.sensing.CameraPerception`: rendered frame and depth map, pipeline, HMMs) takes
+(`sim.sensing.perception.CameraPerception`: rendered frame and depth map, pipeline, HMMs) takes
 its frame; the newest row of its window of item pixels (belt coordinates and heights) is
 recorded with the items' true poses at that instant. The recorded rows then go through the
 same sliding window as the perception's, cut into items by `perception.items.blobs.item_blobs`
@@ -13,7 +13,7 @@ pixels are matched to the true footprints they fall in (`sim.flow.footprint_poly
 merged or missed (`perception.items.scoring.score_segments`); the centroid error of a detected
 item is the distance from its found centroid to its true centre at the time it was reported.
 
-Run: `python -m sim.experiments.segmentation_eval --seeds 0 1 2 3 4` (x1, x1.2, x1.5).
+Run: `python -m sim.evaluation.segmentation_eval --seeds 0 1 2 3 4` (x1, x1.2, x1.5).
 """
 
 from __future__ import annotations
@@ -31,18 +31,18 @@ from perception.codes import N_STATES
 from perception.items.blobs import item_blobs
 from perception.items.scoring import SEGMENT_KINDS, SegmentScore, pooled_segments, score_segments
 from perception.items.split import SplitSettings
-from sim.episode.sensing import (
-    COMPLETE_ROW,
-    ITEM_SPLIT,
-    ON_BELT_TOL_M,
-    WINDOW_ROWS,
-)
-from sim.experiments.flow_replay import FlowReplay
+from sim.evaluation.flow_replay import FlowReplay
 from sim.flow.catalogue import Catalogue, ItemType, load_catalogue
 from sim.flow.config import BELT_HALF_WIDTH, X_CAMERA, FlowConfig
 from sim.flow.footprint_polygons import contains_grown, to_body
 from sim.flow.generator import generate_flow
 from sim.flow.ground_truth import flow_rows, yaw_from_xmat
+from sim.sensing.perception import (
+    COMPLETE_ROW,
+    ITEM_SPLIT,
+    ON_BELT_TOL_M,
+    WINDOW_ROWS,
+)
 
 GROW_M = 0.003
 """A found pixel belongs to a true item when it lies within this of its outline [m]: the
@@ -292,7 +292,7 @@ def table_row(label: str, score: SegmentScore) -> str:
 def main(argv: list[str] | None = None) -> int:
     """Prints the before/after table of each speed factor, pooled over the seeds."""
     parser = argparse.ArgumentParser(
-        prog="python -m sim.experiments.segmentation_eval", description=__doc__
+        prog="python -m sim.evaluation.segmentation_eval", description=__doc__
     )
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4])
     parser.add_argument("--speed-factors", type=float, nargs="+", default=[1.0, 1.2, 1.5])

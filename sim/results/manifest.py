@@ -21,8 +21,8 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-from sim.episode.outputs import write_atomic
 from sim.paths import REPO_ROOT
+from sim.results.outputs import write_atomic
 
 MANIFEST_FILE = "manifest.json"
 FORMAT = 1

@@ -98,8 +98,8 @@ def lay_out_bins(spec: mujoco.MjSpec, materials: Materials) -> None:
 
 
 def bin_elements(materials: Materials, prefix: str = ""):
-    """The named elements of the bins the code looks up (for `sim.cell.mjcf.require_elements`),
-    of the robot whose bins' names start with `prefix` (a sorting line, `sim.cell.line_model`)."""
+    """The named elements of the bins the code looks up (for `sim.model.mjcf.require_elements`),
+    of the robot whose bins' names start with `prefix` (a sorting line, `sim.model.line_model`)."""
     out = []
     for name in materials.names:
         out.append((("geom",), f"{prefix}bin_{name}_floor_plate"))

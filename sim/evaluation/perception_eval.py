@@ -7,7 +7,7 @@ frame goes through `perception.camera.pipeline.CameraPipeline`. The true codes o
 from
 the items' simulated poses (`sim.flow.ground_truth.cell_truth_from_poses`), so perception is
 scored, not
-trusted. Run as a module for the figures: `python -m sim.experiments.perception_eval --help`.
+trusted. Run as a module for the figures: `python -m sim.evaluation.perception_eval --help`.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from perception.camera.pipeline import CameraPipeline
 from perception.codes import COLOURS, EMPTY_CODE, N_CODES
 from perception.errors import PerceptionError
 from sim.cell.camera import PERCEPTION_SAMPLES, BeltCamera, marker_points
-from sim.experiments.flow_replay import FlowReplay
+from sim.evaluation.flow_replay import FlowReplay
 from sim.flow.catalogue import load_catalogue
 from sim.flow.config import X_CAMERA, FlowConfig
 from sim.flow.ground_truth import flow_rows
@@ -169,7 +169,7 @@ def evaluate_camera(
 def main(argv: list[str] | None = None) -> int:
     """Prints the agreement and confusion matrices of each speed factor."""
     parser = argparse.ArgumentParser(
-        prog="python -m sim.experiments.perception_eval", description=__doc__
+        prog="python -m sim.evaluation.perception_eval", description=__doc__
     )
     parser.add_argument("--speed-factors", type=float, nargs="+", default=[1.0, 1.2, 1.5])
     parser.add_argument("--items", type=int, default=150)

@@ -1,7 +1,7 @@
 """The camera's item classifier: fitted from the shipped training table, cached.
 
 `sim/data/item_features.npz` holds the labelled items of the training flows (features, true
-class, type, seed, belt speed), written by `python -m sim.experiments.item_features record
+class, type, seed, belt speed), written by `python -m sim.evaluation.item_features record
 --train`; its seeds are disjoint from every evaluation's. The classifier
 (`perception.items.classifier.ItemClassifier`) is fitted from it once and kept in
 `runs/cache` under a name made of the table's and the fitting code's digest and the
@@ -71,7 +71,7 @@ def is_default_catalogue(catalogue) -> bool:
 def catalogue_table(catalogue, mix: dict | None = None) -> Path:
     """Where the training table of `catalogue` (and its class `mix`) is kept (runs/cache, named
     by content): recorded once through the camera perception by
-    `sim.experiments.item_features.ensure_catalogue_table`, which `sortsim run`, `sweep` and
+    `sim.evaluation.item_features.ensure_catalogue_table`, which `sortsim run`, `sweep` and
     `view` call before a camera episode on another catalogue than the default."""
     key = hashlib.sha1(catalogue.digest.encode())
     key.update(repr(sorted((mix or {}).items())).encode())
@@ -88,7 +88,7 @@ def trained_item_classifier(catalogue=None, mix: dict | None = None) -> ItemClas
     if not path.exists():
         allowed = (
             "the item classifier's training table of this catalogue, recorded by "
-            "`sortsim run` (or sim.experiments.item_features.ensure_catalogue_table)"
+            "`sortsim run` (or sim.evaluation.item_features.ensure_catalogue_table)"
         )
         raise InvalidInput("item table", allowed, "missing", str(path))
     return _fitted(path, catalogue.materials.ids)
@@ -98,7 +98,7 @@ def trained_item_classifier(catalogue=None, mix: dict | None = None) -> ItemClas
 def _fitted(path, material_ids: tuple[int, ...]) -> ItemClassifier:
     """The item classifier fitted on the table at `path` (from the cache when there)."""
     if not path.exists():
-        allowed = "the item classifier's training table (python -m sim.experiments.item_features)"
+        allowed = "the item classifier's training table (python -m sim.evaluation.item_features)"
         raise InvalidInput("item table", allowed, "missing", str(path))
     cache = _cache_path(path)
     if cache.exists():

@@ -3,8 +3,8 @@
 The cell with the robot at home, the belt at the flow's speed and the pool feeding the flow's
 items at their times (handed over at belt speed, as in the episode); `rows` advances the physics
 to each observation time t_k = k T and yields there, so the camera and the truth look at the
-same instant. Used by the camera scoring (`sim.experiments.perception_eval`) and by the HMMs' camera
-recordings (`sim.experiments.camera_recordings`).
+same instant. Used by the camera scoring (`sim.evaluation.perception_eval`) and by the HMMs' camera
+recordings (`sim.evaluation.camera_recordings`).
 """
 
 from __future__ import annotations
@@ -18,10 +18,10 @@ import numpy as np
 from sim.cell.conveyor import Belt
 from sim.cell.depth_noise import ZED_CLASS
 from sim.cell.item_pool import ItemPool
-from sim.cell.mjcf import load_scene
 from sim.flow.config import X_CAMERA, FlowConfig
 from sim.flow.generator import Flow, generate_flow
 from sim.flow.ground_truth import cell_truth_from_poses, yaw_from_xmat
+from sim.model.mjcf import load_scene
 
 
 @dataclass
@@ -52,7 +52,7 @@ class FlowReplay:
         """The episode's camera perception looking at this flow (`hmm` mode: the recorders
         keep the HMMs' classes and the items' features apart), its depth noise seeded by the
         flow's seed. Close it when done."""
-        from sim.episode.sensing import CameraPerception
+        from sim.sensing.perception import CameraPerception
 
         return CameraPerception(
             self.model, self.data, self.catalogue, self.speed, self.config.observation_period_s,

@@ -23,10 +23,10 @@ from planner.motion.limits import MAX_PAYLOAD_KG, limits_for_payload
 from planner.motion.pick_cycle import plan_cycle1
 from planner.motion.ruckig_trajectory import RuckigTrajectoryGenerator
 from sim.cell.executor import TrajectoryExecutor, lumped_dynamics
-from sim.cell.mjcf import ROBOT_ELEMENTS, compile_spec, load_spec
 from sim.cell.robot import geometry_from_model, set_configuration
 from sim.cell.suction import SuctionConfig
 from sim.errors import InvalidInput
+from sim.model.mjcf import ROBOT_ELEMENTS, compile_spec, load_spec
 from sim.paths import ROBOT_XML
 
 CYCLE1_START = (-0.1525, 0.0, 0.05)
@@ -79,7 +79,7 @@ def model_with_payload(payload_kg: float, path=None) -> mujoco.MjModel:
 
     The weld holds the cube's centre `_PAYLOAD_HALF` below the cup's lip, axes aligned with the
     cup's. The robot's file (`path`, default `models/abb_irb360/irb360.xml`) is checked as
-    `sortsim run` checks its models (`sim.cell.mjcf`): a broken or incomplete one is refused in
+    `sortsim run` checks its models (`sim.model.mjcf`): a broken or incomplete one is refused in
     one line naming the file.
 
     Raises:

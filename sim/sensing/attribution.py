@@ -1,7 +1,7 @@
 """Which true item a new track is of: the evaluation's bookkeeping, never the robot's knowledge.
 
 The metrics count the items perception never reported (`never_detected`,
-`sim.episode.metrics`), which needs each track tied to a true item. In truth mode a detection
+`sim.results.metrics`), which needs each track tied to a true item. In truth mode a detection
 carries its item's id. A camera detection carries none (a real cell has no such id), so a new
 track is attributed to the true item whose footprint (grown by `FOOTPRINT_MARGIN_M`) holds the
 track's position at the detection time (the nearest centre among several), else to the item
@@ -18,9 +18,9 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from sim.episode.tracking import Track
 from sim.flow.catalogue import ItemType
 from sim.flow.footprint_polygons import contains_grown, to_body
+from sim.sensing.tracking import Track
 
 FOOTPRINT_MARGIN_M = 0.01
 """A track within this of an item's footprint lies on it [m] (centroids of items cut apart

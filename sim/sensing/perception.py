@@ -41,15 +41,15 @@ from perception.items.blobs import item_blobs
 from perception.items.classifier import CLASSIFIER_MODES, combine
 from perception.items.features import item_features
 from perception.items.split import SplitSettings
+from sim.cell.camera import FRAME_SIZE
 from sim.cell.depth_noise import ZED_CLASS, StereoDepthNoise
 from sim.cell.item_pool import ItemPool
-from sim.episode.config import Camera
-from sim.episode.item_classifier import trained_item_classifier
-from sim.episode.tracking import Detection
 from sim.errors import InvalidInput
 from sim.flow.config import BELT_HALF_WIDTH, X_CAMERA
 from sim.flow.generator import Flow
 from sim.paths import REPO_ROOT
+from sim.sensing.item_classifier import trained_item_classifier
+from sim.sensing.tracking import Detection
 
 log = logging.getLogger(__name__)
 
@@ -64,11 +64,11 @@ _HMM_INPUTS = (
     "sim/flow/config.py",
     "sim/flow/ground_truth.py",
     "sim/flow/labelled_grids.py",
-    "sim/episode/stripe_hmms.py",
+    "sim/sensing/stripe_hmms.py",
     "perception/hmm/training.py",
     "perception/hmm/stripes.py",
 )
-CAMERA_SIZE = Camera().size
+CAMERA_SIZE = FRAME_SIZE
 """The belt camera's default frame size [px] (the episode config's `[camera]`)."""
 WINDOW_ROWS = 12
 COMPLETE_ROW = WINDOW_ROWS - 2
@@ -76,7 +76,7 @@ COMPLETE_ROW = WINDOW_ROWS - 2
 ITEM_SPLIT = SplitSettings(step_m=0.05)
 """How touching items are cut apart. Tuned first on 30 training flows of the uniform world with
 exact depth (seeds 100-109 at x1, x1.2, x1.5, 100 items in 90 s;
-`sim.experiments.segmentation_eval`), one setting moved at a time: every item was found once
+`sim.evaluation.segmentation_eval`), one setting moved at a time: every item was found once
 for a neck ratio of 0.4-0.7, a wall step of 5-30 mm, a smallest core of 6-20 mm and a raster of
 3 or 4 mm. In the varied world with the stereo depth's noise (training seeds 100-102 at x1,
 100-101 at x1.5, 500 items), walls at 10 mm split 14 % of the items (lying bottles and cans: a
@@ -168,7 +168,7 @@ def stripe_models(catalogue, mix: dict | None = None):
     """(stripe HMMs, cells per item): trained once per catalogue and class mix, cached in
     runs/cache (written atomically)."""
     from perception.hmm.storage import save_models
-    from sim.episode.stripe_hmms import trained_models
+    from sim.sensing.stripe_hmms import trained_models
 
     path = hmm_cache_path(catalogue, mix)
     if path.exists():

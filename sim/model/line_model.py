@@ -10,7 +10,7 @@ markers, lights, item pool, and the robot, its cage and its bins) and gives ever
   closures `r1_loop_1a` .. `r1_loop_3b` and the keyframe `r1_home`. The robot's own 1 ms step
   and implicitfast integrator are the scene's (which includes the same file), unchanged;
 - its cage (the scene's `cage_*` geoms, drawn only) as `r1_cage_*`, and its bins, one per
-  material (the file's thesis bins or a catalogue's, `sim.cell.bin_layout`) as
+  material (the file's thesis bins or a catalogue's, `sim.model.bin_layout`) as
   `r1_bin_<material>` with `r1_bin_<material>_floor_plate`, `r1_bin_<material>_drop`, ...;
 - its cup's weld of every pool slot, `r1_item_<n>_grip` from `r1_cup_link` to `item_<n>`
   (inactive, as the pool file's `item_<n>_grip`), for `sim.cell.suction.SuctionCup(...,
@@ -30,7 +30,7 @@ along the belt) never overlap, so no robot can touch another or another's bins.
 A line of one robot with the prefix "" (`LineLayout()`) is the single cell: the scene edited in
 place (moved when its position is not 0), which at x = 0 compiles to today's cell to the byte.
 Every per-robot function of the cell takes that prefix (`sim.cell.robot`, `sim.cell.executor`,
-`sim.cell.suction`, `sim.cell.monitors.energy`, `sim.episode.pick_control`).
+`sim.cell.suction`, `sim.monitors.energy`, `sim.episode.pick_control`).
 """
 
 from __future__ import annotations
@@ -46,14 +46,14 @@ import mujoco
 import numpy as np
 
 from perception.codes import THESIS_MATERIALS
-from sim.cell.scene_edits import (
+from sim.errors import InvalidInput
+from sim.flow.config import BELT_X_RANGE
+from sim.model.scene_edits import (
     BELT_LENGTH_RANGE_M,
     CellSettings,
     set_belt_length,
     set_cup_diameter,
 )
-from sim.errors import InvalidInput
-from sim.flow.config import BELT_X_RANGE
 from sim.paths import ROBOT_XML, SCENE_XML
 
 MAX_ROBOTS = 4
@@ -142,10 +142,10 @@ class LineLayout:
 
 
 def line_elements(layout: LineLayout, materials=None) -> tuple:
-    """The named elements the code reads in a line's model (`sim.cell.mjcf.require_elements`):
+    """The named elements the code reads in a line's model (`sim.model.mjcf.require_elements`):
     every robot's and its bins' (prefixed), the belt's, camera's, markers' and pool's."""
-    from sim.cell.bin_layout import bin_elements
-    from sim.cell.mjcf import ROBOT_ELEMENTS, cell_elements, robot_elements
+    from sim.model.bin_layout import bin_elements
+    from sim.model.mjcf import ROBOT_ELEMENTS, cell_elements, robot_elements
 
     materials = THESIS_MATERIALS if materials is None else materials
     own = set(ROBOT_ELEMENTS) | set(bin_elements(materials))
@@ -159,7 +159,7 @@ def line_elements(layout: LineLayout, materials=None) -> tuple:
 @lru_cache(maxsize=1)
 def _robot_names() -> tuple[tuple[str, ...], tuple[str, ...], int]:
     """The robot file's joint and actuator names and its platform's qpos address."""
-    from sim.cell.mjcf import load_robot
+    from sim.model.mjcf import load_robot
 
     robot = load_robot()
     joints = tuple(robot.joint(j).name for j in range(robot.njnt))
@@ -243,7 +243,7 @@ def _grip_template(spec: mujoco.MjSpec) -> tuple[list[str], dict]:
 
 def _add_robot(spec, prefix: str, x: float, cup_diameter_m: float, materials, grips) -> None:
     """Robot `prefix` at `x` [m]: attached from its file, with its cage, bins and welds."""
-    from sim.cell.mjcf import ROBOT_ELEMENTS, load_spec
+    from sim.model.mjcf import ROBOT_ELEMENTS, load_spec
 
     robot = load_spec(ROBOT_XML, ROBOT_ELEMENTS)
     key = robot.key("home")
@@ -279,9 +279,9 @@ LINE_POOL_SIZE = 160
 
 def _scene_with_pool(pool_size: int, folder: Path) -> Path:
     """A copy of the cell's scene in `folder` whose pool has `pool_size` item bodies (the
-    scene's `items.xml` generated again at that size, `sim.cell.item_pool_xml`)."""
-    from sim.cell.item_pool_xml import pool_xml
+    scene's `items.xml` generated again at that size, `sim.model.item_pool_xml`)."""
     from sim.flow.catalogue import load_catalogue
+    from sim.model.item_pool_xml import pool_xml
 
     (folder / "cell").mkdir()
     (folder / "abb_irb360").mkdir()
@@ -299,17 +299,17 @@ def line_spec(
 
     Args:
         layout: The robots, their positions and prefixes.
-        settings: Cup diameter and belt length (`sim.cell.scene_edits`); the belt is made at
+        settings: Cup diameter and belt length (`sim.model.scene_edits`); the belt is made at
             least `layout.belt_length_m` long.
         materials: One bin per material for each robot (`perception.codes.Materials`); the
             thesis's when None.
         path: The scene file.
 
     Raises:
-        ModelFileError: the scene or the robot's file is refused (`sim.cell.mjcf`).
+        ModelFileError: the scene or the robot's file is refused (`sim.model.mjcf`).
     """
-    from sim.cell.bin_layout import lay_out_bins
-    from sim.cell.mjcf import CELL_ELEMENTS, load_spec
+    from sim.model.bin_layout import lay_out_bins
+    from sim.model.mjcf import CELL_ELEMENTS, load_spec
 
     settings = settings or CellSettings()
     materials = THESIS_MATERIALS if materials is None else materials
@@ -355,12 +355,12 @@ def compile_line(
     path=SCENE_XML,
 ) -> mujoco.MjModel:
     """The line's compiled model (arguments as `line_spec`; `LineLayout()` when None: the
-    single cell), checked as `sim.cell.mjcf` checks a file, every robot's elements present.
+    single cell), checked as `sim.model.mjcf` checks a file, every robot's elements present.
 
     Raises:
         ModelFileError: a file is refused or the model lacks an element the code needs.
     """
-    from sim.cell.mjcf import compile_spec
+    from sim.model.mjcf import compile_spec
 
     layout = layout or LineLayout()
     spec = line_spec(layout, settings, materials, path)

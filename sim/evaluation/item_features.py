@@ -1,14 +1,14 @@
 """Labelled items of the camera: the item classifier's training table and its item-level scores.
 
-A flow rides the belt in physics (`sim.experiments.flow_replay.FlowReplay`, robot at home) past
-the episode's own camera perception (`sim.episode.sensing.CameraPerception`: rendered frame,
+A flow rides the belt in physics (`sim.evaluation.flow_replay.FlowReplay`, robot at home) past
+the episode's own camera perception (`sim.sensing.perception.CameraPerception`: rendered frame,
 noisy stereo depth, pipeline, stripe HMMs, segmentation). Every item it reports is labelled
 with the true item nearest its centroid at that instant (within `MATCH_M`; reports farther
 from every true item, e.g. two items merged into one, are kept with class 0 and left out of
 training and scores). Per item: the features, the HMMs' posterior, the true class and type.
 
-    python -m sim.experiments.item_features record --seeds 100 ... --out sim/data/item_features.npz
-    python -m sim.experiments.item_features evaluate --seeds 0 1 2 3 4
+    python -m sim.evaluation.item_features record --seeds 100 ... --out sim/data/item_features.npz
+    python -m sim.evaluation.item_features evaluate --seeds 0 1 2 3 4
 
 `record` writes the training table the shipped classifier is fitted from (training seeds
 100-111 at x1, x1.2, x1.5); `evaluate` records held-out flows and prints, per class and
@@ -31,7 +31,12 @@ from perception.codes import CLASS_NAMES
 from perception.items.classifier import MATERIAL_IDS, ItemClassifier, fuse
 from perception.items.features import N_FEATURES
 from sim.cell.depth_noise import ZED_CLASS, StereoDepthNoise
-from sim.episode.item_classifier import (
+from sim.evaluation.flow_replay import FlowReplay
+from sim.flow.catalogue import load_catalogue
+from sim.flow.config import FlowConfig
+from sim.flow.ground_truth import flow_rows
+from sim.paths import REPO_ROOT
+from sim.sensing.item_classifier import (
     CUSTOM_SPEED_FACTORS,
     CUSTOM_TRAIN_SEEDS,
     FIT_SEED,
@@ -40,12 +45,7 @@ from sim.episode.item_classifier import (
     is_default_catalogue,
     load_table,
 )
-from sim.episode.sensing import WINDOW_ROWS
-from sim.experiments.flow_replay import FlowReplay
-from sim.flow.catalogue import load_catalogue
-from sim.flow.config import FlowConfig
-from sim.flow.ground_truth import flow_rows
-from sim.paths import REPO_ROOT
+from sim.sensing.perception import WINDOW_ROWS
 
 log = logging.getLogger(__name__)
 MATCH_M = 0.03
@@ -145,7 +145,7 @@ def gather(cache: Path, seeds, speed_factors, catalogue=None, mix: dict | None =
 def ensure_catalogue_table(catalogue, mix: dict | None = None) -> Path:
     """The item classifier's training table of a catalogue other than the default (and its
     class `mix`): recorded once from `CUSTOM_TRAIN_SEEDS` at `CUSTOM_SPEED_FACTORS` through the
-    camera perception and kept at `sim.episode.item_classifier.catalogue_table`."""
+    camera perception and kept at `sim.sensing.item_classifier.catalogue_table`."""
     path = catalogue_table(catalogue, mix)
     if path.exists():
         return path
@@ -203,7 +203,7 @@ def accuracy_table(table: dict, classifier: ItemClassifier) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m sim.experiments.item_features")
+    parser = argparse.ArgumentParser(prog="python -m sim.evaluation.item_features")
     parser.add_argument("action", choices=("record", "evaluate"))
     parser.add_argument("--seeds", type=int, nargs="+", default=None)
     parser.add_argument("--speed-factors", type=float, nargs="+", default=list(SPEED_FACTORS))

@@ -13,14 +13,14 @@ Definitions (thesis 4.1.4 and docs/episode.md):
   runner takes them off the belt there); `dropped`: items that fell anywhere but into a bin
   (off the belt, off the cup, beside a bin).
 - `mean_cycle_s`: mean time from the start of one pick attempt to the end of its release.
-- `thrown_off`: items the robot struck or flung off the belt (`sim.cell.monitors.thrown`: left
+- `thrown_off`: items the robot struck or flung off the belt (`sim.monitors.thrown`: left
   the belt's top area sideways or upstream, or moved faster than 1.5 m/s, while neither held
   nor released over a bin by the cup). Each is also booked where it ends: dropped when it came
   to rest off the belt (in a bin too: only what the cup carries there is picked), missed or
   picked when it stayed on the belt.
 - `mujoco_warnings`: MuJoCo's warnings (`data.warning`) raised during the episode, all kinds.
 - `energy_mech_j`, `energy_elec_j`: the robot's motor energy over the whole episode, idle time
-  included (`sim.cell.monitors.energy`: mechanical = integral of |tau omega|; electrical =
+  included (`sim.monitors.energy`: mechanical = integral of |tau omega|; electrical =
   the regenerative-free estimate); per pick in picks.csv, from the start of the attempt to the
   end of its release, with the pick's distance `travel_m` (the thesis's d: rest -> item -> bin
   in the belt's plane).
@@ -37,11 +37,11 @@ Sorting quality (what a plant judges a sorter by):
 - `never_detected`: items that entered and left the belt (picked, missed or dropped) although
   no track was ever attributed to them (`on_detected`). In truth mode a track carries its item's
   id; in camera mode a new track is attributed to the nearest true item within the tracker's
-  match radius (`sim.episode.attribution`: the evaluation's bookkeeping, never the robot's
+  match radius (`sim.sensing.attribution`: the evaluation's bookkeeping, never the robot's
   knowledge). An undetected item can still be picked: the cup may seal on it next to its target.
 - `empty_picks`: pick attempts whose cup never sealed, so carried no item (`PickRecord.sealed`).
 - `left_unsure`: tracks the confidence rule (`min_class_confidence`,
-  `sim.episode.confidence`) kept from the decision manager until they went past the robot
+  `sim.sensing.confidence`) kept from the decision manager until they went past the robot
   unpicked (past its reach, or their item missed) or were still tracked when the episode
   ended: their most probable class was less probable than the threshold. It counts tracks, the
   cell's belief of items (in camera mode a phantom or a split item counts too). 0 in truth mode
@@ -69,7 +69,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from perception.codes import ALUMINIUM, PAPER, PLASTIC, THESIS_MATERIALS, Materials
-from sim.cell.monitors.energy import JOULES_PER_KWH
+from sim.monitors.energy import JOULES_PER_KWH
 
 ITEM_CLASSES = (PAPER, PLASTIC, ALUMINIUM)
 """The thesis's material classes (a catalogue's materials may be others)."""
@@ -148,10 +148,10 @@ class EpisodeMetrics:
         self.dropped: set[int] = set()
         self.picks: list[PickRecord] = []
         self.thrown_off: set[int] = set()  # items struck or flung off the belt
-        # (sim.cell.monitors.thrown.Throw, what the robot was doing)
+        # (sim.monitors.thrown.Throw, what the robot was doing)
         self.throws: list[tuple[object, str]] = []
         self.mujoco_warnings = 0  # MuJoCo warnings raised during the episode
-        # the same per kind (sim.cell.monitors.mj_warnings)
+        # the same per kind (sim.monitors.mj_warnings)
         self.warning_kinds: dict[str, int] = {}
 
     def on_entered(self, item_id: int, true_class: int) -> None:
@@ -160,7 +160,7 @@ class EpisodeMetrics:
         self.entered_ids.add(int(item_id))
 
     def on_detected(self, item_id: int) -> None:
-        """A new track was attributed to the item `item_id` (`sim.episode.attribution`)."""
+        """A new track was attributed to the item `item_id` (`sim.sensing.attribution`)."""
         self.detected.add(int(item_id))
 
     def on_left_unsure(self, n_tracks: int = 1) -> None:
@@ -182,7 +182,7 @@ class EpisodeMetrics:
             self.dropped.add(int(item_id))
 
     def on_thrown(self, throw, doing: str = "") -> None:
-        """An item was thrown off the belt (`sim.cell.monitors.thrown.Throw`); `doing` says what the
+        """An item was thrown off the belt (`sim.monitors.thrown.Throw`); `doing` says what the
         robot was doing at the time."""
         if throw.item_id not in self.thrown_off:
             self.thrown_off.add(int(throw.item_id))

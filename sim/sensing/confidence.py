@@ -7,7 +7,7 @@ manager. The episode applies the rule in one place, where it builds the tracked 
 decision manager chooses among (`sim.episode.loop.Episode._tracked_items`), so every planner
 (and any agent stepping the episode) sees the same filtered items. At the default threshold 0
 nothing is held back. Tracks held back until they leave the tracker are counted in
-`left_unsure` (`sim.episode.metrics`).
+`left_unsure` (`sim.results.metrics`).
 """
 
 from __future__ import annotations

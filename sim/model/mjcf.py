@@ -34,7 +34,7 @@ def _of(kind: str, *names: str) -> tuple[Element, ...]:
 def robot_elements(prefix: str = "") -> tuple[Element, ...]:
     """Elements of the IRB 360 the code reads by name (`sim.cell.robot`, the executor, the
     cup), for the robot whose names start with `prefix` (a robot of a sorting line,
-    `sim.cell.line_model`; "" for the robot's own names)."""
+    `sim.model.line_model`; "" for the robot's own names)."""
     p = prefix
     return (
         *_of("body", *(p + n for n in ("base_link", "platform_link", "cup_link"))),
@@ -221,7 +221,7 @@ def compile_spec(
 
 def cell_elements(materials=None) -> tuple[Element, ...]:
     """`CELL_ELEMENTS` with the bins of `materials` (the thesis's when None)."""
-    from sim.cell.bin_layout import bin_elements
+    from sim.model.bin_layout import bin_elements
 
     if materials is None or tuple(materials.names) == _BINS:
         return CELL_ELEMENTS
@@ -233,10 +233,10 @@ def cell_elements(materials=None) -> tuple[Element, ...]:
 def load_scene(path: str | Path = SCENE_XML, materials=None) -> mujoco.MjModel:
     """The sorting cell (`models/cell/scene.xml`): robot, belt, bins, cameras, items; with one
     bin per material of `materials` (`perception.codes.Materials`; the file's thesis bins when
-    None or the thesis's materials, `sim.cell.bin_layout`)."""
+    None or the thesis's materials, `sim.model.bin_layout`)."""
     if materials is None or tuple(materials.names) == _BINS:
         return load_model(path, CELL_ELEMENTS)
-    from sim.cell.bin_layout import lay_out_bins
+    from sim.model.bin_layout import lay_out_bins
 
     spec = load_spec(path, CELL_ELEMENTS)
     lay_out_bins(spec, materials)

@@ -1,6 +1,6 @@
 """Fit the decision managers' cycle-time model to the pick controller's plans in physics.
 
-    python -m sim.experiments.cell_cycle_fit [--workers 2]
+    python -m sim.evaluation.cell_cycle_fit [--workers 2]
 
 Runs physics episodes, truth perception, on training seeds (100-105: every decision manager,
 the thesis's three belt speeds, busy belts of 100 items over 90 s and saturated ones of 300-400),

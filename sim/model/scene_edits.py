@@ -90,7 +90,7 @@ class CellSettings:
 
 def set_cup_diameter(spec: mujoco.MjSpec, diameter_m: float, *, prefix: str = "") -> None:
     """The cup's lip (`cup_collision`) `diameter_m` [m] across; the bellows keep their overhang.
-    `prefix` names the robot (one of a sorting line, `sim.cell.line_model`)."""
+    `prefix` names the robot (one of a sorting line, `sim.model.line_model`)."""
     lip, bellows = spec.geom(f"{prefix}cup_collision"), spec.geom(f"{prefix}cup_bellows")
     overhang = float(bellows.size[0] - lip.size[0])
     lip.size[0] = 0.5 * diameter_m
@@ -140,15 +140,15 @@ def compile_scene(
     settings: CellSettings | None = None, path=SCENE_XML, materials=None
 ) -> mujoco.MjModel:
     """The cell of `path` compiled with `settings` and one bin per material of `materials`
-    (`sim.cell.bin_layout`; the file's thesis bins when None): the file as it is for the
+    (`sim.model.bin_layout`; the file's thesis bins when None): the file as it is for the
     defaults, else its `MjSpec` edited (`apply_settings`, `lay_out_bins`) and compiled, checked
-    as `sim.cell.mjcf` checks a file.
+    as `sim.model.mjcf` checks a file.
 
     Raises:
-        ModelFileError: the file is refused (`sim.cell.mjcf.load_model`).
+        ModelFileError: the file is refused (`sim.model.mjcf.load_model`).
     """
-    from sim.cell.bin_layout import lay_out_bins
-    from sim.cell.mjcf import CELL_ELEMENTS, cell_elements, compile_spec, load_scene, load_spec
+    from sim.model.bin_layout import lay_out_bins
+    from sim.model.mjcf import CELL_ELEMENTS, cell_elements, compile_spec, load_scene, load_spec
 
     settings = settings or CellSettings()
     thesis_bins = materials is None or materials.is_thesis

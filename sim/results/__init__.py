@@ -1,0 +1,1 @@
+"""sim.results: What an episode counts and writes: metrics, CSVs, manifests."""
