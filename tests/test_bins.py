@@ -7,7 +7,9 @@ import numpy as np
 import pytest
 
 from sim.cell.conveyor import Belt
+from sim.cell.held_slots import held_slots
 from sim.cell.item_pool import ItemPool
+from sim.cell.items import Items
 from sim.flow.catalogue import load_catalogue
 from sim.monitors.bins import Bins
 from tests.utils import scene_at_home
@@ -18,14 +20,14 @@ CATALOGUE = load_catalogue()
 def cell():
     model, data = scene_at_home()
     pool = ItemPool(model, CATALOGUE, Belt(model))
-    return model, data, pool, Bins(model, data, pool)
+    return model, data, pool, Bins(model, Items(model, data, pool))
 
 
 def run(model, data, bins, seconds, held_slot=None):
     records = []
     for _ in range(int(round(seconds / model.opt.timestep))):
         mujoco.mj_step(model, data)
-        records += bins.update(data, held_slot)
+        records += bins.update(Items(model, data, bins.pool), held_slots(held_slot))
     return records
 
 

@@ -10,7 +10,7 @@ import pytest
 
 from sim.cell.cell import Cell
 from sim.episode import config
-from sim.episode.infeed import DEEP_M, dropped_into
+from sim.episode.infeed import DEEP_M
 from sim.episode.loop import Episode
 from sim.episode.runner import config_cell
 from sim.flow.config import X_INFEED
@@ -33,11 +33,11 @@ def test_an_item_dropped_into_another_is_found_and_one_beside_it_is_not(cell):
     _spawn(cell, 0, "pet_bottle_1l5", X_INFEED, 0.0)
     inside = _spawn(cell, 1, "can_330_standing", X_INFEED + 0.02, 0.01)
     mujoco.mj_kinematics(cell.model, cell.data)
-    assert dropped_into(cell.model, cell.data, cell.pool, inside)
+    assert cell.items.inside_another(inside, DEEP_M)
     cell.pool.park(cell.data, inside)
     beside = _spawn(cell, 1, "can_330_standing", X_INFEED + 0.25, 0.0)
     mujoco.mj_kinematics(cell.model, cell.data)
-    assert not dropped_into(cell.model, cell.data, cell.pool, beside)
+    assert not cell.items.inside_another(beside, DEEP_M)
 
 
 def _gap_at_drop(hold: bool) -> tuple[int, float]:
@@ -88,10 +88,10 @@ def test_an_item_that_waited_too_long_is_dropped_onto_what_is_in_its_way():
     data.qpos[adr : adr + 2] = X_INFEED, ep.flow.y[1]
     slot = pool.drop(data, ep.flow, 1, X_INFEED)
     mujoco.mj_kinematics(ep.model, data)
-    assert dropped_into(ep.model, data, pool, slot)
-    ep._drop_above(1, X_INFEED, slot)
+    assert ep.cell.items.inside_another(slot, DEEP_M)
+    ep.infeed.drop_above(1, X_INFEED, slot)
     mujoco.mj_kinematics(ep.model, data)
     lifted = pool.slot_of(1)
-    assert not dropped_into(ep.model, data, pool, lifted)
+    assert not ep.cell.items.inside_another(lifted, DEEP_M)
     z = [float(data.xpos[pool.body_ids[s], 2]) for s in (first, lifted)]
     assert z[1] > z[0]

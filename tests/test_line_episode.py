@@ -72,7 +72,7 @@ def test_the_line_counts_add_up_and_every_robot_holds_together():
     """Stepped from outside decision by decision: at every decision no contact between two
     robots and every robot's loop closed within 0.1 mm; the accounting identities hold."""
     config, cell = _line(2, 50, 20.0, seed=5)
-    prefixes = [rc.prefix for rc in cell.robot_cells]
+    prefixes = [rc.prefix for rc in cell.robots]
     worst_gap, crossings, decisions = 0.0, 0, 0
     with Episode(config, cell) as episode:
         episode.reset()
@@ -101,7 +101,7 @@ def test_four_robots_for_two_minutes():
     perception: 0 MuJoCo warnings, 0 robot-robot contacts, every loop within 0.1 mm; the
     real-time factor by CPU time is printed (the issue asks for 5x on the machine it set)."""
     config, cell = _line(4, 400, 120.0, seed=7)
-    prefixes = [rc.prefix for rc in cell.robot_cells]
+    prefixes = [rc.prefix for rc in cell.robots]
     worst_gap, crossings = 0.0, 0
     cpu0 = time.process_time()
     with Episode(config, cell) as episode:

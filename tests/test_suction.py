@@ -21,7 +21,9 @@ from planner.motion.ruckig_trajectory import RuckigTrajectoryGenerator
 from planner.motion.trajectory import State
 from sim.cell.conveyor import Belt
 from sim.cell.executor import TrajectoryExecutor
+from sim.cell.held_slots import held_slots
 from sim.cell.item_pool import ItemPool
+from sim.cell.items import Items
 from sim.cell.robot import geometry_from_model, tcp_position
 from sim.cell.suction import SuctionConfig, SuctionCup, SuctionEvent
 from sim.errors import InvalidInput
@@ -67,7 +69,14 @@ def make_cell(
     belt = Belt(model)
     belt.set_factor(factor)
     pool = ItemPool(model, CATALOGUE, belt)
-    return Cell(model, data, belt, pool, SuctionCup(model, pool, config), Bins(model, data, pool))
+    return Cell(
+        model,
+        data,
+        belt,
+        pool,
+        SuctionCup(model, pool, config),
+        Bins(model, Items(model, data, pool)),
+    )
 
 
 def spawn(cell: Cell, name: str, x: float = -0.55, y: float = 0.1, yaw: float = 0.3) -> int:
@@ -148,7 +157,7 @@ def pick_and_place(
             ):
                 run.first_contact = d.time
         run.events += cup.update(d)
-        run.landings += bins.update(d, cup.held_slot)
+        run.landings += bins.update(Items(m, d, pool), held_slots(cup.held_slot))
         pool.park_missed(d)
 
     TrajectoryExecutor(m, d).execute(plan.chain, hold=hold, on_step=on_step)

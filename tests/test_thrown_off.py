@@ -21,6 +21,7 @@ from planner.motion.clearance import path_conflicts
 from planner.motion.intercept import intercept_item
 from planner.motion.trajectory import State
 from sim.cell.cell import Cell
+from sim.cell.held_slots import held_slots
 from sim.cell.suction import SuctionConfig, SuctionCup
 from sim.episode.pick_control import PRESS_DEPTH_M, PickController
 from sim.monitors.thrown import THROW_SPEED_MPS, ThrowWatch, rail_outer_y
@@ -65,7 +66,7 @@ def _play(robot: PickController, intercept, watched: list[int]):
             for event in robot.suction.events:
                 if event.kind == "released":
                     watch.note_released(event.item_id)
-            throws += watch.update(cell.data, robot.suction.held_slot)
+            throws += watch.update(cell.items, held_slots(robot.suction.held_slot))
         outcome = robot.poll()
         if outcome is not None:
             return outcome, peak, throws
@@ -84,9 +85,9 @@ def test_the_watch_judges_items_by_where_they_are_and_how_fast_they_move(cell):
     mujoco.mj_forward(cell.model, cell.data)
     watch = ThrowWatch(cell.model, cell.pool)
     watch.note_released(4)
-    throws = {t.item_id: t.reason for t in watch.update(cell.data, held_slot=held)}
+    throws = {t.item_id: t.reason for t in watch.update(cell.items, held_slots(held))}
     assert throws == {1: "sideways", 2: "upstream", 3: "fast"}
-    assert watch.update(cell.data, held_slot=held) == []  # each item once
+    assert watch.update(cell.items, held_slots(held)) == []  # each item once
     assert {on_belt, beside, upstream, flung, released} == {0, 1, 2, 3, 4}
 
 

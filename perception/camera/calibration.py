@@ -127,7 +127,7 @@ class CameraCalibration:
             raise
 
     @classmethod
-    def load(cls, path: Path) -> CameraCalibration:
+    def load(cls, path: Path) -> CameraCalibration:  # noqa: C901
         """Reads a calibration written by `save`.
 
         Raises:

@@ -109,7 +109,7 @@ class FootprintMapper:
         """
         return self.footprint_and_height(frame, depth, rules)[0]
 
-    def footprint_and_height(
+    def footprint_and_height(  # noqa: PLR0915
         self, frame: np.ndarray, depth: np.ndarray, rules: ColourRules
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Colour labels (as `footprint`), the height above the belt (rows, cols) float32 [m]

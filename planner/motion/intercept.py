@@ -97,7 +97,7 @@ def window_mask(
     return np.all([reachable_mask(geom, p) for p in pts], axis=0)
 
 
-def intercept_item(
+def intercept_item(  # noqa: C901, PLR0915
     start: State,
     item_xy: Sequence[float],
     belt_speed: float,

@@ -1,10 +1,11 @@
 """The compiled sorting cell and the long-lived objects built on it, reused between episodes.
 
 A `Cell` owns one MjModel/MjData (the item pool switches geom fields of its own model at run
-time, so a cell is never shared between simulations running at once), the belt, the item pool,
-the robot's geometry, trajectory generator and executor, the reachable window and the bins'
-release points. `reset` parks every item and puts the robot back to its `home` keyframe, so a
-sweep worker or a Ray actor runs many episodes on one compiled model.
+time, so a cell is never shared between simulations running at once), the belt, the item pool
+and its robots: one to four IRB 360s over the one belt, each a `sim.cell.robots.RobotView` (a
+single robot is a line of one). Items are read through `Cell.items` (`sim.cell.items`), whose
+accessors keep riders' poses right. `reset` parks every item and puts every robot back to its
+`home` keyframe, so a sweep worker or a Ray actor runs many episodes on one compiled model.
 """
 
 from __future__ import annotations
@@ -13,33 +14,32 @@ import mujoco
 import numpy as np
 
 from planner.motion.kinematics import reachable_mask
-from planner.motion.limits import limits_for_payload
 from planner.motion.reach_window import ReachWindow
-from planner.motion.ruckig_trajectory import RuckigTrajectoryGenerator
 from sim.cell.conveyor import Belt
-from sim.cell.executor import TrajectoryExecutor, lumped_dynamics
 from sim.cell.item_pool import ItemPool
+from sim.cell.items import Items
 from sim.cell.riding import wake_line
-from sim.cell.robot import geometry_from_model, tcp_position
+from sim.cell.robots import DESIGN_PAYLOAD_KG, PICK_Z_NOMINAL, RobotView
 from sim.flow.catalogue import Catalogue, load_catalogue
 from sim.model.scene_edits import CUP_DIAMETER_M, CellSettings, compile_scene
 
-PICK_Z_NOMINAL = 0.02
-"""TCP height of the reachable window the planners use (a typical item top) [m]."""
-DESIGN_PAYLOAD_KG = 1.0
-"""Payload the pick trajectories are planned for: the heaviest catalogue item is well under it."""
+__all__ = ["DESIGN_PAYLOAD_KG", "PICK_Z_NOMINAL", "Cell"]
 
 
 class Cell:
-    """The compiled cell (model, data) and its robot, belt, pool and bins.
+    """The compiled cell (model, data), its belt, item pool and robots.
 
     Args:
         model: A compiled cell; `models/cell/scene.xml` compiled with `settings` and one bin
-            per material of `catalogue` when omitted.
-        settings: The cup's diameter and the belt's length (`sim.model.scene_edits`); the
-            scene's own when None. Only with `model` omitted.
+            per material of `catalogue` when omitted. A line's model comes from
+            `sim.model.line_model.compile_line`.
+        settings: The cup's diameter and the belt's length (`sim.model.scene_edits`): what
+            `model` is compiled with, or was compiled with when given; the scene's own when
+            None.
         catalogue: The item catalogue (its materials name the bins); the default one
             (`sim/data/items.toml`, the thesis's paper, plastic and aluminium) when omitted.
+        prefixes: The robots' name prefixes in the model, upstream first; ("",) (the scene's
+            one robot) when omitted.
     """
 
     def __init__(
@@ -47,45 +47,55 @@ class Cell:
         model: mujoco.MjModel | None = None,
         settings: CellSettings | None = None,
         catalogue: Catalogue | None = None,
+        prefixes: tuple[str, ...] = ("",),
     ):
-        if model is not None and settings is not None:
-            raise ValueError("Cell takes a compiled model or the settings to compile, not both")
+        if not prefixes:
+            raise ValueError("a cell has at least one robot (prefixes)")
         self.catalogue = catalogue if catalogue is not None else load_catalogue()
         self.materials = self.catalogue.materials
         self.settings = settings or CellSettings()
-        """What the model was compiled with (a given `model`: the defaults, as far as known)."""
+        """What the model was compiled with (cup, belt)."""
         self.model = (
             model if model is not None else compile_scene(self.settings, materials=self.materials)
         )
         self.data = mujoco.MjData(self.model)
         self.belt = Belt(self.model)
         self.pool = ItemPool(self.model, self.catalogue, self.belt)
-        self.geometry = geometry_from_model(self.model)
-        self.limits = limits_for_payload(DESIGN_PAYLOAD_KG)
-        dynamics = lumped_dynamics(self.model, self.geometry, DESIGN_PAYLOAD_KG)
-        self.generator = RuckigTrajectoryGenerator(self.limits, self.geometry, dynamics)
-        self.executor = TrajectoryExecutor(self.model, self.data, geometry=self.geometry)
-        self.window = ReachWindow.from_reachable(
-            lambda p: reachable_mask(self.geometry, p), PICK_Z_NOMINAL
+        self.items = Items(self.model, self.data, self.pool)
+        """The items, read through accessors that keep riders' poses right."""
+        self.robots = tuple(
+            RobotView(self.model, self.data, k, p, self.materials) for k, p in enumerate(prefixes)
         )
-        mujoco.mj_forward(self.model, self.data)
-        self.drop_xyz = {
-            c: self.data.site(f"bin_{name}_drop").xpos.copy()
-            for c, name in zip(self.materials.ids, self.materials.names, strict=True)
-        }
+        """The robots, upstream first."""
         self._home_key = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_KEY, "home")
+        mujoco.mj_forward(self.model, self.data)
         self.item_radius = max(
             float(self.pool.props(k)["geom_rbound"]) for k in range(len(self.catalogue.types))
         )
         """Largest bounding radius of a catalogue type at its nominal size [m]."""
-        self.cup_radius = float(self.model.geom("cup_collision").size[0])
-        """Radius of the cup's lip [m] (the model's)."""
+        first = self.robots[0]
         self.wake_x = wake_line(
-            lambda p: reachable_mask(self.geometry, p), self.item_radius + self.cup_extra_m
+            lambda p: reachable_mask(first.geometry, p), self.item_radius + self.cup_extra_m
         )
         """Settled items riding the belt wake before this x (`sim.cell.riding`) [m]; an episode
         whose largest item is larger than `item_radius` wakes them that much earlier, a cup
         larger than the scene's by its extra radius."""
+        self._camera = None
+
+    @property
+    def robot(self) -> RobotView:
+        """The first robot, upstream (a single cell's only one)."""
+        return self.robots[0]
+
+    @property
+    def window(self) -> ReachWindow:
+        """The last robot's window: items past it are out of every robot's reach."""
+        return self.robots[-1].window
+
+    @property
+    def cup_radius(self) -> float:
+        """Radius of the cups' lips [m] (the model's; every robot of a cell has the same cup)."""
+        return self.robots[0].cup_radius
 
     @property
     def cup_extra_m(self) -> float:
@@ -94,32 +104,64 @@ class Cell:
         wake line, where an unpicked item is out of reach) widen by it."""
         return max(self.cup_radius - 0.5 * CUP_DIAMETER_M, 0.0)
 
+    # The first robot's parts, by the names a single cell's users know them by.
+    @property
+    def geometry(self):
+        """The first robot's geometry (`sim.cell.robot.geometry_from_model`)."""
+        return self.robot.geometry
+
+    @property
+    def limits(self):
+        """The first robot's motion limits for the design payload."""
+        return self.robot.limits
+
+    @property
+    def generator(self):
+        """The first robot's trajectory generator."""
+        return self.robot.generator
+
+    @property
+    def executor(self):
+        """The first robot's trajectory executor."""
+        return self.robot.executor
+
+    @property
+    def drop_xyz(self) -> dict[int, np.ndarray]:
+        """Release point over each of the first robot's bins, by class id [m]."""
+        return self.robot.drop_xyz
+
     def bins_tuple(self) -> tuple[tuple[float, float, float], ...]:
-        """Release points of the materials' bins, in material order, for the planners [m]."""
-        return tuple(tuple(float(v) for v in self.drop_xyz[c]) for c in self.materials.ids)
+        """Release points of the first robot's bins, in material order [m]."""
+        return self.robot.bins_tuple()
+
+    def tcp(self) -> np.ndarray:
+        """The first robot's cup lip centre now [m]."""
+        return self.robot.tcp()
 
     def reset(self, belt_speed: float) -> None:
-        """Park every item, robot to `home`, belt at `belt_speed` [m/s], clock at 0."""
+        """Park every item, every robot to `home`, belt at `belt_speed` [m/s], clock at 0.
+
+        Args:
+            belt_speed: The belt's speed [m/s].
+        """
+        self.items.ride(None)
         for slot in self.pool.active_slots():
             self.pool.park(self.data, int(slot))
         mujoco.mj_resetDataKeyframe(self.model, self.data, self._home_key)
         self.data.eq_active[:] = self.model.eq_active0
         self.belt.set_speed(belt_speed)
-        self.executor.set_payload(0.0)
+        for robot in self.robots:
+            robot.executor.set_payload(0.0)
         mujoco.mj_forward(self.model, self.data)
 
     def belt_camera(self, size: tuple[int, int]):
-        """The belt camera's renderer at `size` (the perception's multisampling), created once
-        and kept for later episodes."""
+        """The belt camera's renderer at `size` [px] (the perception's multisampling), created
+        once and kept for later episodes."""
         from sim.cell.camera import PERCEPTION_SAMPLES, BeltCamera
 
-        camera = getattr(self, "_camera", None)
+        camera = self._camera
         if camera is None or camera.size != tuple(size):
             if camera is not None:
                 camera.close()  # one renderer (GL context) per cell
             self._camera = BeltCamera(self.model, *size, samples=PERCEPTION_SAMPLES)
         return self._camera
-
-    def tcp(self) -> np.ndarray:
-        """Cup lip centre now [m]."""
-        return tcp_position(self.model, self.data)

@@ -42,7 +42,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from sim.cell.held_slots import held_mask
+from sim.cell.held_slots import NONE_HELD, held_mask
 from sim.cell.item_pool import ItemPool
 
 SETTLE_SPEED_MPS = 1e-3
@@ -186,12 +186,12 @@ class ItemRiding:
     def update(
         self,
         data: mujoco.MjData,
-        held_slot=None,
+        held: np.ndarray = NONE_HELD,
         robot_busy: bool = False,
         busy_paths: list[PlannedPath] | None = None,
     ) -> None:
         """Switches items to riding or back; call every `check_period` of simulated time.
-        `held_slot`: the slot a cup holds (None: none), or a sequence of them (a line's cups).
+        `held`: the slots the cups hold (`sim.cell.held_slots`).
         With `in_window`, which settled items in the window may start riding: given
         `busy_paths` (the planned paths of the picks under way), those the rest of no path
         passes near; else, when `robot_busy` (a pick is under way), none."""
@@ -240,7 +240,7 @@ class ItemRiding:
             settled
             & (data.time - self._born[movers] >= SETTLE_AGE_S)
             & where
-            & ~held_mask(movers, held_slot)
+            & ~held_mask(movers, held)
         ]
         if self.in_window and busy_paths and len(candidates):
             # In the window: not where a pick under way will pass.

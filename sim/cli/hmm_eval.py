@@ -174,7 +174,7 @@ def _items(train, test, evaluation, batch_rows):
         )
 
 
-def main(args: argparse.Namespace) -> int:
+def main(args: argparse.Namespace) -> int:  # noqa: PLR0915
     """Train, evaluate on held-out seeds, print table 4.1 and the comparisons."""
     import time
 

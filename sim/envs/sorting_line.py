@@ -116,7 +116,7 @@ class SortingLineParallelEnv:
         self._deciding = self.possible_agents[index]
         self._cands = slot_candidates(episode.candidates(), robot, episode.context, self.k_slots)
         obs, self._mask = observe(self._cands, robot.time, self.k_slots)
-        base_x = episode.cell.robot_cells[index].base_x
+        base_x = episode.cell.robots[index].base_x
         slots = obs.reshape(self.k_slots, N_FEATURES)
         slots[: len(self._cands), 1] -= base_x  # x from the deciding robot's base [m]
         self._obs = np.clip(obs, self._low, self._high)

@@ -1,4 +1,5 @@
-"""The infeed holds an item back while it would drop into an item already on the belt.
+"""The infeed: items dropped onto the belt at their times, one held back while it would drop
+into an item already there.
 
 The flow places each item as if it rode with the belt from its drop on, clear of the items
 before it (`sim.flow.generator`), and hands it over at the belt's speed. An item that has not
@@ -6,20 +7,25 @@ kept its place (a lying can or bottle that rolled back off the flat item it was 
 knocked upstream) can lie where the next item is dropped: spawned inside it, MuJoCo pushes the
 two apart with the force of a deep penetration and throws one of them off the belt (most of
 the items a four-robot line at 3.3 items/s lost, `docs/line.md`). A real feeder cannot drop an
-item into another. `dropped_into` says whether an item just dropped penetrates another item
-deeper than `DEEP_M` (MuJoCo's signed distance of the two geoms, `mj_geomDistance`): the
-episode then takes it back and drops it at the infeed's end a step later, until it drops clear
-(after `MAX_HOLD_S` it is dropped onto what is still there); the items due after it drop as
-planned meanwhile. Shallower overlaps (a few millimetres, frequent at a line's densities) are
-left to the contact solver, which separates them gently.
+item into another. With `[belt] infeed_hold`, an item just dropped that penetrates another item
+deeper than `DEEP_M` (`Items.inside_another`) is taken back and dropped at the infeed's end a
+step later, until it drops clear (after `MAX_HOLD_S` it is dropped onto what is still there);
+the items due after it drop as planned meanwhile. Shallower overlaps (a few millimetres,
+frequent at a line's densities) are left to the contact solver, which separates them gently.
+
+`Infeed` is one of the episode's scheduled events (`sim.episode.scheduler`): due when an item's
+time has come or one is held back.
 """
 
 from __future__ import annotations
 
-import mujoco
-import numpy as np
+from typing import TYPE_CHECKING
 
-from sim.cell.item_pool import ItemPool
+from sim.cell.items import Items
+from sim.flow.config import X_INFEED
+
+if TYPE_CHECKING:
+    from sim.episode.loop import Episode
 
 DEEP_M = 0.01
 """An item dropped into another deeper than this is held back [m]."""
@@ -33,16 +39,102 @@ MAX_RAISE_M = 0.2
 """Highest it is raised [m] (above the tallest item standing)."""
 
 
-def dropped_into(model: mujoco.MjModel, data: mujoco.MjData, pool: ItemPool, slot: int) -> bool:
-    """Whether the item just dropped in `slot` (posed: `mj_kinematics` run) penetrates another
-    active item deeper than `DEEP_M`."""
-    geom = pool.geom_id(slot)
-    others = pool.active_geom[pool.active_slots()]
-    others = others[others != geom]
-    # Only the items whose bounding spheres overlap its own can lie inside it.
-    gap = np.linalg.norm(data.geom_xpos[others] - data.geom_xpos[geom], axis=1)
-    near = others[gap < model.geom_rbound[geom] + model.geom_rbound[others]]
-    return any(
-        mujoco.mj_geomDistance(model, data, geom, int(g), DEEP_M, None) < -DEEP_M
-        for g in near.tolist()
-    )
+class Infeed:
+    """Drops the flow's items onto the belt at their times.
+
+    Args:
+        items: The cell's items.
+        flow: The episode's flow (`sim.flow.generator.Flow`).
+        hold: Hold back an item that would drop into another (`[belt] infeed_hold`).
+    """
+
+    def __init__(self, items: Items, flow, hold: bool):
+        self.items, self.flow, self.hold = items, flow, bool(hold)
+        self.next_index = 0
+        """Flow index of the next item to drop."""
+        self.holds = 0
+        """Items held back at least once."""
+        self.waiting: dict[int, float] = {}
+        """Flow index of each item held back -> since when [s]."""
+
+    @property
+    def pending(self) -> bool:
+        """Items still to drop (due later, or held back)."""
+        return self.next_index < len(self.flow) or bool(self.waiting)
+
+    def due(self, t: float) -> bool:
+        """Whether an item drops at sim time `t` [s] (its time has come, or one is held)."""
+        return bool(self.waiting) or (
+            self.next_index < len(self.flow) and self.flow.t_spawn[self.next_index] <= t
+        )
+
+    def next_time(self, t: float) -> float | None:
+        """When the infeed acts next [s]: now while an item is held back, else the next
+        item's time; None when every item has dropped."""
+        if self.waiting:
+            return t
+        if self.next_index < len(self.flow):
+            return float(self.flow.t_spawn[self.next_index])
+        return None
+
+    def fire(self, episode: Episode) -> None:
+        """Hand the due items over to the belt (at its speed, as from an infeed conveyor) and
+        book them as entered; an item dropped partly onto a flat one wakes that one."""
+        first, flow, items = self.next_index, self.flow, self.items
+        if self.hold:
+            self.next_index, dropped = self._feed_holding(first)
+        else:
+            self.next_index = items.feed(flow, first)
+            dropped = range(first, self.next_index)
+        items.kinematics()  # poses of the new items for the checks
+        landing = [i for i in dropped if flow.z_drop[i] > 0]
+        if landing:
+            episode.riding.wake_near(items.current(), [items.slot_of(i) for i in landing])
+        for i in dropped:
+            episode.metrics.on_entered(i, int(flow.class_id[i]))
+
+    def _feed_holding(self, first: int) -> tuple[int, list[int]]:
+        """`Items.feed`, holding back an item that would drop into an item on the belt: it
+        drops at the infeed's end once it drops clear (or has waited `MAX_HOLD_S`), while the
+        items due after it drop as planned. Returns the next flow index and the items dropped
+        now."""
+        items, flow = self.items, self.flow
+        t, i = items.time, first
+        dropped, waiting = [], {}
+        due = [(k, X_INFEED, since) for k, since in self.waiting.items()]
+        while i < len(flow) and flow.t_spawn[i] <= t:
+            due.append((i, X_INFEED + items.pool.belt.speed * (t - float(flow.t_spawn[i])), t))
+            i += 1
+        for k, x, since in due:
+            slot = items.drop(flow, k, x)
+            items.kinematics()
+            if items.inside_another(slot, DEEP_M):
+                if t - since < MAX_HOLD_S:
+                    items.park(slot)
+                    self.holds += k not in self.waiting
+                    waiting[k] = since
+                    continue
+                # Waited long enough (an item stuck at the infeed): dropped onto it instead.
+                self.drop_above(k, x, slot)
+            dropped.append(k)
+        self.waiting = waiting
+        return i, dropped
+
+    def drop_above(self, k: int, x: float, slot: int) -> None:
+        """Drop flow item `k`, which lies in `slot` inside another item, raised in steps of
+        `RAISE_STEP_M` until it clears every item (at most `MAX_RAISE_M`), as off a chute.
+
+        Args:
+            k: Flow index of the item.
+            x: Where along the belt it drops [m].
+            slot: The pool slot it lies in now.
+        """
+        items = self.items
+        lift = 0.0
+        while True:
+            items.park(slot)
+            lift += RAISE_STEP_M
+            slot = items.drop(self.flow, k, x, raise_m=lift)
+            items.kinematics()
+            if lift >= MAX_RAISE_M or not items.inside_another(slot, DEEP_M):
+                return

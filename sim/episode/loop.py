@@ -1,15 +1,17 @@
 """The loop of one episode: the only place that steps the physics while an episode runs.
 
-In the manner of dm_control's `Environment.step` with task hooks. Each physics step is
-`before_step` (the robot's executor writes its set-points) -> `mj_step` -> after-step hooks
-(the cup; then the scheduler: items dropped at the infeed, observations, item checks with
-MuJoCo's warnings, items thrown off the belt, the bins and riding, video frames) -> the pick's
-outcome once the robot is free again. While the robot idles the physics is stepped in blocks
-up to the next scheduled event; while it moves, one step per control period. Decisions are
-the episode's public surface: `step_until_decision` advances until the robot is free and a
-choice is needed, `apply` takes the choice (from the configured decision manager in `run`, or
-from outside: a Gymnasium agent, a line coordinator). The episode ends when every item has
-been dropped and left the belt (picked, missed, dropped) and the robot is idle.
+In the manner of dm_control's `Environment.step` with composer's hook lists: each physics step
+runs the `"before_step"` hooks (the busy robots' set-points), `mj_step`, the `"after_step"`
+hooks (riders' belt time, actuator log, cups: `sim.episode.step_hooks`), then every scheduled
+event due (`sim.episode.scheduler`: drops at the infeed, observations, the item checks of
+`sim.episode.item_checks`, video frames, a user's `every`), then the finished picks are booked.
+While every robot idles the physics runs in one block up to the next event or decision. Users
+register their own: `add_hook("after_step" | "before_step", fn)`, `every(period_s, fn)`.
+
+`step_until_decision` advances until a robot is free and a choice is needed; `apply` takes the
+choice (the configured decision manager's in `run`, or a Gymnasium agent's). The episode ends
+when every item has been dropped and left the belt and every robot is idle. Its parts are made
+by `sim.episode.builder`.
 """
 
 from __future__ import annotations
@@ -17,38 +19,39 @@ from __future__ import annotations
 import logging
 import math
 import time
+from collections.abc import Callable
 from dataclasses import replace
 
 import mujoco
 import numpy as np
 
-from planner.decision.energy_cost import EnergyPrice
 from planner.decision.interface import Choice, DecisionContext, RobotState, TrackedItem
-from planner.decision.line_coordination import LineRobot, offered_items
-from planner.decision.registry import make_planner
-from sim.cell.cell import PICK_Z_NOMINAL, Cell
-from sim.cell.depth_noise import ZED_CLASS
-from sim.cell.held_slots import held_mask
-from sim.cell.riding import ItemRiding, PlannedPath
-from sim.cell.suction import SuctionConfig
+from sim.cell.cell import Cell
+from sim.cell.held_slots import held_slots
+from sim.cell.riding import PlannedPath
+from sim.episode import builder, item_checks, step_hooks
+from sim.episode.builder import CHECK_PERIOD_S, SETTLE_S, make_decision_manager
 from sim.episode.config import EpisodeConfig
-from sim.episode.cycle_timing import cell_cycle_model
-from sim.episode.infeed import MAX_HOLD_S, MAX_RAISE_M, RAISE_STEP_M, dropped_into
-from sim.episode.pick_control import PRESS_DEPTH_M, PickController, PickOutcome
-from sim.errors import InvalidInput
-from sim.flow.config import X_INFEED
-from sim.flow.generator import generate_flow
-from sim.flow.ground_truth import yaw_from_xmat
-from sim.monitors.bins import Bins
+from sim.episode.infeed import Infeed
+from sim.episode.overlay import overlay_of
+from sim.episode.pick_control import PickController, PickOutcome
+from sim.episode.scheduler import FrameEvent, Hooks, PeriodicEvent, Scheduler, is_due
+from sim.episode.stations import (
+    RobotStation,
+    StartedPick,
+    book_pick,
+    line_offer,
+    offerable_items,
+    robot_columns,
+)
 from sim.monitors.energy import ActuatorLog, EnergyMeter
 from sim.monitors.mj_warnings import WarningCounter
 from sim.monitors.thrown import ThrowWatch
-from sim.render.video import overlay_of
-from sim.results.metrics import EpisodeMetrics, PickRecord
-from sim.sensing.attribution import attributed_item
-from sim.sensing.confidence import is_unsure, sure_items
-from sim.sensing.perception import CameraPerception, TruthPerception
+from sim.results.metrics import EpisodeMetrics
+from sim.sensing.confidence import is_unsure
 from sim.sensing.tracking import Tracker
+
+__all__ = ["Episode", "make_decision_manager"]
 
 log = logging.getLogger(__name__)
 
@@ -63,87 +66,6 @@ RETRY_AFTER_S = 0.25
 """An item the cup cannot meet now (a neighbour in the way, a plan outside the motor limits as
 it enters the window) is offered again after this long, while it is still on the belt [s]. The
 camera reports an item once; dropping its track would lose it for good."""
-MAX_FAILURES = 2
-"""Attempts after which truth mode gives an item up (it is re-detected every period)."""
-CHECK_PERIOD_S = 0.02
-"""How often items leaving the belt, landing in bins or falling are looked for [s]."""
-BELOW_BELT_Z = -0.1
-"""An item whose centre is this far below the belt surface has left it [m]."""
-DISCARD_MARGIN_M = 0.15
-"""An item this far past the reachable window's downstream edge is out of the robot's reach
-(the scene's cup radius and the item's half length included; a larger cup adds its extra
-radius, `Cell.cup_extra_m`) [m]."""
-SETTLE_S = 2.0
-"""Time after the last item left before the episode may end (falls into bins) [s]."""
-LINE_PICK_TIME_S = 0.75
-"""A pick's duration a line's coordination assumes before a robot has picked [s] (the
-headline episode's mean cycle is 0.73 s)."""
-_OBJECTIVES = {"value_over_distance": "v/d", "value_only": "d=1", "distance_only": "v=1"}
-
-
-def _check_cell(cell: Cell, config: EpisodeConfig) -> None:
-    """Refuse a cell compiled with other model settings than the config's (cup, belt)."""
-    got, want = cell.settings, config.cell_settings
-    for key, have, asked in (
-        ("cup.diameter_m", got.cup_diameter_m, want.cup_diameter_m),
-        ("belt.length_m", got.belt_length_m, want.belt_length_m),
-    ):
-        if have != asked:
-            allowed = f"the cell's {have:g} m (a Cell(settings=config.cell_settings) for {asked:g})"
-            raise InvalidInput(key, allowed, asked)
-
-
-def _prefixed(robot_cell) -> dict:
-    """The name prefix of a line's robot (`prefix=`), nothing for a one-robot cell."""
-    prefix = getattr(robot_cell, "prefix", "")
-    return {"prefix": prefix} if prefix else {}
-
-
-def make_decision_manager(config: EpisodeConfig):
-    """The configured planner: qlearning and rollout take the [qlearning] section's parameters
-    and the observation period as their grid's row period; qlearning draws its random actions
-    from the episode's seed."""
-    if config.planner in ("qlearning", "rollout"):
-        q = config.qlearning
-        options = {"seed": config.seed} if config.planner == "qlearning" else {}
-        return make_planner(
-            config.planner,
-            gamma=q.gamma,
-            iterations=q.iterations,
-            batch_rows=q.batch_rows,
-            row_period_s=config.observation_period_s,
-            objective=_OBJECTIVES[q.objective],
-            **options,
-        )
-    return make_planner(config.planner)
-
-
-class RobotStation:
-    """One robot of an episode: its pick controller (executor, cup), motor energy meter,
-    decision context and manager, and the pick under way. A cell has one; a line one per robot
-    (`robot_cells`), all stepped by the one loop.
-
-    Args:
-        index: The robot's index, 0 upstream.
-        robot: Its pick controller.
-        energy: Its motors' energy meter.
-        context: Its decision context (its window, its bins).
-        planner: Its decision manager.
-        path_reach: (around, below) how far the cup, or an item hanging from it, reaches from
-            the cup's centre [m] (riders its planned path passes are woken as a pick starts).
-    """
-
-    def __init__(self, index, robot, energy, context, planner, path_reach):
-        self.index, self.robot, self.energy = index, robot, energy
-        self.context, self.planner, self.path_reach = context, planner, path_reach
-        self.next_decision = 0.0
-        self.current_pick = None  # the track being picked (shown in the video)
-        # (track, choice, energy reading at the start, travel [m]) of the pick under way
-        self.pick_started: tuple | None = None
-        self.started_at = 0.0  # when the pick under way started [s]
-        self.path: PlannedPath | None = None  # the cup's planned path of the pick under way
-        self.picks_done, self.pick_time_sum = 0, 0.0  # its finished picks and their time [s]
-        self.cup_events_seen = 0
 
 
 class Episode:
@@ -156,9 +78,8 @@ class Episode:
     Args:
         config: The episode's configuration.
         cell: The compiled cell it runs on (reset by `reset`).
-        video: A `sim.render.video.VideoRecorder`, anything with its interface (`due`,
-            `next_frame_time`, `capture(data, overlay)`, `close`, `abort`; e.g.
-            `sim.render.live_view.LiveView`), or None.
+        video: A frame sink (`sim.render.sink.FrameSink`: the video recorder, the live view),
+            or None.
         progress: Called with (fraction, status line) about once per simulated second.
         planner: A decision manager object (`choose`, `reset`); the config's when omitted.
     """
@@ -170,8 +91,42 @@ class Episode:
         self.stations: list[RobotStation] = []
         self._deciding: RobotStation | None = None
         self._ready = False
+        self._user_hooks: list[tuple[str, Callable]] = []
+        self._user_events: list[PeriodicEvent] = []
+        self.hooks, self.scheduler = Hooks(), Scheduler()
 
-    # The single robot's (the first robot's) parts, by their names of a one-robot cell.
+    # ----- registration -------------------------------------------------------------------------
+
+    def add_hook(self, stage: str, fn: Callable[[Episode], object]) -> None:
+        """Run `fn(episode)` before or after every physics step (a block of steps while every
+        robot idles), after the episode's own hooks; kept across resets.
+
+        Args:
+            stage: "before_step" or "after_step".
+            fn: Called with the episode.
+        """
+        Hooks().add(stage, fn)  # refused here, before anything is registered
+        self._user_hooks.append((stage, fn))
+        if self._ready:
+            self.hooks.add(stage, fn)
+
+    def every(self, period_s: float, fn: Callable[[Episode], object]) -> PeriodicEvent:
+        """Call `fn(episode)` every `period_s` [s] of simulated time, from the start of each
+        episode (or from now, registered during one), after the episode's own events due then;
+        kept across resets. Returns the event (its `next_s` says when it is due next).
+
+        Args:
+            period_s: The period [s], > 0.
+            fn: Called with the episode.
+        """
+        event = PeriodicEvent(period_s, fn, float(self.data.time) if self._ready else 0.0)
+        self._user_events.append(event)
+        if self._ready:
+            self.scheduler.add(event)
+        return event
+
+    # ----- the deciding robot's parts -----------------------------------------------------------
+
     @property
     def robot(self) -> PickController:
         """The pick controller of the robot deciding now (the first robot between decisions)."""
@@ -197,12 +152,13 @@ class Episode:
         """The track the first robot is picking (None when idle)."""
         return self.stations[0].current_pick if self.stations else None
 
+    @property
+    def infeed_holds(self) -> int:
+        """Items the infeed held back at least once (`sim.episode.infeed`)."""
+        return self.infeed.holds
+
     def _station(self) -> RobotStation:
         return self._deciding if self._deciding is not None else self.stations[0]
-
-    def _robot_cells(self) -> list:
-        """The robots' cells: the cell itself for one robot, a line's `robot_cells`."""
-        return list(getattr(self.cell, "robot_cells", None) or [self.cell])
 
     def __enter__(self) -> Episode:
         return self
@@ -210,132 +166,40 @@ class Episode:
     def __exit__(self, exc_type, exc, tb) -> None:
         self.close(aborted=exc_type is not None)
 
+    # ----- lifecycle ----------------------------------------------------------------------------
+
     def reset(self, seed: int | None = None) -> None:
         """Start the episode afresh: the cell reset, the flow of `seed` (the config's when
-        None), every counter at zero, the decision manager reset."""
+        None), every counter at zero, the decision manager reset, the hooks and events
+        registered again (a user's kept, due from the start)."""
         config = self.config if seed is None else replace(self.config, seed=int(seed))
-        self.config = config
-        cell = self.cell
-        _check_cell(cell, config)
-        n_robots = len(self._robot_cells())
-        if n_robots != config.robots:
-            allowed = f"the {n_robots} robot(s) of the cell it runs on"
-            raise InvalidInput("robots", allowed, config.robots)
+        self.config, cell = config, self.cell
+        builder.check_cell(cell, config)
         self.speed = config.belt_speed_mps
         cell.reset(self.speed)
-        if cell.catalogue.digest != config.item_catalogue.digest:
-            raise InvalidInput(
-                "catalogue", "the catalogue the cell was built from", config.catalogue or "default"
-            )
-        self.flow = generate_flow(config.flow_config(), cell.catalogue, cell.pool.size)
-        self.t_last_spawn = float(self.flow.t_spawn[-1]) if len(self.flow) else 0.0
-        self.x_discard = float(np.nanmax(cell.window.x_exit)) + DISCARD_MARGIN_M + cell.cup_extra_m
-        # When the last item has passed the robot (the end of a normal episode) and a cap.
-        self.t_end = self.t_last_spawn + (self.x_discard - X_INFEED) / self.speed + SETTLE_S
-        self.t_cap = self.t_end + 10.0
-        materials = cell.materials
-        type_values = config.values.of_types(cell.catalogue)
-        self.metrics = EpisodeMetrics(
-            config.values.by_class(materials),
-            config.energy_price_eur_per_kwh,
-            materials,
-            item_values={
-                i: type_values[int(k)]
-                for i, k in enumerate(self.flow.type_index.tolist())
-                if int(k) in type_values
-            },
-        )
+        self.flow = builder.episode_flow(config, cell)
+        self.timeline = builder.Timeline.of(cell, self.flow, self.speed)
+        self.x_discard, self.t_end = self.timeline.x_discard, self.timeline.t_end
+        self.metrics: EpisodeMetrics = builder.episode_metrics(config, cell, self.flow)
         self.tracker = Tracker(self.speed)
-        pauses = config.robot
-        robots = [
-            PickController(
-                robot_cell,
-                self.speed,
-                pauses.pick_pause_s,
-                pauses.place_pause_s,
-                items=self.flow.item_types(cell.catalogue),
-                suction=SuctionConfig(vacuum=float(config.cup.vacuum_pa)),
-                idle_sleep=pauses.idle_sleep,
-                **_prefixed(robot_cell),
-            )
-            for robot_cell in self._robot_cells()
-        ]
-        prefixes = tuple(getattr(rc, "prefix", "") for rc in self._robot_cells())
-        self.bins = Bins(self.model, self.data, cell.pool, materials, prefixes)
-        # Riders wake upstream of the robot by the largest item's radius (`sim.cell.riding`).
-        radius = max(
-            (float(cell.pool.props(int(k), f)["geom_rbound"]) for k, f in
-             zip(self.flow.variant, self.flow.scale, strict=True)),
-            default=0.0,
-        )  # fmt: skip
-        wake_x = cell.wake_x - max(radius - cell.item_radius, 0.0)
-        self.riding = ItemRiding(
-            self.model,
-            cell.pool,
-            wake_x,
-            enabled=config.item_riding != "contact",
-            in_window=config.item_riding == "path",
-            check_period=CHECK_PERIOD_S,
-        )
+        controllers = builder.pick_controllers(config, cell, self.flow)
+        self.bins = item_checks.episode_bins(cell)
+        radius = builder.largest_item_radius(cell, self.flow)
+        self.riding = builder.item_riding(config, cell, radius)
+        cell.items.ride(self.riding)
         # MuJoCo's warning counts start at zero (the reset above clears them).
         self.mj_warnings = WarningCounter(self.data)
         self.throw_watch = ThrowWatch(self.model, cell.pool)
         self._timestep = float(self.model.opt.timestep)  # [s]
+        self.last_step_s = 0.0
+        """Duration of the last physics step, or block of steps [s]."""
         self.actuator_log = ActuatorLog(self.data)  # read by every robot's energy meter
-        self.stations = []
-        for k, (robot_cell, robot) in enumerate(zip(self._robot_cells(), robots, strict=True)):
-            context = DecisionContext(
-                belt_speed=self.speed,
-                cycle_model=cell_cycle_model(
-                    limits=robot_cell.limits,
-                    pick_z=PICK_Z_NOMINAL,
-                    # The lift the robot makes: the held item's bottom to the clear height.
-                    lift_height=robot.clear_z + PRESS_DEPTH_M,
-                    seal_time=robot.config.seal_time,
-                    release_time=robot.config.release_time,
-                ),
-                window=robot_cell.window,
-                bins=robot_cell.bins_tuple(),
-                values=config.values.of_materials(materials),
-                energy=EnergyPrice(config.energy_price_eur_per_kwh),
-            )
-            planner = self.planner if k == 0 else make_decision_manager(config)
-            planner.reset()
-            # How far the cup, or an item hanging from it, reaches around and below its centre
-            # [m] (the riders its planned path passes within this of are woken as a pick starts).
-            reach = (robot.suction.radius + radius, 2.0 * radius)
-            energy = EnergyMeter(
-                robot_cell.model,
-                self.data,
-                asleep_tree=robot.sleep.tree if robot.sleep.enabled else None,
-                log=self.actuator_log,
-                **_prefixed(robot_cell),
-            )
-            self.stations.append(RobotStation(k, robot, energy, context, planner, reach))
+        self.stations = builder.robot_stations(
+            config, cell, controllers, self.planner, radius, self.actuator_log
+        )
         self._deciding = None
-        period = config.observation_period_s
-        if config.perception == "truth":
-            self.perception = TruthPerception(self.data, cell.pool, self.flow, self.speed, period)
-        else:
-            self.perception = CameraPerception(
-                self.model,
-                self.data,
-                cell.catalogue,
-                self.speed,
-                period,
-                camera=cell.belt_camera(config.camera.size),
-                classifier=config.classifier,
-                depth_noise=ZED_CLASS if config.depth_noise else None,
-                seed=config.seed,
-                mix=config.flow.flow_kwargs(),
-                size=config.camera.size,
-            )
-        # Scheduled events: the next drop, observation, item check and decision [s].
-        self.next_spawn = 0
-        self.infeed_holds = 0  # items the infeed held back (sim.episode.infeed)
-        self._waiting: dict[int, float] = {}  # flow index of an item held back -> since [s]
-        self.next_obs = 0.0
-        self.next_check = 0.0
+        self.perception = builder.perception(config, cell, self.flow)
+        self.infeed = Infeed(cell.items, self.flow, config.belt.infeed_hold)
         self.failures: dict[int, int] = {}  # failed attempts per true item id (truth mode)
         self.not_before: dict[int, float] = {}  # track id -> when it may be offered again [s]
         self.timings = dict.fromkeys(
@@ -344,11 +208,32 @@ class Episode:
         self.decisions = 0
         self.latencies: dict[str, list[float]] = {"perception": [], "decision": [], "plan": []}
         self._candidates: list[TrackedItem] = []
-        # track id -> (its probabilities, its item) as the last `_tracked_items` made them
-        self._track_items: dict[int, tuple[np.ndarray, TrackedItem]] = {}
+        # track id -> (its probabilities, its item) as `offerable_items` last made them
+        self.track_items: dict[int, tuple[np.ndarray, TrackedItem]] = {}
+        self.busy: list[RobotStation] = []
         self._last_report = -1.0
         self._closed_out = False
+        self._register()
         self._ready = True
+
+    def _register(self) -> None:
+        """The episode's own hooks and events, then a user's."""
+        self.hooks, self.scheduler = Hooks(), Scheduler()
+        for fn in step_hooks.BEFORE_STEP:
+            self.hooks.add("before_step", fn)
+        for fn in step_hooks.AFTER_STEP:
+            self.hooks.add("after_step", fn)
+        self.scheduler.add(self.infeed)
+        self.scheduler.add(PeriodicEvent(self.config.observation_period_s, step_hooks.observe))
+        for check in item_checks.CHECKS:
+            self.scheduler.add(PeriodicEvent(CHECK_PERIOD_S, check))
+        if self.video is not None:
+            self.scheduler.add(FrameEvent(self.video, overlay_of))
+        for stage, fn in self._user_hooks:
+            self.hooks.add(stage, fn)
+        for event in self._user_events:
+            event.next_s = 0.0
+            self.scheduler.add(event)
 
     def close(self, aborted: bool = False) -> None:
         """Release the perception's renderer and finish (or, `aborted`, discard) the video."""
@@ -365,7 +250,7 @@ class Episode:
     # ----- the public stepping interface --------------------------------------------------------
 
     def step_until_decision(self) -> bool:
-        """Advance the physics until the robot is free and a choice is due among the tracked
+        """Advance the physics until a robot is free and a choice is due among the tracked
         items (`candidates()`, `robot_state()`, `context`); False once the episode has ended."""
         if not self._ready:
             self.reset()
@@ -374,17 +259,24 @@ class Episode:
             t = self.data.time
             items = None  # the tracked items now, once for every robot free now
             for station in self.stations:
-                if not station.robot.busy and t + 1e-9 >= station.next_decision:
+                if not station.robot.busy and is_due(t, station.next_decision):
                     station.next_decision = t + DECIDE_PERIOD_S
                     if items is None:
-                        items = self._tracked_items(t)
-                    self._candidates = self._offered(station, items, t)
+                        items = offerable_items(self, t)
+                    self._candidates = line_offer(
+                        self.stations,
+                        station,
+                        items,
+                        t,
+                        self.config.coordination,
+                        self.config.robot_class_ids,
+                    )
                     if self._candidates:
                         self._deciding = station
-                        self.riding.sync(self.data)  # a decision and a plan read the items
+                        self.cell.items.current()  # a decision and a plan see the items now
                         return True
             self._step()
-        self.riding.sync(self.data)
+        self.cell.items.current()
         readings = [s.energy.reading() for s in self.stations]
         self.metrics.on_energy(*(sum(r[i] for r in readings) for i in (0, 1)))
         self._close_out()
@@ -395,7 +287,7 @@ class Episode:
         return list(self._candidates)
 
     def robot_state(self) -> RobotState:
-        """Where the robot rests and the current sim time."""
+        """Where the deciding robot rests and the current sim time."""
         return RobotState(tuple(self.robot.rest), float(self.data.time))
 
     def choose(self) -> Choice | None:
@@ -434,14 +326,12 @@ class Episode:
         if intercept.meet_time > MAX_LEAD_S + WAIT_STEP_S:
             station.next_decision = t + WAIT_STEP_S  # the cycle model was optimistic: wait
             return False
-        station.current_pick = track
         self.tracker.remove(track.track_id)  # no other robot is offered it now
         # The thesis's distance of the pick (rest -> item -> bin, in the belt's plane) [m].
         meet_xy = intercept.pick_xyz[:2]
         drop_xy = np.asarray(station.context.bin_of(choice.bin_class)[:2], dtype=float)
         travel = float(np.linalg.norm(meet_xy - robot.rest[:2]) + np.linalg.norm(drop_xy - meet_xy))
-        station.pick_started = (track, choice, station.energy.reading(), travel)
-        station.started_at = t
+        station.pick = StartedPick(track, choice, station.energy.reading(), travel, t)
         robot.start(intercept, -1 if track.true_id is None else int(track.true_id))
         station.path = None
         if self.riding.in_window:
@@ -454,23 +344,19 @@ class Episode:
         while self.step_until_decision():
             self.apply(self.choose())
 
-    # ----- stepping ------------------------------------------------------------------------------
+    # ----- stepping -----------------------------------------------------------------------------
 
     def _step(self) -> None:
-        """The one physics step of the episode: one control period while a pick is under way
-        (set-points, step, cup, scheduler, outcome), else one block up to the next scheduled
-        event (the robot holds its set-points)."""
+        """One control period while a pick is under way, else one block of steps up to the next
+        scheduled event or decision: hooks, step, hooks, events due, finished picks."""
         busy = [s for s in self.stations if s.robot.busy]
-        for station in busy:
-            station.robot.before_step()
+        self.busy = busy
+        self.hooks.run("before_step", self)
         nstep = 1 if busy else self._idle_steps()
         mujoco.mj_step(self.model, self.data, nstep=nstep)
-        duration = nstep * self._timestep
-        self.riding.carry(duration)
-        self.actuator_log.record(duration)
-        for station in busy:
-            station.robot.after_step()
-        self._after_step()
+        self.last_step_s = nstep * self._timestep
+        self.hooks.run("after_step", self)
+        self._fire_due()
         if busy:
             for station in busy:
                 outcome = station.robot.poll()
@@ -482,260 +368,52 @@ class Episode:
             self._last_report = t
             self.progress(min(t / self.t_end, 1.0), self.status_text())
 
-    def _after_step(self) -> None:
-        """The scheduler: everything due at the current sim time except decisions."""
-        t = self.data.time
-        spawn_due = self._waiting or (
-            self.next_spawn < len(self.flow) and self.flow.t_spawn[self.next_spawn] <= t
-        )
-        observe_due = t + 1e-9 >= self.next_obs
-        check_due = t + 1e-9 >= self.next_check
-        frame_due = self.video is not None and self.video.due(t)
-        if spawn_due or observe_due or check_due or frame_due:
-            self.riding.sync(self.data)  # the riders where the belt has carried them
-        if spawn_due:
-            self._spawn()
-        if observe_due:
-            self._observe(t)
-            self.next_obs += self.config.observation_period_s
-        if check_due:
-            self._check_items(t)
-            self.next_check += CHECK_PERIOD_S
-        if frame_due:
-            t0 = time.perf_counter()
-            self.video.capture(self.data, overlay_of(self, t))
-            self.timings["video"] += time.perf_counter() - t0
+    def _fire_due(self) -> None:
+        """Every event due now, in order, each seeing the items where they are now."""
+        due = self.scheduler.due(self.data.time)
+        if due:
+            self.cell.items.current()
+            for event in due:
+                event.fire(self)
+
+    def _idle_steps(self) -> int:
+        """Physics steps until the next event or decision while every robot idles."""
+        t, dt = self.data.time, self.model.opt.timestep
+        when = min(self.scheduler.next_time(t), *(s.next_decision for s in self.stations))
+        return max(1, int(math.ceil((when - t) / dt - 1e-9)))
+
+    def sink_frame(self, sink, overlay) -> None:
+        """Hand `sink` a frame of the cell as it is now with `overlay` (timed)."""
+        t0 = time.perf_counter()
+        sink.capture(self.cell.items.current(), overlay)
+        self.timings["video"] += time.perf_counter() - t0
+
+    def held(self) -> np.ndarray:
+        """The pool slots the robots' cups hold now, robot by robot (`sim.cell.held_slots`)."""
+        return held_slots(s.robot.suction.held_slot for s in self.stations)
 
     def _finish_pick(self, station: RobotStation, outcome: PickOutcome) -> None:
-        """Book a finished pick and decide again at once."""
-        track, choice, (mech0, elec0), travel = station.pick_started
-        station.pick_started = None
-        station.picks_done += 1
-        station.pick_time_sum += outcome.t_end - outcome.t_start
-        mech, elec = station.energy.reading()
-        station.current_pick = None
-        if not outcome.held_to_bin and track.true_id is not None:
-            self.failures[track.true_id] = self.failures.get(track.true_id, 0) + 1
-        if outcome.item_id >= 0:  # the cup may have sealed on a neighbour: forget its track too
-            self.tracker.remove_true(outcome.item_id)
-        true_class = int(self.flow.class_id[outcome.item_id]) if outcome.item_id >= 0 else None
-        if true_class is None and track.true_id is not None:
-            true_class = int(self.flow.class_id[track.true_id])
-        self.metrics.on_pick(
-            PickRecord(
-                t_start_s=outcome.t_start,
-                t_end_s=outcome.t_end,
-                item_id=outcome.item_id if outcome.item_id >= 0 else (track.true_id or -1),
-                true_class=true_class,
-                predicted_class=track.predicted_class,
-                bin=choice.bin_class,
-                success=outcome.held_to_bin,
-                travel_m=travel,
-                energy_mech_j=mech - mech0,
-                energy_elec_j=elec - elec0,
-                sealed=outcome.sealed,
-                robot=station.index,
-            )
-        )
+        """Book a finished pick (`sim.episode.stations.book_pick`) and decide again at once."""
+        book_pick(self, station, outcome)
         station.next_decision = self.data.time
 
-    def _spawn(self) -> None:
-        """Hand the due items over to the belt (at its speed, as from an infeed conveyor); with
-        `belt.infeed_hold`, an item that would drop into one already there is held back
-        (`sim.episode.infeed`)."""
-        first = self.next_spawn
-        if self.config.belt.infeed_hold:
-            self.next_spawn, dropped = self._feed_holding(first)
-        else:
-            self.next_spawn = self.cell.pool.feed(self.data, self.flow, first)
-            dropped = range(first, self.next_spawn)
-        mujoco.mj_kinematics(self.model, self.data)  # poses of the new items for the checks
-        # An item dropped partly onto a flat one: that one touches again if it was riding.
-        landing = [i for i in dropped if self.flow.z_drop[i] > 0]
-        if landing:
-            self.riding.wake_near(self.data, [self.cell.pool.slot_of(i) for i in landing])
-        for i in dropped:
-            self.metrics.on_entered(i, int(self.flow.class_id[i]))
-
-    def _feed_holding(self, first: int) -> tuple[int, list[int]]:
-        """`ItemPool.feed`, holding back an item that would drop into an item on the belt:
-        it drops at the infeed's end once it drops clear (or has waited `MAX_HOLD_S`), while
-        the items due after it drop as planned. Returns the next flow index and the items
-        dropped now."""
-        pool, data, flow = self.cell.pool, self.data, self.flow
-        t, i = float(data.time), first
-        dropped, waiting = [], {}
-        due = [(k, X_INFEED, since) for k, since in self._waiting.items()]
-        while i < len(flow) and flow.t_spawn[i] <= t:
-            due.append((i, X_INFEED + pool.belt.speed * (t - float(flow.t_spawn[i])), t))
-            i += 1
-        for k, x, since in due:
-            slot = pool.drop(data, flow, k, x)
-            mujoco.mj_kinematics(self.model, data)
-            if dropped_into(self.model, data, pool, slot):
-                if t - since < MAX_HOLD_S:
-                    pool.park(data, slot)
-                    self.infeed_holds += k not in self._waiting
-                    waiting[k] = since
-                    continue
-                # Waited long enough (an item stuck at the infeed): dropped onto it instead.
-                self._drop_above(k, x, slot)
-            dropped.append(k)
-        self._waiting = waiting
-        return i, dropped
-
-    def _drop_above(self, k: int, x: float, slot: int) -> None:
-        """Drop flow item `k`, which lies in `slot` inside another item, raised in steps of
-        `RAISE_STEP_M` until it clears every item (at most `MAX_RAISE_M`), as off a chute."""
-        pool, data = self.cell.pool, self.data
-        lift = 0.0
-        while True:
-            pool.park(data, slot)
-            lift += RAISE_STEP_M
-            slot = pool.drop(data, self.flow, k, x, raise_m=lift)
-            mujoco.mj_kinematics(self.model, data)
-            if lift >= MAX_RAISE_M or not dropped_into(self.model, data, pool, slot):
-                return
-
-    def _observe(self, t: float) -> None:
+    def observe(self) -> None:
+        """The perception's detections now, handed to the tracker (timed); new tracks booked
+        against the true items (`never_detected`)."""
+        t = self.data.time
         t0 = time.perf_counter()
-        mujoco.mj_kinematics(self.model, self.data)
+        self.cell.items.kinematics()
         created = self.tracker.update(self.perception.observe(t))
         dt = time.perf_counter() - t0
         self.timings["perception"] += dt
         self.latencies["perception"].append(dt)
-        self._attribute(created, t)
-
-    def _attribute(self, created: list, t: float) -> None:
-        """Book the true items the new tracks are of (the metrics' `never_detected`;
-        `sim.sensing.attribution`: bookkeeping the robot never sees)."""
-        if not created:
-            return
-        items_xy, shapes = {}, {}
-        if any(track.true_id is None for track in created):
-            pool, held = self.cell.pool, self._held_slots()
-            for slot in pool.active_slots():
-                if slot not in held:
-                    body = pool.body_ids[slot]
-                    x, y = self.data.xpos[body][:2]
-                    item_id = int(pool.item_ids[slot])
-                    items_xy[item_id] = (float(x), float(y))
-                    yaw = float(yaw_from_xmat(self.data.xmat[body][None])[0])
-                    shapes[item_id] = (yaw, pool.item_type(int(slot)))
-        gate = self.tracker.match_radius
-        for track in created:
-            item_id = attributed_item(track, t, self.speed, items_xy, gate, shapes)
-            if item_id is not None:
-                self.metrics.on_detected(item_id)
-
-    def _check_items(self, t: float) -> None:
-        """Every `CHECK_PERIOD_S`: MuJoCo's new warnings, items thrown off the belt
-        (`sim.monitors.thrown`), items past the robot or the belt's end, landings, riding."""
-        pool, data = self.cell.pool, self.data
-        held_slots = self._held_slots()
-        held = held_slots[0] if len(held_slots) == 1 else None
-        self.metrics.on_warnings(self.mj_warnings.update())  # a MujocoWarning names them
-        # Items a cup let go of over a bin fall into it: not thrown, never judged as such.
-        for station in self.stations:
-            cup = station.robot.suction
-            for event in cup.events[station.cup_events_seen :]:
-                if event.kind == "released":
-                    self.throw_watch.note_released(event.item_id)
-            station.cup_events_seen = len(cup.events)
-        for throw in self.throw_watch.update(data, held_slots if len(held_slots) > 1 else held):
-            doing = "; ".join(s.robot.activity() for s in self.stations)
-            self.metrics.on_thrown(throw, doing)
-            log.warning(
-                "seed %d, t %.2f s: item %d thrown off the belt (%s) while the robot was at %s",
-                self.config.seed,
-                throw.time,
-                throw.item_id,
-                throw.reason,
-                doing,
-            )
-        active = pool.active_slots()
-        pos = data.xpos[pool.body_ids[active]]
-        passed = (pos[:, 0] > self.x_discard) & (pos[:, 2] > BELOW_BELT_Z)  # passed the robot
-        for slot in active[passed & ~held_mask(active, held_slots)].tolist():  # discarded
-            item_id = pool.park(data, slot)
-            self.metrics.on_missed(item_id)
-            self._book_unsure(self.tracker.remove_true(item_id))
-        for item_id in pool.park_missed(data):  # past the belt's end (e.g. pushed along)
-            self.metrics.on_missed(item_id)
-            self._book_unsure(self.tracker.remove_true(item_id))
-        for landing in self.bins.update(data, held_slots if len(held_slots) > 1 else held):
-            if landing.bin is None or landing.item_id not in self.throw_watch.released:
-                # Only what the cup carried and let go of over a bin is picked; an item that
-                # reached a bin otherwise (knocked off the belt) is dropped.
-                self.metrics.on_dropped(landing.item_id)
-            else:
-                self.metrics.on_binned(landing.item_id, landing.true_class, landing.bin_class)
-            self.tracker.remove_true(landing.item_id)
-        self._book_unsure(self.tracker.prune(t, self.x_discard))
-        paths = [s.path for s in self.stations if s.robot.busy and s.path is not None]
-        self.riding.update(data, held_slots if len(held_slots) > 1 else held, busy_paths=paths)
-
-    def _offered(self, station: RobotStation, items: list[TrackedItem], t: float):
-        """The items a free robot of a line may choose among (`coordination`); all of them
-        for one robot. A robot's pick is taken to last its mean cycle so far."""
-        if len(self.stations) <= 1 or not items:
-            return items
-        line = []
-        for s in self.stations:
-            free_at = s.started_at + self._pick_time(s) if s.robot.busy else t
-            sorted_here = self.config.robot_class_ids[s.index]  # None: every material
-            line.append(LineRobot(s.context, max(free_at, t), sorted_here))
-        return offered_items(
-            self.config.coordination, items, line, station.index, t, self._pick_time(station)
-        )
-
-    def _pick_time(self, station: RobotStation) -> float:
-        """Mean duration of the robot's picks so far [s] (`LINE_PICK_TIME_S` before any)."""
-        if not station.picks_done:
-            return LINE_PICK_TIME_S
-        return station.pick_time_sum / station.picks_done
+        item_checks.attribute(self, created, t)
 
     def robot_columns(self, sim_s: float) -> dict[str, object]:
-        """A line's episodes.csv columns: robots, coordination, each robot's picks, picks per
-        minute, utilisation and energy (`sim.results.outputs.line_columns`); none for one."""
-        if len(self.stations) <= 1:
-            return {}
-        out: dict[str, object] = {
-            "robots": len(self.stations),
-            "coordination": self.config.coordination,
-        }
-        for s in self.stations:
-            out |= self.metrics.robot_row(s.index, sim_s, s.energy.reading()[1])
-        return out
+        """A line's episodes.csv columns (`sim.episode.stations.robot_columns`); none for one."""
+        return robot_columns(self.stations, self.metrics, self.config.coordination, sim_s)
 
-    def _held_slots(self) -> list[int]:
-        """The pool slots the robots' cups hold now (sealed), robot by robot."""
-        cups = (s.robot.suction for s in self.stations)
-        return [cup.held_slot for cup in cups if cup.held_slot is not None]
-
-    def _tracked_items(self, t: float) -> list[TrackedItem]:
-        """The tracked items every decision manager chooses among: the confidence rule
-        (`sim.sensing.confidence`) applied here, once for all of them."""
-        items, made = [], {}
-        for tr in self.tracker.tracks():
-            if self.failures.get(tr.true_id, 0) >= MAX_FAILURES:
-                continue  # truth mode: an item the cup failed on twice is given up
-            if self.not_before.get(tr.track_id, 0.0) > t:
-                continue  # the cup could not meet it a moment ago
-            x = tr.x_at(t, self.speed)
-            # The track's item of the last call, moved, while its probabilities are the same
-            # array (the tracker replaces the array when it updates them).
-            probs, item = self._track_items.get(tr.track_id, (None, None))
-            if probs is tr.probs:
-                item = item.at(x, tr.y)
-            else:
-                item = TrackedItem(tr.track_id, x, tr.y, tuple(tr.probs))
-            made[tr.track_id] = (tr.probs, item)
-            items.append(item)
-        self._track_items = made
-        return sure_items(items, self.config.min_class_confidence)
-
-    def _book_unsure(self, gone: list) -> None:
+    def book_unsure(self, gone: list) -> None:
         """Count the tracks among `gone` (went past the robot unpicked, or still tracked at the
         end) that the confidence rule kept from the decision manager (`left_unsure`)."""
         threshold = self.config.min_class_confidence
@@ -745,23 +423,11 @@ class Episode:
         if any(s.robot.busy for s in self.stations):  # a pick under way is always finished
             return False
         t = self.data.time
-        if t >= self.t_cap:
+        if t >= self.timeline.t_cap:
             return True
-        if self.next_spawn < len(self.flow) or self._waiting or len(self.cell.pool.active_slots()):
+        if self.infeed.pending or len(self.cell.items.active_slots()):
             return False
-        return t >= self.t_last_spawn + SETTLE_S
-
-    def _idle_steps(self) -> int:
-        """Physics steps until the next event while the robot idles."""
-        t, dt = self.data.time, self.model.opt.timestep
-        events = [self.next_obs, self.next_check, *(s.next_decision for s in self.stations)]
-        if self.next_spawn < len(self.flow):
-            events.append(float(self.flow.t_spawn[self.next_spawn]))
-        if self._waiting:  # an item held back at the infeed drops as soon as it drops clear
-            events.append(t)
-        if self.video is not None:
-            events.append(self.video.next_frame_time)
-        return max(1, int(math.ceil((min(events) - t) / dt - 1e-9)))
+        return t >= self.timeline.t_last_spawn + SETTLE_S
 
     def _close_out(self) -> None:
         """Items still on the belt at the time cap count as missed (once)."""
@@ -769,9 +435,10 @@ class Episode:
             return
         self._closed_out = True
         self.metrics.on_warnings(self.mj_warnings.update())
-        self._book_unsure(self.tracker.tracks())  # still tracked when the episode ended
-        for slot in self.cell.pool.active_slots():
-            self.metrics.on_missed(int(self.cell.pool.park(self.data, int(slot))))
+        self.book_unsure(self.tracker.tracks())  # still tracked when the episode ended
+        items = self.cell.items
+        for slot in items.active_slots():
+            self.metrics.on_missed(int(items.park(int(slot))))
 
     def status_text(self) -> str:
         """One line for the progress bar."""

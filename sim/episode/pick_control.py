@@ -131,10 +131,8 @@ class PickController:
         place_pause: Extra dwell over the bin after the release [s].
         items: The episode's items (scaled types), so the lift clears the tallest of them.
         suction: The cup's vacuum settings; `SuctionConfig()` when None.
-        prefix: Name prefix of the robot in the cell's model whose axis 4, TCP and cup this
-            controller reads ("" for the robot's own names; a robot of a sorting line,
-            `sim.model.line_model`). The trajectories are still planned and played by the
-            cell's `generator` and `executor`.
+        robot: Index of the cell's robot this controller drives (`Cell.robots`, 0 upstream):
+            its axis 4, TCP, cup, trajectory generator, executor and bins.
         idle_sleep: Let the robot sleep in MuJoCo while it is idle (`sim.cell.idle_sleep`).
     """
 
@@ -147,11 +145,13 @@ class PickController:
         items: Iterable[ItemType] = (),
         suction: SuctionConfig | None = None,
         *,
-        prefix: str = "",
+        robot: int = 0,
         idle_sleep: bool = False,
     ):
         self.cell = cell
-        self.prefix = prefix
+        self.view = cell.robots[robot]
+        """The robot driven (`sim.cell.robots.RobotView`)."""
+        self.prefix = prefix = self.view.prefix
         self.sleep = IdleSleep(cell.model, cell.data, prefix, idle_sleep)
         self.belt_speed = float(belt_speed)
         base = PickPlaceConfig()
@@ -177,10 +177,10 @@ class PickController:
 
     def slot_near(self, x: float, y: float) -> int | None:
         """Pool slot of the item on the belt nearest (x, y) now, within `NEAR_M`, or None."""
-        pool, data = self.cell.pool, self.cell.data
+        items = self.cell.items
         best, best_d = None, NEAR_M
-        for slot in pool.active_slots():
-            px, py, pz = data.xpos[pool.body_ids[slot]]
+        for slot in items.active_slots():
+            px, py, pz = items.position(slot)
             d = float(np.hypot(px - x, py - y))
             if d < best_d and pz > -0.05:
                 best, best_d = int(slot), d
@@ -195,7 +195,7 @@ class PickController:
         """
         if slot is None:
             return DEFAULT_TOP_Z, 0.0
-        xmat = self.cell.data.xmat[self.cell.pool.body_ids[slot]]
+        xmat = self.cell.items.orientation(slot)
         return self.top_of(slot), float(np.arctan2(xmat[3], xmat[0]))  # heading of body x
 
     def lip_meets(self, slot: int, x: float, y: float, top: float) -> float:
@@ -209,9 +209,9 @@ class PickController:
         is 5.5 mm above where the lip meets it: a cup aimed at the corner stopped 2.5 mm above
         the sheet, never sealed, and failed every attempt.
         """
-        model, data = self.cell.model, self.cell.data
+        model = self.cell.model
         geom = self.cell.pool.geom_id(slot)
-        pos, mat = data.geom_xpos[geom], data.geom_xmat[geom]
+        pos, mat = self.cell.items.geom_pose(slot)
         size, kind = model.geom_size[geom], int(model.geom_type[geom])
         start_z = top + 0.05
         starts = np.empty((LIP_RING_POINTS + 1, 3))
@@ -230,11 +230,11 @@ class PickController:
     def neighbours(self, exclude: int | None) -> list[tuple[int, Obstacle]]:
         """(slot, obstacle) of the items over the belt but `exclude` (a slot), measured now
         (the same stand-in for a stereo camera as `item_shape`)."""
-        pool, data = self.cell.pool, self.cell.data
-        belt = pool.belt.geometry
+        items = self.cell.items
+        belt = self.cell.pool.belt.geometry
         out = []
-        for slot in pool.active_slots():
-            centre = data.xpos[pool.body_ids[slot]]
+        for slot in items.active_slots():
+            centre = items.position(slot)
             # Items over the belt only: one just let go of over a bin is falling into it.
             if slot == exclude or not belt.on_belt(centre[:2]) or centre[2] < belt.top_z - 0.05:
                 continue
@@ -243,10 +243,11 @@ class PickController:
 
     def obstacle_of(self, slot: int) -> Obstacle:
         """The item in `slot` as the cup's obstacle: its outline seen from above and its top."""
-        model, data = self.cell.model, self.cell.data
+        model = self.cell.model
         geom = self.cell.pool.geom_id(slot)
-        cx, cy = (float(v) for v in data.geom_xpos[geom][:2])
-        rot = data.geom_xmat[geom].reshape(3, 3)
+        pos, mat = self.cell.items.geom_pose(slot)
+        cx, cy = (float(v) for v in pos[:2])
+        rot = mat.reshape(3, 3)
         size = model.geom_size[geom]
         top = self.top_of(slot)
         if model.geom_type[geom] == mujoco.mjtGeom.mjGEOM_BOX:
@@ -280,22 +281,23 @@ class PickController:
         if not neighbours:
             return []
         points = outline_points(self.obstacle_of(target))
-        data, bodies = self.cell.data, self.cell.pool.body_ids
-        z = data.xpos[bodies[target], 2]
+        items = self.cell.items
+        z = items.position(target)[2]
         obstacles = [o for _, o in neighbours]
         inside = footprint_distances(obstacles, points, np.zeros(len(points))) <= 0.0
         return [
-            (slot, float(data.xpos[bodies[slot], 2] - z))
+            (slot, float(items.position(slot)[2] - z))
             for (slot, _), overlap in zip(neighbours, inside.any(axis=1), strict=True)
             if overlap
         ]
 
     def top_of(self, slot: int) -> float:
         """Highest point [m] of the item in `slot` as it lies now (a can may have toppled)."""
-        model, data, pool = self.cell.model, self.cell.data, self.cell.pool
-        geom = pool.geom_id(slot)
-        z = float(data.geom_xpos[geom][2])
-        up = data.geom_xmat[geom].reshape(3, 3)[2]  # world z in the geom's axes
+        model = self.cell.model
+        geom = self.cell.pool.geom_id(slot)
+        pos, mat = self.cell.items.geom_pose(slot)
+        z = float(pos[2])
+        up = mat.reshape(3, 3)[2]  # world z in the geom's axes
         size = model.geom_size[geom]
         kind = model.geom_type[geom]
         if kind == mujoco.mjtGeom.mjGEOM_BOX:
@@ -337,7 +339,7 @@ class PickController:
         pick_z = max(meets - PRESS_DEPTH_M, 0.0)
         height = max(top, 0.0)
         lift = max(self.config.lift_height, self.clear_z + height - pick_z)
-        drop = np.array(self.cell.drop_xyz[bin_class], dtype=float)
+        drop = np.array(self.view.drop_xyz[bin_class], dtype=float)
         # Long items overhang the bin towards the belt: keep them above the rails too.
         drop[2] = max(drop[2], self.clear_z + height)
         neighbours = self.neighbours(exclude=target)
@@ -364,7 +366,7 @@ class PickController:
                     (x, y),
                     self.belt_speed,
                     drop,
-                    self.cell.generator,
+                    self.view.generator,
                     pick_z,
                     config,
                     axis4=(self.axis4, self.axis4 + turn),
@@ -418,7 +420,7 @@ class PickController:
         is refused now, before any robot commits to it. The playback made here is the one
         `start` plays."""
         try:
-            playback = self.cell.executor.playback(hit.plan.chain, hold=RELEASE_CLEAR_S)
+            playback = self.view.executor.playback(hit.plan.chain, hold=RELEASE_CLEAR_S)
         except Unreachable as exc:
             self.plan_failures += 1
             return Intercept(False, f"the path leaves the workspace: {exc}", math.nan, hit.pick_xyz)
@@ -470,7 +472,7 @@ class PickController:
         planned, self._planned = self._planned, None
         if planned is not None and planned[0] is chain:
             return planned[1]
-        return self.cell.executor.playback(chain, hold=RELEASE_CLEAR_S)
+        return self.view.executor.playback(chain, hold=RELEASE_CLEAR_S)
 
     def activity(self) -> str:
         """What the robot is doing now, in a few words (for logs of unexpected events)."""

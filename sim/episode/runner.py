@@ -83,11 +83,9 @@ def shared_cell(
     if key not in _CELLS:
         if not line:
             _CELLS[key] = Cell(settings=key[1], catalogue=catalogue)
-        else:  # a sorting line (`sim.cell.line`), or one robot with a line's item pool
-            from sim.cell.line import LineCell
-
+        else:  # a sorting line, or one robot with a line's item pool
             model = compile_line(layout, key[1], catalogue.materials)
-            _CELLS[key] = LineCell(model, layout.prefixes, catalogue, key[1])
+            _CELLS[key] = Cell(model, key[1], catalogue, layout.prefixes)
     return _CELLS[key]
 
 
@@ -97,7 +95,7 @@ def config_cell(config: EpisodeConfig):
     return shared_cell(
         config.cell_settings,
         config.item_catalogue,
-        config.robots,
+        config.robot_count,
         config.line_cell,
         config.robot_positions_m,
     )

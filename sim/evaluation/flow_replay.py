@@ -18,6 +18,7 @@ import numpy as np
 from sim.cell.conveyor import Belt
 from sim.cell.depth_noise import ZED_CLASS
 from sim.cell.item_pool import ItemPool
+from sim.cell.items import Items
 from sim.flow.config import X_CAMERA, FlowConfig
 from sim.flow.generator import Flow, generate_flow
 from sim.flow.ground_truth import cell_truth_from_poses, yaw_from_xmat
@@ -47,6 +48,11 @@ class FlowReplay:
         flow = generate_flow(config, catalogue, pool.size)
         mujoco.mj_forward(model, data)
         return cls(config, catalogue, model, data, pool, flow)
+
+    @property
+    def items(self) -> Items:
+        """The items, read through the cell's accessors (no riders here)."""
+        return Items(self.model, self.data, self.pool)
 
     def camera_perception(self, depth_noise=ZED_CLASS, mix: dict | None = None):
         """The episode's camera perception looking at this flow (`hmm` mode: the recorders
@@ -81,11 +87,11 @@ class FlowReplay:
         slots = self.pool.active_slots()
         if len(slots) == 0:
             return None
-        ids, bodies = self.pool.item_ids[slots], self.pool.body_ids[slots]
+        ids, items = self.pool.item_ids[slots], self.items
         period = self.config.observation_period_s
         return cell_truth_from_poses(
-            self.data.xpos[bodies],
-            yaw_from_xmat(self.data.xmat[bodies]),
+            items.positions(slots),
+            yaw_from_xmat(items.orientations(slots)),
             self.pool.type_index[slots],
             self.flow.class_id[ids],
             self.flow.colour[ids],

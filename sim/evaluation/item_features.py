@@ -90,7 +90,7 @@ def record(
             if not perception.reported:
                 continue
             slots = pool.active_slots()
-            xy = data.xpos[pool.body_ids[slots], :2]
+            xy = replay.items.positions(slots)[:, :2]
             for item in perception.reported:
                 det = item.detection
                 d = np.hypot(xy[:, 0] - det.x, xy[:, 1] - det.y) if len(slots) else np.zeros(0)

@@ -133,8 +133,7 @@ def record(
             t = float(data.time)
             perception.observe(t)
             slots = pool.active_slots()
-            bodies = pool.body_ids[slots]
-            xyz = data.xpos[bodies]
+            xyz = replay.items.positions(slots)
             types = pool.type_index[slots].copy()
             rest = np.array([pool.item_type(int(s)).rest_height for s in slots])
             on_belt = (xyz[:, 2] > -0.05) & (xyz[:, 2] < rest + ON_BELT_TOL_M)
@@ -142,7 +141,7 @@ def record(
                 pool.item_ids[slots].copy(),
                 xyz[:, 0].copy(),
                 xyz[:, 1].copy(),
-                yaw_from_xmat(data.xmat[bodies]),
+                yaw_from_xmat(replay.items.orientations(slots)),
                 types,
                 on_belt & (np.abs(xyz[:, 1]) <= BELT_HALF_WIDTH),
             )

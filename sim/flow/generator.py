@@ -173,7 +173,7 @@ def _draw_within(weights: list[np.ndarray], group: np.ndarray, u: np.ndarray) ->
     return out
 
 
-def generate_flow(config: FlowConfig, catalogue: Catalogue, pool_size: int | None = None) -> Flow:
+def generate_flow(config: FlowConfig, catalogue: Catalogue, pool_size: int | None = None) -> Flow:  # noqa: PLR0915
     """Generates the flow of `config` from `catalogue` (deterministic in `config.seed`).
 
     Args:

@@ -17,8 +17,8 @@ import mujoco
 import numpy as np
 
 from perception.codes import THESIS_MATERIALS, Materials
-from sim.cell.held_slots import held_mask
-from sim.cell.item_pool import ItemPool
+from sim.cell.held_slots import NONE_HELD, held_mask
+from sim.cell.items import Items
 
 BIN_CLASSES = THESIS_MATERIALS.names
 """The thesis's bins (a catalogue's materials name others)."""
@@ -59,8 +59,8 @@ class Bins:
 
     Args:
         model: The cell (a bin `bin_<material>` per material: `sim.model.bin_layout`).
-        data: Its data (the bins are static; their interiors are read once).
-        pool: The item pool whose items are judged and parked.
+        items: Its items (`Cell.items`): judged and parked; the bins are static, their
+            interiors read once.
         materials: The cell's materials (the thesis's by default).
         prefixes: Name prefixes of the robots whose bins these are ("" for the cell's own;
             a line's robots each have theirs: `<prefix>bin_<material>`).
@@ -69,14 +69,14 @@ class Bins:
     def __init__(
         self,
         model: mujoco.MjModel,
-        data: mujoco.MjData,
-        pool: ItemPool,
+        items: Items,
         materials: Materials = THESIS_MATERIALS,
         prefixes: tuple[str, ...] = ("",),
     ):
-        self.pool = pool
+        self.pool = pool = items.pool
         self.materials = materials
-        mujoco.mj_kinematics(model, data)
+        items.kinematics()
+        data = items.current()
         self.interiors = {c: self._interior(model, data, c, prefixes[0]) for c in materials.names}
         # (material, interior) of every robot's bins; the first robot's are `interiors`
         self._all = [
@@ -116,16 +116,20 @@ class Bins:
                 return name
         return None
 
-    def update(self, data: mujoco.MjData, held_slot=None) -> list[Landing]:
-        """Judges the items that came to rest off the belt; parks them; returns the new records."""
-        pool, t = self.pool, float(data.time)
+    def update(self, items: Items, held: np.ndarray = NONE_HELD) -> list[Landing]:
+        """Judges the items that came to rest off the belt; parks them; returns the new records.
+
+        Args:
+            items: The cell's items.
+            held: The slots the cups hold (`sim.cell.held_slots`): never judged.
+        """
+        pool, t = self.pool, items.time
         belt = pool.belt.geometry
-        slots = pool.active_slots()
-        if held_slot is not None:  # one slot, or a sequence of them (a line's cups)
-            slots = slots[~held_mask(slots, held_slot)]
-            self._rest_since[held_slot] = np.nan
-        pos = data.xpos[pool.body_ids[slots]]
-        vel = data.qvel[pool.dof_adr[slots, None] + np.arange(3)]
+        slots = items.active_slots()
+        slots = slots[~held_mask(slots, held)]
+        self._rest_since[held] = np.nan
+        pos = items.positions(slots)
+        vel = items.velocities(slots)
         fell = pos[:, 2] < self.lowest_z - 0.05
         moving = (np.linalg.norm(vel, axis=1) > REST_SPEED) & ~fell
         self._rest_since[slots[moving]] = np.nan
@@ -148,5 +152,5 @@ class Bins:
             (self.landed if where else self.dropped).append(record)
             new.append(record)
             self._rest_since[slot] = np.nan
-            pool.park(data, slot)
+            items.park(slot)
         return new

@@ -21,8 +21,9 @@ import mujoco
 import numpy as np
 
 from sim.cell.conveyor import RAIL_GEOMS
-from sim.cell.held_slots import held_mask
+from sim.cell.held_slots import NONE_HELD, held_mask
 from sim.cell.item_pool import ItemPool
+from sim.cell.items import Items
 from sim.flow.config import X_INFEED
 
 THROW_SPEED_MPS = 1.5
@@ -89,13 +90,16 @@ class ThrowWatch:
         """The cup let go of `item_id` at the drop point: it falls into a bin, not judged."""
         self.released.add(int(item_id))
 
-    def update(self, data: mujoco.MjData, held_slot=None) -> list[Throw]:
-        """The items newly thrown off since the last call (call every few ms); `held_slot`:
-        the slot a cup holds (None: none), or a sequence of them (a line's robots)."""
+    def update(self, items: Items, held: np.ndarray = NONE_HELD) -> list[Throw]:
+        """The items newly thrown off since the last call (call every few ms).
+
+        Args:
+            items: The cell's items.
+            held: The slots the cups hold (`sim.cell.held_slots`): never judged.
+        """
         pool = self.pool
-        slots = pool.active_slots()
-        if held_slot is not None:
-            slots = slots[~held_mask(slots, held_slot)]
+        slots = items.active_slots()
+        slots = slots[~held_mask(slots, held)]
         if not len(slots):
             return []
         ids = pool.item_ids[slots]
@@ -103,8 +107,8 @@ class ThrowWatch:
         if not judged.any():
             return []
         slots, ids = slots[judged], ids[judged]
-        pos = data.xpos[pool.body_ids[slots]]
-        vel = data.qvel[pool.dof_adr[slots, None] + np.arange(3)]
+        pos = items.positions(slots)
+        vel = items.velocities(slots)
         speed = np.linalg.norm(vel, axis=1)
         self.peak_speed = max(self.peak_speed, float(speed.max()))
         sideways = np.abs(pos[:, 1] - self.y_centre) > self.y_limit
@@ -118,7 +122,7 @@ class ThrowWatch:
             reason = "sideways" if sideways[k] else "upstream" if upstream[k] else "fast"
             throw = Throw(
                 item,
-                float(data.time),
+                items.time,
                 reason,
                 tuple(map(float, pos[k])),
                 tuple(map(float, vel[k])),

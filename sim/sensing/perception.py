@@ -31,7 +31,6 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-import mujoco
 import numpy as np
 
 from perception.codes import EMPTY_CODE, N_STATES, VOID
@@ -43,7 +42,7 @@ from perception.items.features import item_features
 from perception.items.split import SplitSettings
 from sim.cell.camera import FRAME_SIZE
 from sim.cell.depth_noise import ZED_CLASS, StereoDepthNoise
-from sim.cell.item_pool import ItemPool
+from sim.cell.items import Items
 from sim.errors import InvalidInput
 from sim.flow.config import BELT_HALF_WIDTH, X_CAMERA
 from sim.flow.generator import Flow
@@ -118,20 +117,18 @@ class TruthPerception:
 
     name = "truth"
 
-    def __init__(
-        self, data: mujoco.MjData, pool: ItemPool, flow: Flow, belt_speed: float, period_s: float
-    ):
-        self.data, self.pool, self.flow = data, pool, flow
-        self.n_states = pool.catalogue.materials.n_states
+    def __init__(self, items: Items, flow: Flow, belt_speed: float, period_s: float):
+        self.items, self.pool, self.flow = items, items.pool, flow
+        self.n_states = items.pool.catalogue.materials.n_states
         self.rows = self.unobserved = 0
 
     def observe(self, t: float) -> list[Detection]:
         """Every item on the belt past the camera line, where the simulation has it now."""
         self.rows += 1
         out = []
-        for slot in self.pool.active_slots():
+        for slot in self.items.active_slots():
             item_id = int(self.pool.item_ids[slot])
-            x, y, z = self.data.xpos[self.pool.body_ids[slot]]
+            x, y, z = self.items.position(slot)
             resting = -0.05 < z < self.pool.item_type(int(slot)).rest_height + ON_BELT_TOL_M
             if X_CAMERA <= x and resting and abs(y) <= BELT_HALF_WIDTH:
                 cls = int(self.flow.class_id[item_id])

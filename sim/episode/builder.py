@@ -1,0 +1,250 @@
+"""The parts of an episode, made afresh at each reset: the flow, the metrics, the riding, the
+monitors, the robots' stations and the perception.
+
+`Episode.reset` (`sim.episode.loop`) calls `build_parts` and registers what it made on its
+hooks and scheduler; nothing here steps the physics.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from planner.decision.energy_cost import EnergyPrice
+from planner.decision.interface import DecisionContext
+from planner.decision.registry import make_planner
+from sim.cell.cell import PICK_Z_NOMINAL, Cell
+from sim.cell.depth_noise import ZED_CLASS
+from sim.cell.riding import ItemRiding
+from sim.cell.suction import SuctionConfig
+from sim.episode.config import EpisodeConfig
+from sim.episode.cycle_timing import cell_cycle_model
+from sim.episode.pick_control import PRESS_DEPTH_M, PickController
+from sim.episode.stations import RobotStation
+from sim.errors import InvalidInput
+from sim.flow.config import X_INFEED
+from sim.flow.generator import Flow, generate_flow
+from sim.monitors.energy import ActuatorLog, EnergyMeter
+from sim.results.metrics import EpisodeMetrics
+from sim.sensing.perception import CameraPerception, TruthPerception
+
+CHECK_PERIOD_S = 0.02
+"""How often items leaving the belt, landing in bins or falling are looked for [s]."""
+DISCARD_MARGIN_M = 0.15
+"""An item this far past the reachable window's downstream edge is out of the robot's reach
+(the scene's cup radius and the item's half length included; a larger cup adds its extra
+radius, `Cell.cup_extra_m`) [m]."""
+SETTLE_S = 2.0
+"""Time after the last item left before the episode may end (falls into bins) [s]."""
+_OBJECTIVES = {"value_over_distance": "v/d", "value_only": "d=1", "distance_only": "v=1"}
+
+
+def make_decision_manager(config: EpisodeConfig):
+    """The configured planner: qlearning and rollout take the [qlearning] section's parameters
+    and the observation period as their grid's row period; qlearning draws its random actions
+    from the episode's seed.
+
+    Args:
+        config: The episode's configuration.
+    """
+    if config.planner in ("qlearning", "rollout"):
+        q = config.qlearning
+        options = {"seed": config.seed} if config.planner == "qlearning" else {}
+        return make_planner(
+            config.planner,
+            gamma=q.gamma,
+            iterations=q.iterations,
+            batch_rows=q.batch_rows,
+            row_period_s=config.observation_period_s,
+            objective=_OBJECTIVES[q.objective],
+            **options,
+        )
+    return make_planner(config.planner)
+
+
+def check_cell(cell: Cell, config: EpisodeConfig) -> None:
+    """Refuse a cell compiled with other model settings than the config's (cup, belt), with
+    another number of robots or another catalogue."""
+    got, want = cell.settings, config.cell_settings
+    for key, have, asked in (
+        ("cup.diameter_m", got.cup_diameter_m, want.cup_diameter_m),
+        ("belt.length_m", got.belt_length_m, want.belt_length_m),
+    ):
+        if have != asked:
+            allowed = f"the cell's {have:g} m (a Cell(settings=config.cell_settings) for {asked:g})"
+            raise InvalidInput(key, allowed, asked)
+    if len(cell.robots) != config.robot_count:
+        allowed = f"the {len(cell.robots)} robot(s) of the cell it runs on"
+        raise InvalidInput("robots", allowed, config.robot_count)
+
+
+@dataclass(frozen=True)
+class Timeline:
+    """When an episode's items have passed and when it must end.
+
+    Attributes:
+        t_last_spawn: When the last item drops [s].
+        x_discard: Where an unpicked item is out of every robot's reach [m].
+        t_end: When the last item has passed the robots and settled: a normal end [s].
+        t_cap: The latest end [s].
+    """
+
+    t_last_spawn: float
+    x_discard: float
+    t_end: float
+    t_cap: float
+
+    @classmethod
+    def of(cls, cell: Cell, flow: Flow, belt_speed: float) -> Timeline:
+        """The timeline of `flow` on `cell` at `belt_speed` [m/s]."""
+        t_last_spawn = float(flow.t_spawn[-1]) if len(flow) else 0.0
+        x_discard = float(np.nanmax(cell.window.x_exit)) + DISCARD_MARGIN_M + cell.cup_extra_m
+        t_end = t_last_spawn + (x_discard - X_INFEED) / belt_speed + SETTLE_S
+        return cls(t_last_spawn, x_discard, t_end, t_end + 10.0)
+
+
+def episode_flow(config: EpisodeConfig, cell: Cell) -> Flow:
+    """The flow of the config's seed, for the cell's catalogue and pool."""
+    if cell.catalogue.digest != config.item_catalogue.digest:
+        raise InvalidInput(
+            "catalogue", "the catalogue the cell was built from", config.catalogue or "default"
+        )
+    return generate_flow(config.flow_config(), cell.catalogue, cell.pool.size)
+
+
+def episode_metrics(config: EpisodeConfig, cell: Cell, flow: Flow) -> EpisodeMetrics:
+    """The counters of an episode of `flow` (values by class and by item type)."""
+    materials = cell.materials
+    type_values = config.values.of_types(cell.catalogue)
+    return EpisodeMetrics(
+        config.values.by_class(materials),
+        config.energy_price_eur_per_kwh,
+        materials,
+        item_values={
+            i: type_values[int(k)]
+            for i, k in enumerate(flow.type_index.tolist())
+            if int(k) in type_values
+        },
+    )
+
+
+def largest_item_radius(cell: Cell, flow: Flow) -> float:
+    """The largest bounding radius of the flow's items, as scaled [m] (0 for no item)."""
+    return max(
+        (float(cell.pool.props(int(k), f)["geom_rbound"]) for k, f in
+         zip(flow.variant, flow.scale, strict=True)),
+        default=0.0,
+    )  # fmt: skip
+
+
+def item_riding(config: EpisodeConfig, cell: Cell, radius: float) -> ItemRiding:
+    """The episode's item riding (`sim.cell.riding`): riders wake upstream of the robot by
+    the largest item's radius `radius` [m]."""
+    wake_x = cell.wake_x - max(radius - cell.item_radius, 0.0)
+    return ItemRiding(
+        cell.model,
+        cell.pool,
+        wake_x,
+        enabled=config.item_riding != "contact",
+        in_window=config.item_riding == "path",
+        check_period=CHECK_PERIOD_S,
+    )
+
+
+def pick_controllers(config: EpisodeConfig, cell: Cell, flow: Flow) -> list[PickController]:
+    """One pick controller per robot of the cell, upstream first, with its robot's pauses and
+    the config's cup.
+
+    Args:
+        config: The episode's configuration.
+        cell: The cell.
+        flow: The episode's flow (its items, scaled, set how high the robots lift).
+    """
+    return [
+        PickController(
+            cell,
+            config.belt_speed_mps,
+            spec.pick_pause_s,
+            spec.place_pause_s,
+            items=flow.item_types(cell.catalogue),
+            suction=SuctionConfig(vacuum=float(config.cup.vacuum_pa)),
+            idle_sleep=spec.idle_sleep,
+            robot=k,
+        )
+        for k, spec in enumerate(config.robots)
+    ]
+
+
+def robot_stations(
+    config: EpisodeConfig,
+    cell: Cell,
+    controllers: list[PickController],
+    planner,
+    radius: float,
+    actuator_log: ActuatorLog,
+) -> list[RobotStation]:
+    """One station per robot of the cell, upstream first: its pick controller, energy meter
+    and decision context; `planner` decides for the first robot, a new one of the config's for
+    each other.
+
+    Args:
+        config: The episode's configuration.
+        cell: The cell.
+        controllers: The robots' pick controllers (`pick_controllers`).
+        planner: The first robot's decision manager.
+        radius: The largest item's bounding radius [m].
+        actuator_log: The actuators' log every energy meter reads.
+    """
+    stations = []
+    for k, (view, robot) in enumerate(zip(cell.robots, controllers, strict=True)):
+        context = DecisionContext(
+            belt_speed=config.belt_speed_mps,
+            cycle_model=cell_cycle_model(
+                limits=view.limits,
+                pick_z=PICK_Z_NOMINAL,
+                # The lift the robot makes: the held item's bottom to the clear height.
+                lift_height=robot.clear_z + PRESS_DEPTH_M,
+                seal_time=robot.config.seal_time,
+                release_time=robot.config.release_time,
+            ),
+            window=view.window,
+            bins=view.bins_tuple(),
+            values=config.values.of_materials(cell.materials),
+            energy=EnergyPrice(config.energy_price_eur_per_kwh),
+        )
+        manager = planner if k == 0 else make_decision_manager(config)
+        manager.reset()
+        # How far the cup, or an item hanging from it, reaches around and below its centre
+        # [m] (the riders its planned path passes within this of are woken as a pick starts).
+        reach = (robot.suction.radius + radius, 2.0 * radius)
+        energy = EnergyMeter(
+            cell.model,
+            cell.data,
+            asleep_tree=robot.sleep.tree if robot.sleep.enabled else None,
+            log=actuator_log,
+            prefix=view.prefix,
+        )
+        stations.append(RobotStation(k, robot, energy, context, manager, reach))
+    return stations
+
+
+def perception(config: EpisodeConfig, cell: Cell, flow: Flow):
+    """The episode's perception: true items at the camera line, or the belt camera's frames
+    through the pipeline (`sim.sensing.perception`)."""
+    speed, period = config.belt_speed_mps, config.observation_period_s
+    if config.perception == "truth":
+        return TruthPerception(cell.items, flow, speed, period)
+    return CameraPerception(
+        cell.model,
+        cell.items.current(),
+        cell.catalogue,
+        speed,
+        period,
+        camera=cell.belt_camera(config.camera.size),
+        classifier=config.classifier,
+        depth_noise=ZED_CLASS if config.depth_noise else None,
+        seed=config.seed,
+        mix=config.flow.flow_kwargs(),
+        size=config.camera.size,
+    )

@@ -1,0 +1,128 @@
+"""The item checks of an episode, every `CHECK_PERIOD_S` of simulated time, in this order:
+MuJoCo's new warnings and items thrown off the belt (`sim.monitors.thrown`), items out of every
+robot's reach or past the belt's end (missed), items come to rest in a bin or elsewhere
+(`sim.monitors.bins`), tracks gone past the robots, and which settled items ride the belt
+(`sim.cell.riding`).
+
+Each is a function of the episode registered as a periodic event (`Episode._register`), as a
+user's monitor would be (`Episode.every`).
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import TYPE_CHECKING
+
+from sim.cell.cell import Cell
+from sim.cell.held_slots import held_mask
+from sim.cell.items import Items
+from sim.flow.ground_truth import yaw_from_xmat
+from sim.monitors.bins import Bins
+from sim.sensing.attribution import attributed_item
+
+if TYPE_CHECKING:
+    from sim.episode.loop import Episode
+
+log = logging.getLogger("sim.episode.loop")
+
+BELOW_BELT_Z = -0.1
+"""An item whose centre is this far below the belt surface has left it [m]."""
+
+
+def episode_bins(cell: Cell) -> Bins:
+    """The bins of every robot of `cell`."""
+    return Bins(cell.model, cell.items, cell.materials, tuple(r.prefix for r in cell.robots))
+
+
+def yaw_of(items: Items, slot: int) -> float:
+    """Heading of the item's body in `slot` about z [rad]."""
+    return float(yaw_from_xmat(items.orientation(slot)[None])[0])
+
+
+def warnings_and_throws(episode: Episode) -> None:
+    """MuJoCo's new warnings (a `MujocoWarning` names them), then the items thrown off the
+    belt; items a cup let go of over a bin fall into it: never judged as thrown."""
+    metrics, watch = episode.metrics, episode.throw_watch
+    metrics.on_warnings(episode.mj_warnings.update())
+    for station in episode.stations:
+        cup = station.robot.suction
+        for event in cup.events[station.cup_events_seen :]:
+            if event.kind == "released":
+                watch.note_released(event.item_id)
+        station.cup_events_seen = len(cup.events)
+    for throw in watch.update(episode.cell.items, episode.held()):
+        doing = "; ".join(s.robot.activity() for s in episode.stations)
+        metrics.on_thrown(throw, doing)
+        log.warning(
+            "seed %d, t %.2f s: item %d thrown off the belt (%s) while the robot was at %s",
+            episode.config.seed,
+            throw.time,
+            throw.item_id,
+            throw.reason,
+            doing,
+        )
+
+
+def out_of_reach(episode: Episode) -> None:
+    """Items past every robot's reach (not held), and items past the belt's end: missed."""
+    items, metrics, tracker = episode.cell.items, episode.metrics, episode.tracker
+    active = items.active_slots()
+    pos = items.positions(active)
+    passed = (pos[:, 0] > episode.x_discard) & (pos[:, 2] > BELOW_BELT_Z)
+    for slot in active[passed & ~held_mask(active, episode.held())].tolist():  # discarded
+        item_id = items.park(slot)
+        metrics.on_missed(item_id)
+        episode.book_unsure(tracker.remove_true(item_id))
+    for item_id in items.park_missed():  # past the belt's end (e.g. pushed along)
+        metrics.on_missed(item_id)
+        episode.book_unsure(tracker.remove_true(item_id))
+
+
+def landings(episode: Episode) -> None:
+    """Items come to rest: in a bin (picked, if a cup let go of it there) or dropped."""
+    metrics, released = episode.metrics, episode.throw_watch.released
+    for landing in episode.bins.update(episode.cell.items, episode.held()):
+        if landing.bin is None or landing.item_id not in released:
+            # Only what the cup carried and let go of over a bin is picked; an item that
+            # reached a bin otherwise (knocked off the belt) is dropped.
+            metrics.on_dropped(landing.item_id)
+        else:
+            metrics.on_binned(landing.item_id, landing.true_class, landing.bin_class)
+        episode.tracker.remove_true(landing.item_id)
+
+
+def gone_tracks(episode: Episode) -> None:
+    """Tracks gone past the robots unpicked."""
+    episode.book_unsure(episode.tracker.prune(episode.data.time, episode.x_discard))
+
+
+def riding(episode: Episode) -> None:
+    """Which settled items ride the belt, away from the paths of the picks under way."""
+    paths = [s.path for s in episode.stations if s.robot.busy and s.path is not None]
+    episode.riding.update(episode.cell.items.current(), episode.held(), busy_paths=paths)
+
+
+CHECKS = (warnings_and_throws, out_of_reach, landings, gone_tracks, riding)
+"""The checks, in the order they run."""
+
+
+def attribute(episode: Episode, created: list, t: float) -> None:
+    """Book the true items the new tracks `created` at sim time `t` [s] are of (the metrics'
+    `never_detected`; `sim.sensing.attribution`: bookkeeping the robot never sees)."""
+    if not created:
+        return
+    items_xy, shapes = {}, {}
+    if any(track.true_id is None for track in created):
+        items = episode.cell.items
+        held = episode.held()
+        for slot in items.active_slots():
+            if slot not in held:
+                x, y = items.position(slot)[:2]
+                item_id = int(items.pool.item_ids[slot])
+                items_xy[item_id] = (float(x), float(y))
+                shapes[item_id] = (yaw_of(items, int(slot)), items.pool.item_type(int(slot)))
+    gate = episode.tracker.match_radius
+    for track in created:
+        item_id = attributed_item(track, t, episode.speed, items_xy, gate, shapes)
+        if item_id is not None:
+            episode.metrics.on_detected(item_id)

@@ -1,0 +1,157 @@
+"""What runs around each physics step and what is due at given times: hook lists and a
+scheduler of events, in the manner of dm_control's composer.
+
+Hooks (`Hooks`): every function registered on `"before_step"` runs before each physics step
+(or each block of steps while every robot idles), every one on `"after_step"` after it, in the
+order registered: the robots' set-points, then the riders' belt time, the actuator log, the
+cups, then a user's. Events (`Scheduler`): the infeed's drops, the observations, the item checks
+(warnings, throws, items out of reach, bins, riding), the video frames and a user's periodic
+functions (`PeriodicEvent`), each with the next time it is due. After each step the loop fires
+every event due, in the order registered, with the items brought up to date first; while every
+robot idles it steps in one block up to the earliest next time (or decision). One due test,
+`is_due`, serves both.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Protocol
+
+from sim.errors import InvalidInput
+
+if TYPE_CHECKING:
+    from sim.episode.loop import Episode
+
+DUE_TOLERANCE_S = 1e-9
+"""An event whose time is at most this far ahead of the clock is due [s] (the clock sums
+steps: 0.001 s steps reach 0.5 s a rounding error early)."""
+HOOK_STAGES = ("before_step", "after_step")
+"""Where a hook may run: before or after each physics step."""
+
+
+def is_due(t: float, when: float) -> bool:
+    """Whether something due at `when` [s] is due at sim time `t` [s]."""
+    return t + DUE_TOLERANCE_S >= when
+
+
+class Event(Protocol):
+    """Something the scheduler fires when due."""
+
+    def due(self, t: float) -> bool:
+        """Whether it is due at sim time `t` [s]."""
+
+    def next_time(self, t: float) -> float | None:
+        """When it is due next [s] (None: never again), seen at sim time `t` [s]."""
+
+    def fire(self, episode: Episode) -> None:
+        """Do what is due."""
+
+
+@dataclass(eq=False)
+class PeriodicEvent:
+    """A function called with the episode every `period_s` of simulated time.
+
+    Attributes:
+        period_s: Its period [s].
+        fn: Called with the episode.
+        next_s: When it is due next [s].
+    """
+
+    period_s: float
+    fn: Callable[[Episode], object]
+    next_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        p = self.period_s
+        ok = isinstance(p, int | float) and not isinstance(p, bool) and math.isfinite(p) and p > 0
+        if not ok:
+            raise InvalidInput("period_s", "a period > 0 s", p)
+        if not callable(self.fn):
+            raise InvalidInput("fn", "a function of the episode", self.fn)
+
+    def due(self, t: float) -> bool:
+        """Whether it is due at sim time `t` [s]."""
+        return is_due(t, self.next_s)
+
+    def next_time(self, t: float) -> float:
+        """When it is due next [s]."""
+        return self.next_s
+
+    def fire(self, episode: Episode) -> None:
+        """Call the function; due again a period later."""
+        self.fn(episode)
+        self.next_s += self.period_s
+
+
+class FrameEvent:
+    """The frame sink's frames (`sim.render.sink.FrameSink`: the video or the live view),
+    each with the overlay the episode builds (`sim.episode.overlay`).
+
+    Args:
+        sink: Where the frames go.
+        overlay: Builds a frame's overlay from the episode and the sim time [s].
+    """
+
+    def __init__(self, sink, overlay: Callable[[Episode, float], object]):
+        self.sink, self.overlay = sink, overlay
+
+    def due(self, t: float) -> bool:
+        """Whether the sink wants a frame at sim time `t` [s]."""
+        return self.sink.due(t)
+
+    def next_time(self, t: float) -> float:
+        """When the sink wants its next frame [s]."""
+        return self.sink.next_frame_time
+
+    def fire(self, episode: Episode) -> None:
+        """Hand the sink the cell as it is now and the overlay."""
+        t = float(episode.data.time)
+        episode.sink_frame(self.sink, self.overlay(episode, t))
+
+
+class Scheduler:
+    """The events of an episode, in the order they fire when due together."""
+
+    def __init__(self):
+        self.events: list[Event] = []
+
+    def add(self, event: Event) -> Event:
+        """Register `event` (fired after the ones registered before it); returns it."""
+        self.events.append(event)
+        return event
+
+    def due(self, t: float) -> list[Event]:
+        """The events due at sim time `t` [s], in order (all judged before any fires)."""
+        return [event for event in self.events if event.due(t)]
+
+    def next_time(self, t: float) -> float:
+        """The earliest time an event is due next [s] (inf: none)."""
+        times = (event.next_time(t) for event in self.events)
+        return min((w for w in times if w is not None), default=math.inf)
+
+
+class Hooks:
+    """Functions run around each physics step, stage by stage, in the order registered."""
+
+    def __init__(self):
+        self._stages: dict[str, list[Callable[[Episode], object]]] = {s: [] for s in HOOK_STAGES}
+
+    def add(self, stage: str, fn: Callable[[Episode], object]) -> None:
+        """Run `fn(episode)` at `stage` ("before_step" or "after_step") from now on.
+
+        Args:
+            stage: One of `HOOK_STAGES`.
+            fn: Called with the episode.
+        """
+        if stage not in self._stages:
+            raise InvalidInput("stage", " | ".join(HOOK_STAGES), stage)
+        if not callable(fn):
+            raise InvalidInput("fn", "a function of the episode", fn)
+        self._stages[stage].append(fn)
+
+    def run(self, stage: str, episode: Episode) -> None:
+        """Run every hook of `stage` with `episode`."""
+        for fn in self._stages[stage]:
+            fn(episode)

@@ -1,0 +1,208 @@
+"""The robots of an episode: each robot's station (pick controller, energy meter, decision
+context and manager, the pick under way) and what a line's coordination offers each.
+
+A cell has one robot, a line up to four; the one loop steps them all (`sim.episode.loop`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from planner.decision.interface import Choice, DecisionContext, TrackedItem
+from planner.decision.line_coordination import LineRobot, offered_items
+from sim.cell.riding import PlannedPath
+from sim.episode.pick_control import PickController, PickOutcome
+from sim.monitors.energy import EnergyMeter
+from sim.results.metrics import EpisodeMetrics, PickRecord
+from sim.sensing.confidence import sure_items
+from sim.sensing.tracking import Track
+
+if TYPE_CHECKING:
+    from sim.episode.loop import Episode
+
+MAX_FAILURES = 2
+"""Attempts after which truth mode gives an item up (it is re-detected every period)."""
+LINE_PICK_TIME_S = 0.75
+"""A pick's duration a line's coordination assumes before a robot has picked [s] (the
+headline episode's mean cycle is 0.73 s)."""
+
+
+@dataclass(frozen=True)
+class StartedPick:
+    """A pick under way, as it started.
+
+    Attributes:
+        track: The track picked.
+        choice: The decision manager's choice.
+        energy_at_start: The robot's (mechanical, electrical) energy readings then [J].
+        travel_m: The thesis's distance of the pick: rest -> item -> bin in the belt's
+            plane [m].
+        t_start_s: When it started [s].
+    """
+
+    track: Track
+    choice: Choice
+    energy_at_start: tuple[float, float]
+    travel_m: float
+    t_start_s: float
+
+
+class RobotStation:
+    """One robot of an episode.
+
+    Args:
+        index: The robot's index, 0 upstream.
+        robot: Its pick controller.
+        energy: Its motors' energy meter.
+        context: Its decision context (its window, its bins).
+        planner: Its decision manager.
+        path_reach: (around, below) how far the cup, or an item hanging from it, reaches from
+            the cup's centre [m] (riders its planned path passes are woken as a pick starts).
+    """
+
+    def __init__(
+        self,
+        index: int,
+        robot: PickController,
+        energy: EnergyMeter,
+        context: DecisionContext,
+        planner,
+        path_reach: tuple[float, float],
+    ):
+        self.index, self.robot, self.energy = index, robot, energy
+        self.context, self.planner, self.path_reach = context, planner, path_reach
+        self.next_decision = 0.0
+        """When the robot, idle, asks its decision manager next [s]."""
+        self.pick: StartedPick | None = None
+        """The pick under way (None: idle)."""
+        self.path: PlannedPath | None = None
+        """The cup's planned path of the pick under way (riders it passes are woken)."""
+        self.picks_done, self.pick_time_sum = 0, 0.0  # its finished picks and their time [s]
+        self.cup_events_seen = 0
+
+    @property
+    def current_pick(self) -> Track | None:
+        """The track being picked (None when idle; shown in the video)."""
+        return self.pick.track if self.pick is not None else None
+
+    @property
+    def mean_pick_s(self) -> float:
+        """Mean duration of the robot's picks so far [s] (`LINE_PICK_TIME_S` before any)."""
+        if not self.picks_done:
+            return LINE_PICK_TIME_S
+        return self.pick_time_sum / self.picks_done
+
+
+def line_offer(
+    stations: list[RobotStation],
+    station: RobotStation,
+    items: list[TrackedItem],
+    t: float,
+    coordination: str,
+    robot_class_ids: tuple,
+) -> list[TrackedItem]:
+    """The items a free robot of a line may choose among (`coordination`,
+    `planner.decision.line_coordination`); all of them for one robot. A robot's pick is taken
+    to last its mean pick so far.
+
+    Args:
+        stations: Every robot's station, upstream first.
+        station: The robot choosing.
+        items: The tracked items.
+        t: Sim time now [s].
+        coordination: "independent" or "coordinated".
+        robot_class_ids: Per robot, the material class ids it sorts (None: every material).
+    """
+    if len(stations) <= 1 or not items:
+        return items
+    line = []
+    for s in stations:
+        busy = s.robot.busy
+        free_at = s.pick.t_start_s + s.mean_pick_s if busy else t
+        line.append(LineRobot(s.context, max(free_at, t), robot_class_ids[s.index]))
+    return offered_items(coordination, items, line, station.index, t, station.mean_pick_s)
+
+
+def book_pick(episode: Episode, station: RobotStation, outcome: PickOutcome) -> None:
+    """Book a robot's finished pick in the episode's metrics; an item the cup failed on counts
+    a failure (truth mode gives it up after `MAX_FAILURES`), the item sealed is tracked no more.
+
+    Args:
+        episode: The episode.
+        station: The robot whose pick finished.
+        outcome: What the pick did.
+    """
+    pick, flow = station.pick, episode.flow
+    track, choice, (mech0, elec0) = pick.track, pick.choice, pick.energy_at_start
+    station.pick = None
+    station.picks_done += 1
+    station.pick_time_sum += outcome.t_end - outcome.t_start
+    mech, elec = station.energy.reading()
+    if not outcome.held_to_bin and track.true_id is not None:
+        episode.failures[track.true_id] = episode.failures.get(track.true_id, 0) + 1
+    if outcome.item_id >= 0:  # the cup may have sealed on a neighbour: forget its track too
+        episode.tracker.remove_true(outcome.item_id)
+    true_class = int(flow.class_id[outcome.item_id]) if outcome.item_id >= 0 else None
+    if true_class is None and track.true_id is not None:
+        true_class = int(flow.class_id[track.true_id])
+    episode.metrics.on_pick(
+        PickRecord(
+            t_start_s=outcome.t_start,
+            t_end_s=outcome.t_end,
+            item_id=outcome.item_id if outcome.item_id >= 0 else (track.true_id or -1),
+            true_class=true_class,
+            predicted_class=track.predicted_class,
+            bin=choice.bin_class,
+            success=outcome.held_to_bin,
+            travel_m=pick.travel_m,
+            energy_mech_j=mech - mech0,
+            energy_elec_j=elec - elec0,
+            sealed=outcome.sealed,
+            robot=station.index,
+        )
+    )
+
+
+def robot_columns(
+    stations: list[RobotStation], metrics: EpisodeMetrics, coordination: str, sim_s: float
+) -> dict[str, object]:
+    """A line's episodes.csv columns: robots, coordination, each robot's picks, picks per
+    minute, utilisation and energy (`sim.results.outputs.line_columns`); none for one robot.
+
+    Args:
+        stations: Every robot's station.
+        metrics: The episode's metrics.
+        coordination: The line's coordination.
+        sim_s: Simulated time of the episode [s].
+    """
+    if len(stations) <= 1:
+        return {}
+    out: dict[str, object] = {"robots": len(stations), "coordination": coordination}
+    for s in stations:
+        out |= metrics.robot_row(s.index, sim_s, s.energy.reading()[1])
+    return out
+
+
+def offerable_items(episode: Episode, t: float) -> list[TrackedItem]:
+    """The tracked items every decision manager chooses among at sim time `t` [s]: not
+    given up, not waiting for a retry, sure enough (the confidence rule,
+    `sim.sensing.confidence`), once for all robots."""
+    items, made = [], {}
+    for tr in episode.tracker.tracks():
+        if episode.failures.get(tr.true_id, 0) >= MAX_FAILURES:
+            continue  # truth mode: an item the cup failed on twice is given up
+        if episode.not_before.get(tr.track_id, 0.0) > t:
+            continue  # the cup could not meet it a moment ago
+        x = tr.x_at(t, episode.speed)
+        # The track's item of the last call, moved, while its probabilities are the same
+        # array (the tracker replaces the array when it updates them).
+        probs, item = episode.track_items.get(tr.track_id, (None, None))
+        if probs is tr.probs:
+            item = item.at(x, tr.y)
+        else:
+            item = TrackedItem(tr.track_id, x, tr.y, tuple(tr.probs))
+        made[tr.track_id] = (tr.probs, item)
+        items.append(item)
+    episode.track_items = made
+    return sure_items(items, episode.config.min_class_confidence)
