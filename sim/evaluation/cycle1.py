@@ -25,7 +25,7 @@ from planner.motion.ruckig_trajectory import RuckigTrajectoryGenerator
 from sim.cell.executor import TrajectoryExecutor, lumped_dynamics
 from sim.cell.robot import geometry_from_model, set_configuration
 from sim.cell.suction import SuctionConfig
-from sim.errors import InvalidInput
+from sim.checks import check, is_finite_in
 from sim.model.mjcf import ROBOT_ELEMENTS, compile_spec, load_spec
 from sim.paths import ROBOT_XML
 
@@ -134,9 +134,8 @@ def run_cycle1(payload_kg: float) -> CycleReport:
     Raises:
         InvalidInput: payload outside 0 to 3 kg.
     """
-    number = isinstance(payload_kg, int | float) and not isinstance(payload_kg, bool)
-    if not (number and np.isfinite(payload_kg) and 0.0 <= payload_kg <= MAX_PAYLOAD_KG):
-        raise InvalidInput("--payload", f"0 to {MAX_PAYLOAD_KG:g} [kg]", payload_kg)
+    ok = is_finite_in(payload_kg, 0.0, MAX_PAYLOAD_KG)
+    check(ok, "--payload", f"0 to {MAX_PAYLOAD_KG:g} [kg]", payload_kg)
     model = model_with_payload(payload_kg)
     data = mujoco.MjData(model)
     geom = geometry_from_model(model)

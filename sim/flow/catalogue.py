@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from perception.codes import COLOURS, THESIS_MATERIALS, Materials
+from sim.checks import is_finite_number
 from sim.errors import InvalidInput
 from sim.paths import DATA_DIR
 
@@ -285,14 +286,9 @@ class Catalogue:
         return self.rgba[colour if isinstance(colour, int) else COLOURS.index(colour)]
 
 
-def _finite(value: object) -> bool:
-    """A real number (not a bool), finite."""
-    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
-
-
 def _numbers(entry: dict, key: str, where: str, count: int | None = None) -> tuple[float, ...]:
     value = entry[key]
-    ok = isinstance(value, list) and all(_finite(v) for v in value)
+    ok = isinstance(value, list) and all(is_finite_number(v) for v in value)
     if not ok or (count is not None and len(value) != count):
         what = f"{count} finite numbers" if count else "a list of finite numbers"
         raise InvalidInput(key, what, value, where)
@@ -301,7 +297,7 @@ def _numbers(entry: dict, key: str, where: str, count: int | None = None) -> tup
 
 def _number(entry: dict, key: str, where: str) -> float:
     value = entry[key]
-    if not _finite(value):
+    if not is_finite_number(value):
         raise InvalidInput(key, "a finite number", value, where)
     return float(value)
 
@@ -315,7 +311,7 @@ def _text(entry: dict, key: str, where: str) -> str:
 
 def _colour_probs(weights: object, where: str) -> tuple[float, ...]:
     ok = isinstance(weights, dict) and weights and set(weights) <= set(COLOURS)
-    ok = ok and all(_finite(w) and w >= 0 for w in weights.values())
+    ok = ok and all(is_finite_number(w) and w >= 0 for w in weights.values())
     if not ok or sum(weights.values()) <= 0:
         raise InvalidInput("colours", f"non-negative weights over {COLOURS}", weights, where)
     total = float(sum(weights.values()))
@@ -381,7 +377,7 @@ def _materials(entries: object, path: Path) -> Materials:
         if extra or set(entry) != {"name", "value_eur"}:
             got = sorted(extra) if extra else sorted(entry)
             raise InvalidInput("material", "the keys name and value_eur", got, where)
-        if not _finite(entry["value_eur"]) or not 0 <= entry["value_eur"] <= 1e6:
+        if not is_finite_number(entry["value_eur"]) or not 0 <= entry["value_eur"] <= 1e6:
             raise InvalidInput("material.value_eur", "0..1e6 EUR", entry["value_eur"], where)
     try:
         return Materials(
@@ -427,7 +423,7 @@ def load_catalogue(path: Path | str = DEFAULT_CATALOGUE) -> Catalogue:
     for name in COLOURS:
         value = colours[name]
         ok = isinstance(value, list) and len(value) == 4
-        if not ok or not all(_finite(v) and 0 <= v <= 1 for v in value):
+        if not ok or not all(is_finite_number(v) and 0 <= v <= 1 for v in value):
             raise InvalidInput(f"colours.{name}", "4 numbers in [0, 1]", value, str(path))
         rgba.append(tuple(float(v) for v in value))
     items = data.get("item", [])

@@ -13,12 +13,12 @@ and colour, 5 mm apart.
 from __future__ import annotations
 
 import colorsys
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from perception.codes import COLOURS
+from sim.checks import check, is_finite_in
 from sim.errors import InvalidInput
 from sim.flow.catalogue import Catalogue
 
@@ -32,9 +32,7 @@ UNIFORM_GAP_M = 0.005
 
 
 def _share(field: str, value: object, high: float = 1.0) -> float:
-    ok = isinstance(value, int | float) and not isinstance(value, bool)
-    if not ok or not math.isfinite(value) or not 0.0 <= value <= high:
-        raise InvalidInput(field, f"a number in [0, {high:g}]", value)
+    check(is_finite_in(value, 0.0, high), field, f"a number in [0, {high:g}]", value)
     return float(value)
 
 

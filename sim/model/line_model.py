@@ -35,7 +35,6 @@ Every per-robot function of the cell takes that prefix (`sim.cell.robot`, `sim.c
 
 from __future__ import annotations
 
-import math
 import re
 import tempfile
 from dataclasses import dataclass
@@ -46,6 +45,7 @@ import mujoco
 import numpy as np
 
 from perception.codes import THESIS_MATERIALS
+from sim.checks import is_finite_number, is_integer
 from sim.errors import InvalidInput
 from sim.flow.config import BELT_X_RANGE
 from sim.model.scene_edits import (
@@ -76,10 +76,6 @@ ROBOT_ROOTS = ("base_link", "platform_link")
 _PREFIX = re.compile(r"[A-Za-z][A-Za-z0-9]*_")
 
 
-def _number(value: object) -> bool:
-    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
-
-
 @dataclass(frozen=True)
 class LineLayout:
     """How many robots a line has, where they stand and what their names start with.
@@ -101,7 +97,7 @@ class LineLayout:
 
     def __post_init__(self) -> None:
         n = self.robots
-        if not (isinstance(n, int) and not isinstance(n, bool) and 1 <= n <= MAX_ROBOTS):
+        if not (is_integer(n) and 1 <= n <= MAX_ROBOTS):
             raise InvalidInput("line.robots", f"1..{MAX_ROBOTS}", n)
         positions = self.positions_m or tuple(k * MIN_SPACING_M for k in range(n))
         allowed = (
@@ -111,7 +107,7 @@ class LineLayout:
         if (
             not isinstance(positions, tuple | list)
             or len(positions) != n
-            or not all(_number(x) for x in positions)
+            or not all(is_finite_number(x) for x in positions)
             or positions[0] < 0.0
             or positions[-1] > MAX_LAST_X_M
             or any(positions[k + 1] - positions[k] < MIN_SPACING_M - 1e-9 for k in range(n - 1))

@@ -29,6 +29,7 @@ import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from sim.checks import is_finite_in
 from sim.errors import InvalidInput
 from sim.paths import SCENE_XML
 
@@ -54,11 +55,6 @@ _DISCHARGE_LEGS = ("belt_leg_discharge_left", "belt_leg_discharge_right")
 _MIDDLE_LEGS = ("belt_leg_middle_left", "belt_leg_middle_right")
 
 
-def _finite_in(value: object, lo: float, hi: float) -> bool:
-    number = isinstance(value, int | float) and not isinstance(value, bool)
-    return number and math.isfinite(value) and lo <= value <= hi
-
-
 @dataclass(frozen=True)
 class CellSettings:
     """What changes the compiled cell; hashable, so compiled cells are cached by it.
@@ -73,10 +69,10 @@ class CellSettings:
 
     def __post_init__(self) -> None:
         lo, hi = CUP_DIAMETER_RANGE_M
-        if not _finite_in(self.cup_diameter_m, lo, hi):
+        if not is_finite_in(self.cup_diameter_m, lo, hi):
             raise InvalidInput("cup.diameter_m", f"{lo}..{hi} m", self.cup_diameter_m)
         lo, hi = BELT_LENGTH_RANGE_M
-        if not _finite_in(self.belt_length_m, lo, hi):
+        if not is_finite_in(self.belt_length_m, lo, hi):
             raise InvalidInput("belt.length_m", f"{lo}..{hi} m", self.belt_length_m)
         # 0.06 and 0.060000000001 compile alike: one cache key per model.
         object.__setattr__(self, "cup_diameter_m", float(self.cup_diameter_m))
