@@ -88,7 +88,7 @@ def test_every_experiment_config_loads_and_has_its_grid():
     plastic = [e.config.values.of_materials(e.config.materials)[1] for e in weighted]
     assert plastic == pytest.approx([150.25] * len(weighted))
     paused = sweep_config.load(EXPERIMENTS_DIR / "table_4_6_paused.toml")
-    assert {e.config.robot.pick_pause_s for e in paused.episodes} == {0.5}
+    assert {r.pick_pause_s for e in paused.episodes for r in e.config.robots} == {0.5}
     t45 = sweep_config.load(EXPERIMENTS_DIR / "table_4_5.toml")
     assert {e.config.duration_s for e in t45.episodes if e.config.items == 400} == {191.0}
 

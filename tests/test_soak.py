@@ -82,7 +82,7 @@ def test_the_draw_spans_the_cell_within_the_flows_limits():
 def test_the_line_draw_spans_robots_coordinations_and_dense_belts():
     configs = draw_configs(40, seed=7, lines=True)
     assert configs == draw_configs(40, seed=7, lines=True)
-    assert {c.robots for c in configs} == {2, 3, 4}
+    assert {c.robot_count for c in configs} == {2, 3, 4}
     assert {c.coordination for c in configs} == {"independent", "coordinated"}
     assert {c.item_riding for c in configs} == set(RIDINGS)
     densities = [c.items / (c.duration_s * c.belt_speed_mps) for c in configs]

@@ -193,7 +193,7 @@ def test_bad_settings_are_refused_by_name():
 def test_episode_config_world_keys():
     from sim.cli.run import WORLD_NUMBERS as CLI_NUMBERS
     from sim.episode import config
-    from sim.experiments.sweep_config import LATER_KEYS
+    from sim.experiments.sweep_config import LATER_KEYS, settings_as_before
 
     assert config.WORLD_NUMBERS == CLI_NUMBERS
     assert config.load(None).world_variation == WorldVariation()
@@ -202,7 +202,7 @@ def test_episode_config_world_keys():
     assert uniform_no_gap.min_gap_m == 0.0 and uniform_no_gap.size_jitter == 0.0
     # Every later key is an episode-config key; at the value LATER_KEYS holds the episode runs
     # as before the key existed (the uniform world, no depth noise, the HMMs' classes, no hold
-    # at the infeed).
+    # at the infeed), in the layout the sweep's identity reads (`settings_as_before`).
     before = (
         config.load(
             None, world="uniform", classifier="hmm", depth_noise=False, min_class_confidence=0.0
@@ -210,6 +210,7 @@ def test_episode_config_world_keys():
         .replace(belt=config.Belt(infeed_hold=False))
         .to_dict()
     )
+    before = settings_as_before(before)
     assert all(before[key] == value for key, value in LATER_KEYS.items())
 
 

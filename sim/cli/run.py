@@ -277,7 +277,7 @@ def main(args: argparse.Namespace) -> int:
     result = run_episode(config, video_path=video, progress=progress)
     if progress is not None:
         progress.done()
-    columns = outputs.episode_columns(config.materials) + outputs.line_columns(config.robots)
+    columns = outputs.episode_columns(config.materials) + outputs.line_columns(config.robot_count)
     outputs.write_episodes(out / "episodes.csv", [result.episode_row], columns)
     outputs.write_picks(out / "picks.csv", result.pick_rows)
     from sim.results import manifest

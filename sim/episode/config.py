@@ -4,6 +4,20 @@ Every key a TOML file may hold is a field below; unknown keys, wrong types, valu
 range and malformed TOML are refused with one line naming the key and the file
 (`InvalidInput`, exit code 2) before anything runs. Command-line options override the file.
 
+Files are read at the edge, never in the dataclass's validation: `load`, `from_dict` (and
+`read_config_file`, `EpisodeConfig.build`, `EpisodeConfig.replace` with a new `catalogue`)
+read the item catalogue the `catalogue` key names and hand it to the config as a
+`CatalogueFile` (`catalogue_file`: the key it was read for, its content digest, the
+`Catalogue`). The config keeps the key (`catalogue`, what a manifest records) and the
+catalogue it was validated against, so `EpisodeConfig()` (the built-in catalogue, read once
+per process) and `config.replace(...)` need no file, a config pickles whole to a sweep's worker
+process (which then reads no file either) and two configs compare equal by what they run with
+(every other setting, the catalogue's key and its content digest; the `Catalogue` object and
+`where` are left out). A `catalogue_file` that was not read for the `catalogue` key (say
+`dataclasses.replace(config, catalogue=...)`, which reads nothing) is refused in one line
+naming `catalogue`. Frozen dataclasses and no validation library: the checks are a few lines
+each (`sim.checks`), and the refusals keep the project's one-line form.
+
 TOML layout (every key optional; defaults are the headline episode)::
 
     seed = 0
@@ -32,8 +46,9 @@ TOML layout (every key optional; defaults are the headline episode)::
     min_gap_m = 0.0             # least gap between items [m] (uniform: 0.005)
     overlap_share = 0.1         # items allowed to lie partly over a flat neighbour
     overlap_depth_m = 0.02      # how far over it [m]
-    robots = 1                  # IRB 360s in series over the belt, 1..4 (a sorting line),
-                                # or a [[robots]] table per robot (below, after the tables)
+    robots = 1                  # IRB 360s in series over the belt, 1..4 (a sorting line) at
+                                # the default spacing, or a [[robots]] table per robot (below,
+                                # after the tables)
     coordination = "coordinated"  # a line's: independent | coordinated
                                 # (planner/decision/line_coordination.py)
     catalogue = ""              # item catalogue TOML (its [[material]] entries name the
@@ -55,9 +70,9 @@ TOML layout (every key optional; defaults are the headline episode)::
     iterations = 50
     batch_rows = 20
     objective = "value_over_distance"   # | value_only (d = 1) | distance_only (v = 1)
-    [robot]                     # extra dwell after each pick / place (thesis: ~0.5 s each)
-    pick_pause_s = 0.0
-    place_pause_s = 0.0
+    [robot]                     # every robot's defaults (a [[robots]] table's own key wins)
+    pick_pause_s = 0.0          # extra dwell after each pick / place, 0..2 s (thesis: ~0.5 s
+    place_pause_s = 0.0         # each)
     idle_sleep = true           # an idle robot sleeps in MuJoCo until its next pick
                                 # (sim/cell/idle_sleep.py); false: the physics to the bit
                                 # as before it
@@ -77,16 +92,24 @@ TOML layout (every key optional; defaults are the headline episode)::
                                 # back (sim/episode/infeed.py); false: every result to the bit
                                 # as before it
 
-A line's robots one by one, instead of `robots = N` (sim/episode/line_robots.py, docs/line.md;
-`--robots N` replaces the table by N robots at the default spacing)::
+The robots one by one, instead of `robots = N` (sim/episode/line_robots.py, docs/line.md;
+`--robots N` and a sweep's `robots = N` give N robots at the default spacing, robot k keeping
+robot k's pauses)::
 
     [[robots]]                  # the first robot, upstream
     x_m = 0.0                   # its base along the belt [m]; for every robot or none (then
                                 # 0, 1.8, 3.6, ...): first >= 0, >= 1.8 m apart, last <= 15.5
     materials = ["aluminium"]   # what it picks (items by their most probable material);
                                 # omitted: every material. Each material by some robot
+    pick_pause_s = 0.5          # this robot's own pauses and idle_sleep (omitted: [robot]'s)
     [[robots]]
     x_m = 2.2
+
+Whatever the form, the config holds one tuple of robots (`EpisodeConfig.robots`, one
+`RobotSpec` each) and writes one array of tables (`to_dict`, a run's manifest.json)::
+
+    robots = [{x_m = 0.0, materials = ["aluminium"], pick_pause_s = 0.5, place_pause_s = 0.0,
+               idle_sleep = true}, {x_m = 2.2, pick_pause_s = 0.0, ...}]
 """
 
 from __future__ import annotations
@@ -105,7 +128,16 @@ from planner.decision.registry import check_planner
 from planner.decision.robot_materials import class_ids_of
 from planner.motion.belt_speeds import SPEED_RANGE_MPS, SPEED_TOLERANCE_MPS, SPEED_X1_MPS
 from sim.cell.camera import FRAME_SIZE
-from sim.episode.line_robots import LineRobotSpec, check_robots_table, robots_table
+from sim.checks import check, is_integer, is_number
+from sim.episode.line_robots import (
+    MAX_ROBOTS,
+    RobotSpec,
+    check_count,
+    check_robots,
+    resized,
+    robot_section,
+    robot_specs,
+)
 from sim.errors import InvalidInput, RefusedInput
 from sim.flow.catalogue import DEFAULT_CATALOGUE, Catalogue, load_catalogue
 from sim.flow.config import LINE_MAX_ITEMS_PER_METRE, MAX_ITEMS_PER_METRE, FlowConfig
@@ -127,8 +159,6 @@ CLASSIFIERS = ("fused", "features", "hmm")
 ITEM_RIDINGS = ("path", "settled", "contact")
 OBJECTIVES = ("value_over_distance", "value_only", "distance_only")
 WORLDS = ("varied", "uniform")
-MAX_ROBOTS = 4
-"""Most robots of a line."""
 WORLD_NUMBERS = tuple(f.name for f in dataclasses.fields(WorldVariation))
 """Keys overriding one number of the `world` preset (`WorldVariation`'s fields)."""
 MAX_ITEMS = 20000
@@ -136,21 +166,15 @@ MAX_ENERGY_PRICE = 1e6
 """Highest energy price accepted [EUR/kWh] (far above any tariff: a stress test's price)."""
 
 
-def _check(ok: bool, key: str, allowed: str, got: object, where: str | None) -> None:
-    if not ok:
-        raise InvalidInput(key, allowed, got, where)
-
-
-def _number(value: object) -> bool:
-    return isinstance(value, int | float) and not isinstance(value, bool)
-
-
-def _integer(value: object) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool)
-
-
 def belt_speed_mps(speed_factor: float) -> float:
-    """Belt speed [m/s] of a speed factor (x1 = 0.185 m/s)."""
+    """Belt speed of a speed factor (x1 = 0.185 m/s).
+
+    Args:
+        speed_factor: Belt speed over x1.
+
+    Returns:
+        The belt speed [m/s].
+    """
     return BELT_SPEED_X1_MPS * float(speed_factor)
 
 
@@ -160,8 +184,17 @@ def _catalogue_at(path: str, mtime_ns: int, size: int) -> Catalogue:
 
 
 def episode_catalogue(path: str) -> Catalogue:
-    """The item catalogue of a config's `catalogue` key ("": the default), read once per
-    file version; refused in one line (`InvalidInput`) when it cannot be used."""
+    """The item catalogue of a config's `catalogue` key, read once per file version.
+
+    Args:
+        path: The key's value: a TOML file; "": the built-in `sim/data/items.toml`.
+
+    Returns:
+        The catalogue.
+
+    Raises:
+        InvalidInput: One line naming `catalogue` (and the file) when it cannot be used.
+    """
     file = Path(path) if path else DEFAULT_CATALOGUE
     try:
         stat = file.stat()
@@ -175,6 +208,57 @@ def episode_catalogue(path: str) -> Catalogue:
     except InvalidInput as exc:
         field = exc.field if exc.field.startswith("catalogue") else f"catalogue: {exc.field}"
         raise InvalidInput(field, exc.allowed, exc.got, exc.where or str(file)) from None
+
+
+@dataclass(frozen=True)
+class CatalogueFile:
+    """An item catalogue as an episode config holds it: read from its file by the loaders
+    (`read`), compared by the config key it was read for and its content.
+
+    Attributes:
+        path: The config's `catalogue` key it was read for ("": the built-in one).
+        digest: The catalogue's content digest (`Catalogue.digest`).
+        catalogue: The catalogue itself (left out of comparisons and reprs: its digest
+            stands for it).
+    """
+
+    path: str
+    digest: str
+    catalogue: Catalogue = field(compare=False, repr=False)
+
+    @classmethod
+    def read(cls, path: object, where: str | None = None) -> CatalogueFile:
+        """The catalogue of a config's `catalogue` key, read now (`episode_catalogue`).
+
+        Args:
+            path: The key's value ("": the built-in catalogue).
+            where: The config file the key came from, if any.
+
+        Returns:
+            The catalogue with its key and digest.
+
+        Raises:
+            InvalidInput: One line naming `catalogue` and the file when the key is not a
+                path or its file cannot be used.
+        """
+        ok = isinstance(path, str) and "\0" not in path
+        check(ok, "catalogue", "a path to an item catalogue TOML file", path, where)
+        try:
+            catalogue = episode_catalogue(path)
+        except InvalidInput as exc:
+            raise InvalidInput(exc.field, exc.allowed, exc.got, exc.where or where) from None
+        return cls(path, catalogue.digest, catalogue)
+
+
+@functools.cache
+def builtin_catalogue() -> CatalogueFile:
+    """The built-in catalogue (`sim/data/items.toml`: the thesis's paper, plastic and
+    aluminium), read once per process: what `EpisodeConfig()` runs with.
+
+    Returns:
+        The catalogue of the key "".
+    """
+    return CatalogueFile.read("")
 
 
 @dataclass(frozen=True)
@@ -192,33 +276,65 @@ class Values:
     def __post_init__(self) -> None:
         pairs = tuple((k, v) for k, v in self.eur)
         for name, got in pairs:
-            ok = _number(got) and 0.0 <= got <= 1e6
-            _check(ok, f"values.{name}", "0..1e6 EUR", got, None)
+            ok = is_number(got) and 0.0 <= got <= 1e6
+            check(ok, f"values.{name}", "0..1e6 EUR", got, None)
         object.__setattr__(self, "eur", pairs)
 
     @classmethod
     def from_table(cls, table: dict[str, Any]) -> Values:
-        """The `[values]` table: {material or item type name: EUR}."""
+        """The `[values]` table.
+
+        Args:
+            table: {material or item type name: EUR}.
+
+        Returns:
+            The values as given.
+        """
         return cls(tuple(table.items()))
 
     def given(self) -> dict[str, float]:
-        """{name: EUR} as set."""
+        """The values as set.
+
+        Returns:
+            {material or item type name: EUR}.
+        """
         return {k: float(v) for k, v in self.eur}
 
     def of_materials(self, materials: Materials) -> tuple[float, ...]:
-        """EUR per material, in the materials' order (the decision managers' order)."""
+        """Each material's value, the catalogue's where not set.
+
+        Args:
+            materials: The catalogue's materials.
+
+        Returns:
+            EUR per material, in the materials' order (the decision managers' order).
+        """
         given = self.given()
         return tuple(
             given.get(n, d) for n, d in zip(materials.names, materials.values_eur, strict=True)
         )
 
     def by_class(self, materials: Materials) -> dict[int, float]:
-        """EUR per material class id (2, 3, ...)."""
+        """Each material's value by class id.
+
+        Args:
+            materials: The catalogue's materials.
+
+        Returns:
+            {material class id (2, 3, ...): EUR}.
+        """
         return dict(zip(materials.ids, self.of_materials(materials), strict=True))
 
     def of_types(self, catalogue: Catalogue) -> dict[int, float]:
-        """{catalogue type index: EUR} of the item types given a value of their own (their
-        shape variants, a crushed can of a can type, take it too)."""
+        """The values of the item types given a value of their own (their shape variants, a
+        crushed can of a can type, take it too).
+
+        Args:
+            catalogue: The item catalogue the names are of.
+
+        Returns:
+            {catalogue type index: EUR}.
+        """
         given = self.given()
         out = {}
         for k, t in enumerate(catalogue.types):
@@ -228,15 +344,27 @@ class Values:
         return out
 
     def check_names(self, catalogue: Catalogue, where: str | None) -> None:
-        """Refuse a name that is neither a material nor a base item type of `catalogue`."""
+        """Refuse a name that is neither a material nor a base item type of `catalogue`.
+
+        Args:
+            catalogue: The item catalogue the names must be of.
+            where: The config file, named by the refusal.
+        """
         names = set(catalogue.materials.names)
         names |= {t.name for t in catalogue.types if not t.variant_of}
         for name, _ in self.eur:
             allowed = "a material (" + ", ".join(catalogue.materials.names) + ") or item type"
-            _check(name in names, f"values.{name}", allowed, None, where)
+            check(name in names, f"values.{name}", allowed, None, where)
 
     def table(self, materials: Materials) -> dict[str, float]:
-        """The resolved `[values]` table: every material's value, then the item types'."""
+        """The resolved `[values]` table.
+
+        Args:
+            materials: The catalogue's materials.
+
+        Returns:
+            {name: EUR}: every material's value, then the item types' given.
+        """
         out = dict(zip(materials.names, self.of_materials(materials), strict=True))
         out.update({k: v for k, v in self.given().items() if k not in out})
         return out
@@ -260,21 +388,25 @@ class FlowMix:
     def __post_init__(self) -> None:
         for name in ("class_priors", "stripe_priors"):
             v = getattr(self, name)
-            ok = v is None or (isinstance(v, list | tuple) and all(_number(x) for x in v))
-            _check(ok, f"flow.{name}", "a list of probabilities", v, None)
+            ok = v is None or (isinstance(v, list | tuple) and all(is_number(x) for x in v))
+            check(ok, f"flow.{name}", "a list of probabilities", v, None)
             if v is not None:
                 object.__setattr__(self, name, tuple(float(x) for x in v))
         v = self.transitions
         ok = v is None or (
             isinstance(v, list | tuple)
-            and all(isinstance(r, list | tuple) and all(_number(x) for x in r) for r in v)
+            and all(isinstance(r, list | tuple) and all(is_number(x) for x in r) for r in v)
         )
-        _check(ok, "flow.transitions", "a list of rows of probabilities", v, None)
+        check(ok, "flow.transitions", "a list of rows of probabilities", v, None)
         if v is not None:
             object.__setattr__(self, "transitions", tuple(tuple(float(x) for x in r) for r in v))
 
     def flow_kwargs(self) -> dict[str, Any]:
-        """The `FlowConfig` keywords set here."""
+        """The `FlowConfig` keywords set here.
+
+        Returns:
+            {keyword: value} of the fields not None.
+        """
         names = ("class_priors", "transitions", "stripe_priors")
         return {n: getattr(self, n) for n in names if getattr(self, n) is not None}
 
@@ -282,7 +414,14 @@ class FlowMix:
 @dataclass(frozen=True)
 class QLearning:
     """Parameters of the thesis's Q-learning decision manager (3.4.1, 4.2); the rollout planner
-    takes them too. The random actions are drawn from the episode's seed."""
+    takes them too. The random actions are drawn from the episode's seed.
+
+    Attributes:
+        gamma: Discount factor, in [0, 1).
+        iterations: Learning iterations per decision, 1..10000.
+        batch_rows: Grid rows learnt over per decision, 1..1000.
+        objective: value_over_distance | value_only (d = 1) | distance_only (v = 1).
+    """
 
     gamma: float = 0.9
     iterations: int = 50
@@ -292,40 +431,24 @@ class QLearning:
     def __post_init__(self) -> None:
         where = None
         g = self.gamma
-        _check(_number(g) and 0.0 <= g < 1.0, "qlearning.gamma", "[0, 1)", g, where)
+        check(is_number(g) and 0.0 <= g < 1.0, "qlearning.gamma", "[0, 1)", g, where)
         n = self.iterations
-        _check(_integer(n) and 1 <= n <= 10000, "qlearning.iterations", "1..10000", n, where)
+        check(is_integer(n) and 1 <= n <= 10000, "qlearning.iterations", "1..10000", n, where)
         b = self.batch_rows
-        _check(_integer(b) and 1 <= b <= 1000, "qlearning.batch_rows", "1..1000", b, where)
+        check(is_integer(b) and 1 <= b <= 1000, "qlearning.batch_rows", "1..1000", b, where)
         o = self.objective
-        _check(o in OBJECTIVES, "qlearning.objective", " | ".join(OBJECTIVES), o, where)
-
-
-@dataclass(frozen=True)
-class Robot:
-    """Extra robot dwell at the pick (after the seal) and at the place (after the release) [s],
-    and whether an idle robot sleeps in MuJoCo (`sim.cell.idle_sleep`).
-
-    0 is the physical robot (ABB's 35 ms of vacuum at each end only). The thesis's simulator
-    paused about half a second after each pick and each place (4.2); set both to 0.5 to
-    reproduce that regime.
-    """
-
-    pick_pause_s: float = 0.0
-    place_pause_s: float = 0.0
-    idle_sleep: bool = True
-
-    def __post_init__(self) -> None:
-        for name in ("pick_pause_s", "place_pause_s"):
-            v = getattr(self, name)
-            _check(_number(v) and 0.0 <= v <= 2.0, f"robot.{name}", "0..2 s", v, None)
-        v = self.idle_sleep
-        _check(isinstance(v, bool), "robot.idle_sleep", "true | false", v, None)
+        check(o in OBJECTIVES, "qlearning.objective", " | ".join(OBJECTIVES), o, where)
 
 
 @dataclass(frozen=True)
 class Video:
-    """Settings of the episode's MP4 (frames per simulated second, frame size [px])."""
+    """Settings of the episode's MP4.
+
+    Attributes:
+        fps: Frames per simulated second, 1..60.
+        width: Frame width [px], 64..1920, a multiple of 8.
+        height: Frame height [px], 64..1920, a multiple of 8.
+    """
 
     fps: float = 10.0
     width: int = 640
@@ -333,11 +456,11 @@ class Video:
 
     def __post_init__(self) -> None:
         where = None
-        _check(_number(self.fps) and 1 <= self.fps <= 60, "video.fps", "1..60", self.fps, where)
+        check(is_number(self.fps) and 1 <= self.fps <= 60, "video.fps", "1..60", self.fps, where)
         for name in ("width", "height"):
             v = getattr(self, name)
-            ok = _integer(v) and 64 <= v <= 1920 and v % 8 == 0
-            _check(ok, f"video.{name}", "64..1920, a multiple of 8", v, where)
+            ok = is_integer(v) and 64 <= v <= 1920 and v % 8 == 0
+            check(ok, f"video.{name}", "64..1920, a multiple of 8", v, where)
 
 
 CAMERA_ASPECT = (16, 9)
@@ -355,8 +478,13 @@ VACUUM_RANGE_PA = (1e3, 101325.0)
 
 @dataclass(frozen=True)
 class Camera:
-    """The belt camera's frame size [px]: the calibration is scaled to it, the stereo depth
-    (and its noise, correlated over pixels) comes at it, so coarser frames see coarser items."""
+    """The belt camera's frame size: the calibration is scaled to it, the stereo depth (and
+    its noise, correlated over pixels) comes at it, so coarser frames see coarser items.
+
+    Attributes:
+        width: Frame width [px] (`CAMERA_WIDTH_RANGE`, a multiple of 16).
+        height: Frame height [px]: width x 9/16.
+    """
 
     width: int = FRAME_SIZE[0]
     height: int = FRAME_SIZE[1]
@@ -365,21 +493,30 @@ class Camera:
         lo, hi = CAMERA_WIDTH_RANGE
         aw, ah = CAMERA_ASPECT
         w, h = self.width, self.height
-        ok = _integer(w) and lo <= w <= hi and w % aw == 0
-        _check(ok, "camera.width", f"{lo}..{hi} px, a multiple of {aw}", w, None)
+        ok = is_integer(w) and lo <= w <= hi and w % aw == 0
+        check(ok, "camera.width", f"{lo}..{hi} px, a multiple of {aw}", w, None)
         allowed = f"width x {ah}/{aw} (the calibration's {aw}:{ah}): {w * ah // aw} px"
-        _check(_integer(h) and h * aw == w * ah, "camera.height", allowed, h, None)
+        check(is_integer(h) and h * aw == w * ah, "camera.height", allowed, h, None)
 
     @property
     def size(self) -> tuple[int, int]:
-        """(width, height) [px]."""
+        """The frame size.
+
+        Returns:
+            (width, height) [px].
+        """
         return (self.width, self.height)
 
 
 @dataclass(frozen=True)
 class Cup:
-    """The vacuum cup: its lip's diameter (a model setting: the cell is compiled with it) and
-    the vacuum it holds with; the holding force is lip area x vacuum (`sim.cell.suction`)."""
+    """The vacuum cup; the holding force is lip area x vacuum (`sim.cell.suction`).
+
+    Attributes:
+        diameter_m: The lip's diameter [m] (`CUP_DIAMETER_RANGE_M`; a model setting: the cell
+            is compiled with it).
+        vacuum_pa: The vacuum it holds with, below atmosphere [Pa] (`VACUUM_RANGE_PA`).
+    """
 
     diameter_m: float = CUP_DIAMETER_M
     vacuum_pa: float = 80e3
@@ -387,18 +524,23 @@ class Cup:
     def __post_init__(self) -> None:
         lo, hi = CUP_DIAMETER_RANGE_M
         d = self.diameter_m
-        _check(_number(d) and lo <= d <= hi, "cup.diameter_m", f"{lo}..{hi} m", d, None)
+        check(is_number(d) and lo <= d <= hi, "cup.diameter_m", f"{lo}..{hi} m", d, None)
         lo, hi = VACUUM_RANGE_PA
         v = self.vacuum_pa
-        ok = _number(v) and lo <= v <= hi
-        _check(ok, "cup.vacuum_pa", f"{lo:g}..{hi:g} Pa (1 atm)", v, None)
+        ok = is_number(v) and lo <= v <= hi
+        check(ok, "cup.vacuum_pa", f"{lo:g}..{hi:g} Pa (1 atm)", v, None)
 
 
 @dataclass(frozen=True)
 class Belt:
-    """The belt's length from its infeed [m] (a model setting: the cell is compiled with it;
-    its discharge end moves, the camera and the robot stay), and whether the infeed holds an
-    item back while it would drop into one already there (`sim.episode.infeed`)."""
+    """The belt.
+
+    Attributes:
+        length_m: Its length from the infeed [m] (`BELT_LENGTH_RANGE_M`; a model setting: the
+            cell is compiled with it; its discharge end moves, the camera and the robot stay).
+        infeed_hold: Whether the infeed holds an item back while it would drop into one
+            already there (`sim.episode.infeed`).
+    """
 
     length_m: float = BELT_LENGTH_M
     infeed_hold: bool = True
@@ -406,14 +548,31 @@ class Belt:
     def __post_init__(self) -> None:
         lo, hi = BELT_LENGTH_RANGE_M
         n = self.length_m
-        _check(_number(n) and lo <= n <= hi, "belt.length_m", f"{lo}..{hi} m", n, None)
+        check(is_number(n) and lo <= n <= hi, "belt.length_m", f"{lo}..{hi} m", n, None)
         v = self.infeed_hold
-        _check(isinstance(v, bool), "belt.infeed_hold", "true | false", v, None)
+        check(isinstance(v, bool), "belt.infeed_hold", "true | false", v, None)
 
 
 @dataclass(frozen=True)
 class EpisodeConfig:
-    """One episode of the sorting cell; validated on construction."""
+    """One episode of the sorting cell (or line); validated on construction.
+
+    Every attribute but `catalogue_file` and `where` is a key of the config file (module
+    docstring, where each is described with its unit and range). Build one with `load` or
+    `from_dict` (which read the catalogue file), `EpisodeConfig.build` (the same from keyword
+    fields), `EpisodeConfig()` with fields (the built-in catalogue only: it reads no file) or
+    `config.replace(...)`.
+
+    Attributes:
+        robots: The robots, upstream first (1..`MAX_ROBOTS` `RobotSpec`s). Constructing with an
+            int N gives N robots at the default spacing with the default pauses;
+            `config.replace(robots=N)` keeps the pauses (`sim.episode.line_robots.resized`).
+        catalogue: The item catalogue's file as the config names it ("": the built-in one);
+            what a manifest records.
+        catalogue_file: That file's catalogue, read by the loaders (None: the built-in one,
+            for a config of `catalogue = ""` only); compared by its content digest.
+        where: The config file the settings came from, named by every refusal (not compared).
+    """
 
     seed: int = 0
     items: int = 100
@@ -438,94 +597,126 @@ class EpisodeConfig:
     min_gap_m: float | None = None
     overlap_share: float | None = None
     overlap_depth_m: float | None = None
-    robots: int = 1
-    robot_table: tuple[LineRobotSpec, ...] = ()
+    robots: tuple[RobotSpec, ...] = (RobotSpec(),)
     coordination: str = "coordinated"
     catalogue: str = ""
     values: Values = field(default_factory=Values)
     flow: FlowMix = field(default_factory=FlowMix)
     qlearning: QLearning = field(default_factory=QLearning)
     video: Video = field(default_factory=Video)
-    robot: Robot = field(default_factory=Robot)
     camera: Camera = field(default_factory=Camera)
     cup: Cup = field(default_factory=Cup)
     belt: Belt = field(default_factory=Belt)
+    catalogue_file: CatalogueFile | None = field(default=None, repr=False)
     where: str | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
+        self._check_settings()
         w = self.where
-        _check(_integer(self.seed) and 0 <= self.seed < 2**63, "seed", "0..2^63-1", self.seed, w)
-        n = self.items
-        _check(_integer(n) and 1 <= n <= MAX_ITEMS, "items", f"1..{MAX_ITEMS}", n, w)
-        f = self.speed_factor
-        lo, hi = BELT_SPEED_RANGE_MPS
-        ok = _number(f) and lo - 1e-9 <= belt_speed_mps(f) <= hi + _SPEED_TOLERANCE_MPS
-        x1 = BELT_SPEED_X1_MPS
-        allowed = f"{lo / x1:.3f}..1.5 (belt {lo}..{hi} m/s at {x1} m/s per x1)"
-        _check(ok, "speed_factor", allowed, f, w)
-        _check(isinstance(self.planner, str), "planner", ALLOWED_PLANNERS, self.planner, w)
-        try:
-            check_planner(self.planner)
-        except RefusedInput as exc:
-            raise InvalidInput("planner", exc.allowed, self.planner, w) from None
-        p = self.perception
-        _check(p in PERCEPTIONS, "perception", " | ".join(PERCEPTIONS), p, w)
-        d = self.duration_s
-        _check(_number(d) and 1.0 <= d <= 36000.0, "duration_s", "1..36000 s", d, w)
-        t = self.observation_period_s
-        ok = _number(t) and 0.05 <= t <= 5.0
-        _check(ok, "observation_period_s", "0.05..5 s", t, w)
-        r = self.item_riding
-        _check(r in ITEM_RIDINGS, "item_riding", " | ".join(ITEM_RIDINGS), r, w)
-        e = self.energy_price_eur_per_kwh
-        ok = _number(e) and 0.0 <= e <= MAX_ENERGY_PRICE
-        _check(ok, "energy_price_eur_per_kwh", f"0..{MAX_ENERGY_PRICE:g} EUR/kWh", e, w)
-        c = self.min_class_confidence
-        ok = _number(c) and 0.0 <= c <= 1.0
-        _check(ok, "min_class_confidence", "a probability in [0, 1]", c, w)
-        k = self.classifier
-        _check(k in CLASSIFIERS, "classifier", " | ".join(CLASSIFIERS), k, w)
-        _check(
-            isinstance(self.depth_noise, bool), "depth_noise", "true | false", self.depth_noise, w
-        )
-        for name, cls in _SECTIONS.items():
-            _check(isinstance(getattr(self, name), cls), name, f"a [{name}] table", None, w)
-        _check(self.world in WORLDS, "world", " | ".join(WORLDS), self.world, w)
-        for name in WORLD_NUMBERS:
-            v = getattr(self, name)
-            _check(v is None or _number(v), name, "a number", v, w)
-        try:
-            _ = self.world_variation
-        except InvalidInput as exc:
-            raise InvalidInput(exc.field, exc.allowed, exc.got, w) from None
         r = self.robots
-        _check(_integer(r) and 1 <= r <= MAX_ROBOTS, "robots", f"1..{MAX_ROBOTS}", r, w)
-        ok = isinstance(self.robot_table, tuple | list)
-        _check(ok, "robots", "a count or an array of [[robots]] tables", self.robot_table, w)
-        table = tuple(self.robot_table)
-        ok = not table or len(table) == r
-        _check(ok, "robots", f"as many robots as [[robots]] tables ({len(table)})", r, w)
-        object.__setattr__(self, "robot_table", table)
+        if not isinstance(r, tuple | list):
+            r = (RobotSpec(),) * check_count(r, w)
+        allowed = f"1..{MAX_ROBOTS} robots, or an array of 1..{MAX_ROBOTS} [[robots]] tables"
+        check(1 <= len(r) <= MAX_ROBOTS, "robots", allowed, r, w)
+        object.__setattr__(self, "robots", tuple(r))
         c = self.coordination
-        _check(c in COORDINATIONS, "coordination", " | ".join(COORDINATIONS), c, w)
-        ok = isinstance(self.catalogue, str) and "\0" not in self.catalogue
-        _check(ok, "catalogue", "a path to an item catalogue TOML file", self.catalogue, w)
-        try:
-            catalogue = self.item_catalogue
-        except InvalidInput as exc:
-            raise InvalidInput(exc.field, exc.allowed, exc.got, exc.where or w) from None
+        check(c in COORDINATIONS, "coordination", " | ".join(COORDINATIONS), c, w)
+        catalogue = self._catalogue()
         self.values.check_names(catalogue, w)
-        check_robots_table(self.robot_table, catalogue.materials, w)
+        check_robots(self.robots, catalogue.materials, w)
         # Every material's value written out (the catalogue's where not given), so configs
         # compare equal by what they run with, and a manifest's table reads back the same.
         resolved = Values.from_table(self.values.table(catalogue.materials))
         object.__setattr__(self, "values", resolved)
         self._check_flow()
 
+    def _check_settings(self) -> None:
+        """The settings that need no catalogue: the episode's numbers and names, the world."""
+        w = self.where
+        check(is_integer(self.seed) and 0 <= self.seed < 2**63, "seed", "0..2^63-1", self.seed, w)
+        n = self.items
+        check(is_integer(n) and 1 <= n <= MAX_ITEMS, "items", f"1..{MAX_ITEMS}", n, w)
+        f = self.speed_factor
+        lo, hi = BELT_SPEED_RANGE_MPS
+        ok = is_number(f) and lo - 1e-9 <= belt_speed_mps(f) <= hi + _SPEED_TOLERANCE_MPS
+        x1 = BELT_SPEED_X1_MPS
+        allowed = f"{lo / x1:.3f}..1.5 (belt {lo}..{hi} m/s at {x1} m/s per x1)"
+        check(ok, "speed_factor", allowed, f, w)
+        check(isinstance(self.planner, str), "planner", ALLOWED_PLANNERS, self.planner, w)
+        try:
+            check_planner(self.planner)
+        except RefusedInput as exc:
+            raise InvalidInput("planner", exc.allowed, self.planner, w) from None
+        p = self.perception
+        check(p in PERCEPTIONS, "perception", " | ".join(PERCEPTIONS), p, w)
+        d = self.duration_s
+        check(is_number(d) and 1.0 <= d <= 36000.0, "duration_s", "1..36000 s", d, w)
+        t = self.observation_period_s
+        ok = is_number(t) and 0.05 <= t <= 5.0
+        check(ok, "observation_period_s", "0.05..5 s", t, w)
+        r = self.item_riding
+        check(r in ITEM_RIDINGS, "item_riding", " | ".join(ITEM_RIDINGS), r, w)
+        e = self.energy_price_eur_per_kwh
+        ok = is_number(e) and 0.0 <= e <= MAX_ENERGY_PRICE
+        check(ok, "energy_price_eur_per_kwh", f"0..{MAX_ENERGY_PRICE:g} EUR/kWh", e, w)
+        c = self.min_class_confidence
+        ok = is_number(c) and 0.0 <= c <= 1.0
+        check(ok, "min_class_confidence", "a probability in [0, 1]", c, w)
+        k = self.classifier
+        check(k in CLASSIFIERS, "classifier", " | ".join(CLASSIFIERS), k, w)
+        check(
+            isinstance(self.depth_noise, bool), "depth_noise", "true | false", self.depth_noise, w
+        )
+        for name, cls in _SECTIONS.items():
+            check(isinstance(getattr(self, name), cls), name, f"a [{name}] table", None, w)
+        check(self.world in WORLDS, "world", " | ".join(WORLDS), self.world, w)
+        for name in WORLD_NUMBERS:
+            v = getattr(self, name)
+            check(v is None or is_number(v), name, "a number", v, w)
+        try:
+            _ = self.world_variation
+        except InvalidInput as exc:
+            raise InvalidInput(exc.field, exc.allowed, exc.got, w) from None
+
+    def _catalogue(self) -> Catalogue:
+        """The catalogue the loaders read for `catalogue` (the built-in one for ""); refused
+        when `catalogue_file` was read for another key (no file is read here)."""
+        w = self.where
+        ok = isinstance(self.catalogue, str) and "\0" not in self.catalogue
+        check(ok, "catalogue", "a path to an item catalogue TOML file", self.catalogue, w)
+        if self.catalogue_file is None and self.catalogue == "":
+            object.__setattr__(self, "catalogue_file", builtin_catalogue())
+        loaded = self.catalogue_file
+        ok = isinstance(loaded, CatalogueFile) and loaded.path == self.catalogue
+        allowed = "a catalogue file read by load, from_dict, EpisodeConfig.build or replace"
+        check(ok, "catalogue", allowed, self.catalogue, w)
+        return loaded.catalogue
+
+    @classmethod
+    def build(cls, **fields: Any) -> EpisodeConfig:
+        """A config of keyword `fields` whose `catalogue` file is read here (what
+        `EpisodeConfig(...)` does not do: it knows the built-in catalogue only).
+
+        Args:
+            **fields: Any fields of the config (`robots` may be a count).
+
+        Returns:
+            The validated config.
+        """
+        if "catalogue_file" not in fields:
+            path, where = fields.get("catalogue", ""), fields.get("where")
+            fields["catalogue_file"] = CatalogueFile.read(path, where)
+        return cls(**fields)
+
     @property
     def item_catalogue(self) -> Catalogue:
-        """The item catalogue (`catalogue`; the default when "")."""
-        return episode_catalogue(self.catalogue)
+        """The item catalogue (of `catalogue`; the built-in one when "")."""
+        return self.catalogue_file.catalogue
+
+    @property
+    def robot_count(self) -> int:
+        """How many robots the episode runs (1: the single cell's, or a line's one)."""
+        return len(self.robots)
 
     @property
     def materials(self) -> Materials:
@@ -533,7 +724,11 @@ class EpisodeConfig:
         return self.item_catalogue.materials
 
     def flow_config(self) -> FlowConfig:
-        """The episode's flow settings."""
+        """The episode's flow settings.
+
+        Returns:
+            The `FlowConfig` of this episode's items, belt, seed and class mix.
+        """
         return FlowConfig(
             n_items=self.items,
             duration_s=self.duration_s,
@@ -555,21 +750,20 @@ class EpisodeConfig:
     def robot_positions_m(self) -> tuple[float, ...]:
         """x of each robot's base along the belt, upstream first [m] (the `[[robots]]` table's
         `x_m`); () when not given: the line's default spacing (`sim.model.line_model`)."""
-        return tuple(s.x_m for s in self.robot_table if s.x_m is not None)
+        return tuple(s.x_m for s in self.robots if s.x_m is not None)
 
     @functools.cached_property
     def robot_class_ids(self) -> tuple[frozenset[int] | None, ...]:
         """Per robot, upstream first, the material class ids (2, 3, ...) it sorts; None: every
         material (`planner.decision.robot_materials`)."""
-        names = [s.materials for s in self.robot_table] or [None] * self.robots
-        return tuple(class_ids_of(n, self.materials) for n in names)
+        return tuple(class_ids_of(s.materials, self.materials) for s in self.robots)
 
     @property
     def line_cell(self) -> bool:
         """Whether the episode runs on a line's model (`sim.cell.line`): several robots, one
         robot placed elsewhere than x = 0, or one robot on a belt denser than the single
         cell's pool carries (`MAX_ITEMS_PER_METRE`)."""
-        if self.robots > 1 or self.robot_positions_m[:1] not in ((), (0.0,)):
+        if self.robot_count > 1 or self.robot_positions_m[:1] not in ((), (0.0,)):
             return True
         density = self.items / (self.duration_s * self.belt_speed_mps)
         return density > MAX_ITEMS_PER_METRE * (1 + 1e-9)
@@ -613,19 +807,45 @@ class EpisodeConfig:
         return belt_speed_mps(self.speed_factor)
 
     def replace(self, **changes: Any) -> EpisodeConfig:
-        """A copy with `changes` applied (validated again)."""
+        """A copy with `changes` applied (validated again).
+
+        Args:
+            **changes: Fields to change. `robots` may be a count N: N robots at the default
+                spacing, each keeping its pauses (`sim.episode.line_robots.resized`); a new
+                `catalogue` is read here (unless `catalogue_file` comes with it).
+
+        Returns:
+            The new config.
+        """
+        n = changes.get("robots")
+        if is_integer(n) and 1 <= n <= MAX_ROBOTS:
+            changes["robots"] = resized(self.robots, n)
+        if "catalogue" in changes and "catalogue_file" not in changes:
+            where = changes.get("where", self.where)
+            changes["catalogue_file"] = CatalogueFile.read(changes["catalogue"], where)
         return dataclasses.replace(self, **changes)
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain dict of every setting (TOML layout), for reports and sweep keys."""
-        out = dataclasses.asdict(self)
-        out.pop("where")
-        out.pop("robot_table")
-        if self.robot_table:
-            out["robots"] = [spec.table() for spec in self.robot_table]
+        """Plain dict of every setting in the TOML layout (one `robots` array of tables), for
+        manifests, reports and sweep keys; `from_dict` reads it back to an equal config.
+
+        Returns:
+            {key: value}, tables as dicts, arrays as lists.
+        """
+        out = {}
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if f.name not in ("catalogue_file", "where"):
+                out[f.name] = dataclasses.asdict(value) if _is_table(value) else value
+        out["robots"] = [spec.table() for spec in self.robots]
         out["values"] = self.values.table(self.materials)
         out["flow"] = {k: _plain(v) for k, v in self.flow.flow_kwargs().items()}
         return out
+
+
+def _is_table(value: Any) -> bool:
+    """Whether `value` is a section's dataclass (written as a TOML table)."""
+    return dataclasses.is_dataclass(value) and not isinstance(value, type)
 
 
 def _plain(value: Any) -> Any:
@@ -660,17 +880,31 @@ _SECTIONS = {
     "flow": FlowMix,
     "qlearning": QLearning,
     "video": Video,
-    "robot": Robot,
     "camera": Camera,
     "cup": Cup,
     "belt": Belt,
 }
 _SCALARS = {f.name for f in dataclasses.fields(EpisodeConfig)} - set(_SECTIONS)
-_SCALARS -= {"where", "robot_table"}  # the table comes as `robots = [...]`
+_SCALARS -= {"where", "catalogue_file"}  # not keys: what the file names, read
+_KEYS = _SCALARS | set(_SECTIONS) | {"robot"}
+"""Every top-level key of a config file (`robot`: the old section of every robot's pauses)."""
 
 
 def from_dict(data: dict[str, Any], where: str | None = None) -> EpisodeConfig:
-    """An `EpisodeConfig` from a TOML-shaped dict; unknown keys refused naming `where`."""
+    """An `EpisodeConfig` from a TOML-shaped dict (a config file's, a manifest's `config`, a
+    sweep's grid point), its catalogue file read here.
+
+    Args:
+        data: The settings in the TOML layout (module docstring); `robots` a count or an array
+            of tables, `[robot]` every robot's defaults.
+        where: The file they came from, named by every refusal.
+
+    Returns:
+        The validated config.
+
+    Raises:
+        InvalidInput: One line naming the key (an unknown one too) and `where`.
+    """
     try:
         return _from_dict(data, where)
     except InvalidInput as exc:
@@ -681,33 +915,46 @@ def from_dict(data: dict[str, Any], where: str | None = None) -> EpisodeConfig:
 
 def _from_dict(data: dict[str, Any], where: str | None) -> EpisodeConfig:
     kwargs: dict[str, Any] = {}
+    section = None  # the old [robot] section: every robot's defaults
     for key, value in data.items():
-        if key in _SECTIONS:
+        if key == "robot":
+            section = robot_section(value, where)
+        elif key in _SECTIONS:
             cls = _SECTIONS[key]
-            _check(isinstance(value, dict), key, "a table [" + key + "]", value, where)
+            check(isinstance(value, dict), key, "a table [" + key + "]", value, where)
             if cls is Values:
                 kwargs[key] = Values.from_table(value)
                 continue
             names = {f.name for f in dataclasses.fields(cls)}
             for sub in value:
-                _check(
+                check(
                     sub in names, f"{key}.{sub}", "one of " + ", ".join(sorted(names)), None, where
                 )
             kwargs[key] = cls(**value)
-        elif key == "robots" and isinstance(value, list | tuple):
-            kwargs["robot_table"] = robots_table(value, MAX_ROBOTS, where)
-            kwargs["robots"] = len(value)
         else:
-            allowed = "one of " + ", ".join(sorted(_SCALARS | set(_SECTIONS)))
-            _check(key in _SCALARS, key, allowed, None, where)
+            check(key in _SCALARS, key, "one of " + ", ".join(sorted(_KEYS)), None, where)
             kwargs[key] = value
+    if "robots" in kwargs or section is not None:
+        kwargs["robots"] = robot_specs(kwargs.get("robots", 1), section, where)
+    kwargs["catalogue_file"] = CatalogueFile.read(kwargs.get("catalogue", ""), where)
     return EpisodeConfig(where=where, **kwargs)
 
 
 def read_config_file(path: Path) -> dict[str, Any]:
     """The settings of a config file: a TOML file, or a run folder's `manifest.json` (its
     resolved `config`), so that `sortsim run --config runs/x/manifest.json` repeats that run.
-    A manifest whose catalogue's content has changed since is refused (`catalogue_digest`)."""
+
+    Args:
+        path: The TOML file or manifest.json.
+
+    Returns:
+        The settings in the TOML layout (for `from_dict`).
+
+    Raises:
+        InvalidInput: One line naming the file when it cannot be read or is not a run's
+            manifest, or `catalogue` when the manifest's catalogue's content has changed
+            since the run (`catalogue_digest`).
+    """
     path = Path(path)
     if path.suffix.lower() != ".json":
         return read_toml(path)
@@ -740,8 +987,18 @@ def read_config_file(path: Path) -> dict[str, Any]:
 
 
 def read_toml(path: Path) -> dict[str, Any]:
-    """Parsed TOML of `path`; a missing, unreadable, non-UTF-8 or malformed file is refused in
-    one line naming the file."""
+    """The parsed TOML of a file.
+
+    Args:
+        path: The TOML file.
+
+    Returns:
+        Its tables as dicts.
+
+    Raises:
+        InvalidInput: One line naming the file when it is missing, unreadable, not UTF-8 or
+            not valid TOML.
+    """
     path = Path(path)
     try:
         text = path.read_bytes().decode("utf-8")
@@ -759,13 +1016,24 @@ def read_toml(path: Path) -> dict[str, Any]:
 
 
 def load(path: Path | None = None, **overrides: Any) -> EpisodeConfig:
-    """The episode config of TOML `path` (or defaults) with non-None `overrides` applied."""
+    """The episode config of a config file (or the defaults) with the options given applied.
+
+    Args:
+        path: A TOML file or a run's manifest.json (`read_config_file`); None: the defaults.
+        **overrides: Top-level keys to set (the command line's options); None leaves a key
+            as the file has it. `robots = N` gives N robots at the default spacing keeping
+            the file's pauses (`EpisodeConfig.replace`); `catalogue` is read here.
+
+    Returns:
+        The validated config (`where` None once options changed it).
+
+    Raises:
+        InvalidInput: One line naming the key and the file.
+    """
     data = read_config_file(path) if path is not None else {}
     where = str(path) if path is not None else None
     config = from_dict(data, where)
     changes = {k: v for k, v in overrides.items() if v is not None}
     unknown = set(changes) - _SCALARS
-    _check(not unknown, "override", ", ".join(sorted(_SCALARS)), sorted(unknown), None)
-    if "robots" in changes:  # a robot count replaces the file's [[robots]] table
-        changes["robot_table"] = ()
-    return dataclasses.replace(config, where=None, **changes) if changes else config
+    check(not unknown, "override", ", ".join(sorted(_SCALARS)), sorted(unknown), None)
+    return config.replace(where=None, **changes) if changes else config

@@ -1,123 +1,248 @@
-"""A line's table of robots: where each robot stands and which materials it sorts.
+"""The robots of an episode: where each stands, which materials it sorts, how long it dwells.
 
-An episode config's `robots` is either a count (1..4 robots at the default spacing, each
-sorting every material) or an array of 1..4 tables, one per robot, upstream first::
+An episode config's `robots` is a tuple of 1..`MAX_ROBOTS` `RobotSpec`s, upstream first. A
+config file gives them in any of three forms, which can be combined:
 
-    [[robots]]
+    robots = 3                          # 3 robots at the default spacing, every material each
+
+    [[robots]]                          # or one table per robot, upstream first
     x_m = 0.0                           # its base centre along the belt [m]
     materials = ["aluminium", "plastic"]  # what it picks; omitted: every material
+    pick_pause_s = 0.5                  # extra dwell after the seal [s], 0..2
     [[robots]]
     x_m = 2.0
+
+    [robot]                             # the defaults of every robot above (the form of before
+    pick_pause_s = 0.0                  # the per-robot keys; a [[robots]] table's own key wins)
+    place_pause_s = 0.0
+    idle_sleep = true
 
 `x_m` is given for every robot or for none (then 0, 1.8, 3.6, ... m); given, the robots keep
 the line model's rules (`sim.model.line_model.LineLayout`): the first at x >= 0, each at least
 `MIN_SPACING_M` past the one before, the last at most `MAX_LAST_X_M`. `materials` names the
 catalogue's materials, each once; every material must be sorted by at least one robot. A robot
 keeps one bin per material of the catalogue whatever it sorts. Each refusal is one line naming
-the field (`robots[1].materials`) and what is allowed (`InvalidInput`).
+the field (`robots[1].materials`, `robot.pick_pause_s` for the `[robot]` section) and what is
+allowed (`InvalidInput`).
 """
 
 from __future__ import annotations
 
-import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 from perception.codes import Materials
+from sim.checks import check, is_finite_number, is_integer, is_number
 from sim.errors import InvalidInput
 
-ROBOT_KEYS = ("x_m", "materials")
-"""The keys of one robot's table."""
+MAX_ROBOTS = 4
+"""Most robots of a line (`sim.model.line_model.MAX_ROBOTS`)."""
+SECTION_KEYS = ("pick_pause_s", "place_pause_s", "idle_sleep")
+"""The keys every robot has a value of: the old `[robot]` section's, each robot's default."""
+ROBOT_KEYS = ("x_m", "materials", *SECTION_KEYS)
+"""The keys of one robot's `[[robots]]` table."""
+MAX_PAUSE_S = 2.0
+"""Longest extra dwell at the pick or the place [s]."""
 _PREFIX = "robots."
-
-
-def _finite_number(value: object) -> bool:
-    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+_COUNT_OR_TABLES = f"1..{MAX_ROBOTS} robots, or an array of 1..{MAX_ROBOTS} [[robots]] tables"
 
 
 @dataclass(frozen=True)
-class LineRobotSpec:
-    """One robot of a line as the config gives it.
+class RobotSpec:
+    """One robot of the episode (of a line, or the single cell's) as the config gives it.
+
+    0 s of pause is the physical robot (ABB's 35 ms of vacuum at each end only). The thesis's
+    simulator paused about half a second after each pick and each place (4.2); set both to 0.5
+    to reproduce that regime.
 
     Attributes:
         x_m: x of its base centre along the belt [m]; None: the line's default spacing.
         materials: Names of the materials it sorts, as given (a non-empty tuple, no name
             twice); None: every material of the catalogue.
+        pick_pause_s: Extra dwell at the pick, after the seal [s], 0..2.
+        place_pause_s: Extra dwell at the place, after the release [s], 0..2.
+        idle_sleep: Whether the idle robot sleeps in MuJoCo until its next pick
+            (`sim.cell.idle_sleep`); False: the physics to the bit as before the setting.
     """
 
     x_m: float | None = None
     materials: tuple[str, ...] | None = None
+    pick_pause_s: float = 0.0
+    place_pause_s: float = 0.0
+    idle_sleep: bool = True
 
     def __post_init__(self) -> None:
         x = self.x_m
-        if x is not None and not _finite_number(x):
-            raise InvalidInput(f"{_PREFIX}x_m", "a number [m]", x)
+        check(x is None or is_finite_number(x), f"{_PREFIX}x_m", "a number [m]", x)
         if x is not None:
             object.__setattr__(self, "x_m", float(x))
+        for name in ("pick_pause_s", "place_pause_s"):
+            v = getattr(self, name)
+            ok = is_number(v) and 0.0 <= v <= MAX_PAUSE_S
+            check(ok, f"{_PREFIX}{name}", f"0..{MAX_PAUSE_S:g} s", v)
+        v = self.idle_sleep
+        check(isinstance(v, bool), f"{_PREFIX}idle_sleep", "true | false", v)
         names = self.materials
         if names is None:
             return
         allowed = "a non-empty list of material names, each once"
-        if not isinstance(names, list | tuple) or not names:
-            raise InvalidInput(f"{_PREFIX}materials", allowed, names)
-        if not all(isinstance(n, str) for n in names) or len(set(names)) != len(names):
-            raise InvalidInput(f"{_PREFIX}materials", allowed, list(names))
+        ok = isinstance(names, list | tuple) and bool(names)
+        check(ok, f"{_PREFIX}materials", allowed, names)
+        ok = all(isinstance(n, str) for n in names) and len(set(names)) == len(names)
+        check(ok, f"{_PREFIX}materials", allowed, list(names))
         object.__setattr__(self, "materials", tuple(names))
 
+    def section(self) -> dict[str, Any]:
+        """The robot's values of the `[robot]` section's keys (`SECTION_KEYS`).
+
+        Returns:
+            {"pick_pause_s": [s], "place_pause_s": [s], "idle_sleep": bool}.
+        """
+        return {k: getattr(self, k) for k in SECTION_KEYS}
+
     def table(self) -> dict[str, Any]:
-        """The robot's TOML table: only the keys given."""
+        """The robot's `[[robots]]` table: `x_m` and `materials` when given, then every key of
+        `SECTION_KEYS` (what a manifest records; `robot_specs` reads it back the same).
+
+        Returns:
+            The table as TOML and JSON write it (materials as a list).
+        """
         out: dict[str, Any] = {}
         if self.x_m is not None:
             out["x_m"] = self.x_m
         if self.materials is not None:
             out["materials"] = list(self.materials)
-        return out
+        return out | self.section()
 
 
-def _named(exc: InvalidInput, index: int, where: str | None) -> InvalidInput:
-    """`exc` naming robot `index`'s field (`robots[index].x_m`)."""
-    field = exc.field.replace(_PREFIX, f"robots[{index}].", 1)
+def check_count(value: object, where: str | None) -> int:
+    """`value` as a robot count (`robots = N`), refused unless an int in 1..`MAX_ROBOTS`.
+
+    Args:
+        value: The count as given.
+        where: The file it came from, if any.
+
+    Returns:
+        The count.
+    """
+    ok = is_integer(value) and 1 <= value <= MAX_ROBOTS
+    check(ok, "robots", f"1..{MAX_ROBOTS}", value, where)
+    return value
+
+
+def _named(exc: InvalidInput, prefix: str, where: str | None) -> InvalidInput:
+    """`exc` naming its field after `prefix` (`robots[1].`, `robot.`) instead of `robots.`."""
+    field = exc.field.replace(_PREFIX, prefix, 1)
     return InvalidInput(field, exc.allowed, exc.got, exc.where or where)
 
 
-def robots_table(value: object, max_robots: int, where: str | None) -> tuple[LineRobotSpec, ...]:
-    """The robots of a TOML array of tables `robots` (upstream first), each table's keys and
-    types checked; the line's rules are `check_robots_table`'s."""
-    allowed = f"1..{max_robots} robots, or an array of 1..{max_robots} [[robots]] tables"
-    if not isinstance(value, list | tuple) or not 1 <= len(value) <= max_robots:
-        raise InvalidInput("robots", allowed, value, where)
+def robot_section(value: object, where: str | None) -> dict[str, Any]:
+    """The old `[robot]` section: its keys and values checked, naming `robot.<key>`.
+
+    Args:
+        value: The section as parsed (a TOML table).
+        where: The file it came from, if any.
+
+    Returns:
+        The section's keys and values (each robot's defaults).
+    """
+    check(isinstance(value, dict), "robot", "a table [robot]", value, where)
+    allowed = "one of " + ", ".join(sorted(SECTION_KEYS))
+    for key in value:
+        check(key in SECTION_KEYS, f"robot.{key}", allowed, None, where)
+    try:
+        RobotSpec(**value)
+    except InvalidInput as exc:
+        raise _named(exc, "robot.", where) from None
+    return dict(value)
+
+
+def robot_specs(
+    value: object, defaults: Mapping[str, Any] | None = None, where: str | None = None
+) -> tuple[RobotSpec, ...]:
+    """The robots of a config's `robots` key: a count (`robots = N`: N robots at the default
+    spacing) or an array of `[[robots]]` tables, each table's keys and types checked; the
+    line's rules are `check_robots`'.
+
+    Args:
+        value: The count or the array of tables as parsed.
+        defaults: Every robot's values of `SECTION_KEYS` not in its own table (the `[robot]`
+            section, already checked by `robot_section`); None: the `RobotSpec` defaults.
+        where: The file it came from, if any.
+
+    Returns:
+        The robots, upstream first.
+    """
+    defaults = dict(defaults or {})
+    if not isinstance(value, list | tuple):
+        return (RobotSpec(**defaults),) * check_count(value, where)
+    check(1 <= len(value) <= MAX_ROBOTS, "robots", _COUNT_OR_TABLES, value, where)
     specs = []
     for index, table in enumerate(value):
-        if not isinstance(table, dict):
-            raise InvalidInput(f"robots[{index}]", "a table of x_m, materials", table, where)
+        allowed = "a table of " + ", ".join(ROBOT_KEYS)
+        check(isinstance(table, dict), f"robots[{index}]", allowed, table, where)
         for key in table:
-            if key not in ROBOT_KEYS:
-                allowed = "one of " + ", ".join(ROBOT_KEYS)
-                raise InvalidInput(f"robots[{index}].{key}", allowed, None, where)
+            allowed = "one of " + ", ".join(ROBOT_KEYS)
+            check(key in ROBOT_KEYS, f"robots[{index}].{key}", allowed, None, where)
         try:
-            specs.append(LineRobotSpec(**table))
+            specs.append(RobotSpec(**(defaults | table)))
         except InvalidInput as exc:
-            raise _named(exc, index, where) from None
+            raise _named(exc, f"robots[{index}].", where) from None
     return tuple(specs)
 
 
-def check_robots_table(
-    specs: Sequence[LineRobotSpec], materials: Materials, where: str | None
-) -> None:
-    """Refuse a table that breaks the line's rules (module docstring), naming the field; an
-    empty table (`robots = N`) has none to break."""
-    if not specs:
-        return
+def resized(specs: Sequence[RobotSpec], n: int) -> tuple[RobotSpec, ...]:
+    """`n` robots at the default spacing sorting every material, keeping the pauses: robot k
+    takes robot k's values of `SECTION_KEYS`, a robot past the last takes the last's (what
+    `--robots N` and a sweep's `robots = N` do to robots given one by one).
+
+    Args:
+        specs: The robots before (at least one).
+        n: How many robots after (1..`MAX_ROBOTS`).
+
+    Returns:
+        The `n` robots.
+    """
+    return tuple(RobotSpec(**specs[min(k, len(specs) - 1)].section()) for k in range(n))
+
+
+def resized_tables(tables: Sequence[object], n: int) -> list[dict[str, Any]]:
+    """`resized` on `[[robots]]` tables as parsed (a sweep's base under a variant's count):
+    robot k keeps only table k's keys of `SECTION_KEYS` (the last table's past the last).
+
+    Args:
+        tables: The tables before (at least one); a non-table entry gives no keys (it is
+            refused where it is read, if it is kept).
+        n: How many robots after.
+
+    Returns:
+        `n` tables.
+    """
+    out = []
+    for k in range(n):
+        table = tables[min(k, len(tables) - 1)]
+        kept = table.items() if isinstance(table, dict) else ()
+        out.append({key: v for key, v in kept if key in SECTION_KEYS})
+    return out
+
+
+def check_robots(specs: Sequence[RobotSpec], materials: Materials, where: str | None) -> None:
+    """Refuse robots that break the line's rules (module docstring), naming the field.
+
+    Args:
+        specs: The robots, upstream first.
+        materials: The catalogue's materials (the names `materials` may hold).
+        where: The file they came from, if any.
+    """
     for index, spec in enumerate(specs):
-        if not isinstance(spec, LineRobotSpec):
-            raise InvalidInput(f"robots[{index}]", "a table of x_m, materials", spec, where)
+        ok = isinstance(spec, RobotSpec)
+        check(ok, f"robots[{index}]", "a table of " + ", ".join(ROBOT_KEYS), spec, where)
     _check_positions(specs, where)
     for index, spec in enumerate(specs):
         unknown = set(spec.materials or ()) - set(materials.names)
-        if unknown:
-            allowed = "the catalogue's materials: " + ", ".join(materials.names)
-            raise InvalidInput(f"robots[{index}].materials", allowed, sorted(unknown), where)
+        allowed = "the catalogue's materials: " + ", ".join(materials.names)
+        check(not unknown, f"robots[{index}].materials", allowed, sorted(unknown), where)
     sorted_somewhere = {n for spec in specs for n in (spec.materials or materials.names)}
     left = [n for n in materials.names if n not in sorted_somewhere]
     if left:
@@ -125,7 +250,7 @@ def check_robots_table(
         raise InvalidInput("robots", allowed, f"none sorts {', '.join(left)}", where)
 
 
-def _check_positions(specs: Sequence[LineRobotSpec], where: str | None) -> None:
+def _check_positions(specs: Sequence[RobotSpec], where: str | None) -> None:
     """The robots' `x_m`: all given or none; given, the line model's spacing rules."""
     from sim.model.line_model import MAX_LAST_X_M, MIN_SPACING_M
 

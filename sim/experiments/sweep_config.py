@@ -44,8 +44,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from sim.checks import check, is_integer
 from sim.episode import config as episode_config
 from sim.episode.config import EpisodeConfig, read_toml
+from sim.episode.line_robots import MAX_ROBOTS, SECTION_KEYS, resized_tables
 from sim.errors import InvalidInput
 
 _SWEEP_KEYS = {
@@ -117,10 +119,20 @@ def _dotted(table: dict[str, Any], prefix: str = "") -> list[str]:
 
 
 def variant_values(spec: EpisodeSpec, keys: tuple[str, ...]) -> dict[str, Any]:
-    """{`variant.<key>`: the value episode `spec` runs with} for the dotted `keys`: the
-    variant's, the base's or the default; a world number the config leaves to its preset
-    (`world`), the preset's; None (an empty cell) for a key the config does not hold."""
-    settings = spec.config.to_dict()
+    """The values an episode runs with of the keys its sweep's variants set.
+
+    Args:
+        spec: The episode.
+        keys: The dotted keys (`values.paper`, `robots`, `robot.pick_pause_s`).
+
+    Returns:
+        {`variant.<key>`: the variant's value, the base's or the default}, read from the
+        settings in the layout of before per-robot pauses (`settings_as_before`: `robots` a
+        count where the robots are at the default places); a world number the config leaves to
+        its preset (`world`), the preset's; None (an empty cell) for a key the config does not
+        hold.
+    """
+    settings = settings_as_before(spec.config.to_dict())
     out = {}
     for key in keys:
         value: Any = settings
@@ -132,14 +144,47 @@ def variant_values(spec: EpisodeSpec, keys: tuple[str, ...]) -> dict[str, Any]:
     return out
 
 
+def settings_as_before(settings: dict[str, Any]) -> dict[str, Any]:
+    """An episode config's `to_dict` in the layout it had before each robot had its own
+    pauses, for the sweep's identity and variant columns (which so stay what they were for
+    every sweep that could be written then): `robots` the count, or the `[[robots]]` tables
+    with only `x_m` and `materials`, and the pauses in one `[robot]` section. Robots whose
+    pauses differ (new) keep the one `robots` array.
+
+    Args:
+        settings: `EpisodeConfig.to_dict()`.
+
+    Returns:
+        The settings in that layout (a new dict; `settings` is not changed).
+    """
+    tables = settings["robots"]
+    shared = [{k: t[k] for k in SECTION_KEYS} for t in tables]
+    if any(s != shared[0] for s in shared):
+        return settings
+    placed = [{k: v for k, v in t.items() if k not in SECTION_KEYS} for t in tables]
+    return settings | {"robots": placed if any(placed) else len(tables), "robot": shared[0]}
+
+
 def _merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
     out = dict(base)
     for key, value in over.items():
         if isinstance(value, dict) and isinstance(out.get(key), dict):
             out[key] = _merge(out[key], value)
+        elif key == "robots" and _count(value) and _tables(out.get(key)):
+            out[key] = resized_tables(out[key], value)  # N robots keeping the base's pauses
         else:
             out[key] = value
     return out
+
+
+def _count(value: object) -> bool:
+    """Whether `value` is a robot count that can be run (1..`MAX_ROBOTS`)."""
+    return is_integer(value) and 1 <= value <= MAX_ROBOTS
+
+
+def _tables(value: object) -> bool:
+    """Whether `value` is a non-empty array of `[[robots]]` tables (as parsed)."""
+    return isinstance(value, list) and bool(value) and all(isinstance(t, dict) for t in value)
 
 
 def _list(sweep: dict[str, Any], key: str, default: list, where: str) -> list:
@@ -152,16 +197,14 @@ def _list(sweep: dict[str, Any], key: str, default: list, where: str) -> list:
 def _seeds(sweep: dict[str, Any], where: str) -> list[int]:
     seeds = sweep.get("seeds", 1)
     offset = sweep.get("seed_offset", 0)
-    if not isinstance(offset, int) or isinstance(offset, bool) or offset < 0:
-        raise InvalidInput("sweep.seed_offset", "an integer >= 0", offset, where)
-    if isinstance(seeds, int) and not isinstance(seeds, bool):
-        if not 1 <= seeds <= 100000:
-            raise InvalidInput("sweep.seeds", "1..100000 or a list of seeds", seeds, where)
+    check(is_integer(offset) and offset >= 0, "sweep.seed_offset", "an integer >= 0", offset, where)
+    if is_integer(seeds):
+        check(1 <= seeds <= 100000, "sweep.seeds", "1..100000 or a list of seeds", seeds, where)
         return list(range(offset, offset + seeds))
     return _list(sweep, "seeds", [], where)
 
 
-def from_dict(data: dict[str, Any], where: str) -> SweepConfig:
+def from_dict(data: dict[str, Any], where: str) -> SweepConfig:  # noqa: C901, PLR0912, PLR0915
     """A `SweepConfig` from a parsed TOML dict; every episode config validated."""
     for key in data:
         if key not in _TOP_KEYS:
@@ -290,7 +333,7 @@ of the identity, so an old sweep resumes only when its episodes would still run 
 def _resolved(variant: str, config: EpisodeConfig) -> str:
     """One grid point's resolved config, seed aside, as canonical JSON (for the identity); a
     later key at its default is left out (`LATER_KEYS`)."""
-    settings = config.to_dict()
+    settings = settings_as_before(config.to_dict())
     settings.pop("seed")
     for key, default in LATER_KEYS.items():
         if settings.get(key) == default:

@@ -26,6 +26,7 @@ import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
+from sim.checks import check, is_integer
 from sim.errors import InvalidInput, RefusedInput
 from sim.experiments.sweep_config import EpisodeSpec, SweepConfig, episode_key, variant_values
 from sim.paths import remove_stale_temporaries
@@ -141,7 +142,7 @@ def episode_columns(sweep: SweepConfig) -> tuple[str, ...]:
     """The columns of a sweep's episodes.csv: a run's (with the columns of every material its
     episodes sort), then its variants' settings."""
     materials = (spec.config.materials for spec in sweep.episodes)
-    robots = max((spec.config.robots for spec in sweep.episodes), default=1)
+    robots = max((spec.config.robot_count for spec in sweep.episodes), default=1)
     line = outputs.line_columns(robots)
     return outputs.sweep_episode_columns(materials) + line + sweep.variant_columns
 
@@ -185,7 +186,7 @@ def dispatch_order(specs: list[EpisodeSpec]) -> list[EpisodeSpec]:
 
     def cost(spec: EpisodeSpec) -> tuple[float, int, int]:
         c = spec.config
-        return (c.duration_s, c.items, c.robots)
+        return (c.duration_s, c.items, c.robot_count)
 
     return sorted(specs, key=cost, reverse=True)
 
@@ -273,8 +274,7 @@ def run_sweep(
             episode was refused (in whichever process ran it).
     """
     workers = default_workers() if workers is None else workers
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise InvalidInput("--workers", "an integer >= 1", workers)
+    check(is_integer(workers) and workers >= 1, "--workers", "an integer >= 1", workers)
     check_out_dir(sweep, Path(out_dir))
     _start(sweep, Path(out_dir))
     csv_path = Path(out_dir) / "episodes.csv"
