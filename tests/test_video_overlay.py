@@ -5,15 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from sim.render.video import (
-    GHOSTED_PREFIXES,
-    LABEL_OFFSETS,
-    Overlay,
-    annotate,
-    ghosted_geoms,
-    place_label,
-    purity_text,
-)
+from sim.render.labels import LABEL_OFFSETS, Overlay, annotate, place_label, purity_text
+from sim.render.view import GHOSTED_PREFIXES, ghosted_geoms
 
 
 def test_labels_of_a_cluster_do_not_overlap():

@@ -25,18 +25,11 @@ from sim.cell.conveyor import Belt
 from sim.cell.item_pool import ItemPool
 from sim.errors import InvalidInput
 from sim.paths import REPO_ROOT
-from sim.render.video import (
-    FramePainter,
-    ModelWatch,
-    Overlay,
-    VideoError,
-    VideoRecorder,
-    finite_floors,
-    frame_state,
-    ghost,
-    ghosted_geoms,
-    view_camera,
-)
+from sim.render.encoder import VideoError
+from sim.render.labels import Overlay
+from sim.render.painter import FramePainter, ModelWatch, frame_state
+from sim.render.video import VideoRecorder
+from sim.render.view import finite_floors, ghost, ghosted_geoms, view_camera
 from tests.utils import scene_at_home
 
 SIZE = (320, 184)

@@ -227,7 +227,7 @@ def preflight(config, out: Path, video: str | Path | None) -> None:
     check_perception(config)
     if video is not None:
         from sim.cell.rendering import check_backend
-        from sim.render.video import check_encoder
+        from sim.render.encoder import check_encoder
 
         check_backend()
         check_encoder()

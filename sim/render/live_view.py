@@ -1,12 +1,13 @@
 """An episode shown live in MuJoCo's interactive viewer (`mujoco.viewer.launch_passive`).
 
-`LiveView` takes the place of the episode's video recorder (the loop hands it a frame at fixed
-steps of simulated time, `due` / `next_frame_time` / `capture`): at each frame it draws the
-tracked items (a sphere coloured by predicted class, the next pick's larger, labelled as in the
-video) and the counters into the viewer, calls `sync()` and sleeps until the wall clock has
-caught up with the simulated time divided by the wanted real-time factor (0: no sleep, as fast
-as the machine steps). A machine too slow for the pace shows the episode as fast as it can and
-does not rush to catch up afterwards. Closing the window stops the episode (`ViewerClosed`).
+`LiveView` takes the place of the episode's video recorder, a `sim.render.sink.FrameSink` (the
+loop hands it a frame at fixed steps of simulated time, `due` / `next_frame_time` / `capture`):
+at each frame it draws the tracked items (a sphere coloured by predicted class, the next pick's
+larger, labelled as in the video) and the counters into the viewer, calls `sync()` and sleeps
+until the wall clock has caught up with the simulated time divided by the wanted real-time
+factor (0: no sleep, as fast as the machine steps). A machine too slow for the pace shows the
+episode as fast as it can and does not rush to catch up afterwards. Closing the window stops
+the episode (`ViewerClosed`).
 
 The viewer draws with GLFW in a thread of its own and needs a display: an X server (`DISPLAY`;
 a desktop, or a virtual one such as Xvfb) on Linux, `mjpython` on macOS. `check_display`
@@ -27,7 +28,7 @@ import numpy as np
 
 from sim.cell.rendering import quiet_stderr
 from sim.errors import InvalidInput
-from sim.render.video import Overlay
+from sim.render.labels import Overlay
 
 FRAME_RATE_HZ = 30.0
 """Viewer updates per wall-clock second at the wanted pace."""
@@ -131,7 +132,8 @@ def check_real_time_factor(value: float, field: str = "--real-time-factor") -> f
 
 
 class LiveView:
-    """MuJoCo's viewer on a cell's model and data, fed by the episode's loop as a video is.
+    """MuJoCo's viewer on a cell's model and data, fed by the episode's loop as a video is (a
+    `sim.render.sink.FrameSink`).
 
     Args:
         model: The compiled cell (the episode's).
