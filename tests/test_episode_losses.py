@@ -61,7 +61,8 @@ def test_the_episode_misses_drops_and_misplaces_items(lossy):
     assert row["dropped"] >= 5, row
     assert row["wrong_bin"] >= 3, row
     assert row["picked"] >= 8, row
-    assert lossy.data.time < lossy.t_cap  # ended normally: the missed were discarded on the way
+    # Ended normally: the missed were discarded on the way.
+    assert lossy.data.time < lossy.timeline.t_cap
 
 
 def test_every_item_ends_in_exactly_one_place(lossy):
@@ -132,8 +133,8 @@ def test_items_still_on_a_stalled_belt_at_the_time_cap_count_as_missed(cell):
     row = episode.metrics.row()
     assert stalled_at is not None and stalled_at < 6.0
     assert before_cap[-1] == (0, 4)  # at the last decision: nothing missed yet, all on the belt
-    assert episode.data.time >= episode.t_cap
-    assert episode.data.time < episode.t_cap + 0.1
+    assert episode.data.time >= episode.timeline.t_cap
+    assert episode.data.time < episode.timeline.t_cap + 0.1
     assert row["entered"] == 4 and row["missed"] == 4
     assert row["picked"] == 0 and row["dropped"] == 0 and row["attempts"] == 0
     assert not cell.pool.active_slots().size

@@ -131,7 +131,7 @@ def soak_episode(config: EpisodeConfig) -> SoakResult:
     identity = metrics.accounting_failures()
     if row["entered"] != config.items:
         identity.append(f"entered {row['entered']} of the flow's {config.items} items")
-    if cell.data.time >= episode.t_cap:
+    if cell.data.time >= episode.timeline.t_cap:
         identity.append(f"hit the time cap at {cell.data.time:.1f} s")
     failures += identity
     if metrics.mujoco_warnings:
