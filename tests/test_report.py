@@ -1,5 +1,7 @@
-"""`sortsim report`: means and Student-t 95 % intervals per grid point, figures that decode, one
-self-contained HTML page, the thesis's layout for a thesis sweep, refusals before any write."""
+"""`sortsim report`: means and Student-t 95 % intervals per grid point, paired comparisons
+against a baseline with their intervals and verdicts, short planner labels, figures that decode
+(titled in words), one self-contained HTML page, the thesis's layout for a thesis sweep,
+refusals before any write."""
 
 from __future__ import annotations
 
@@ -10,8 +12,18 @@ import sys
 
 import imageio.v2 as imageio
 import pytest
+from scipy import stats
 
-from sim.experiments.report import estimate, read_folders, summarise, write_report
+from sim.experiments.report import (
+    estimate,
+    paired_comparisons,
+    paired_difference,
+    planner_label,
+    planner_labels,
+    read_folders,
+    summarise,
+    write_report,
+)
 
 HEADER = "seed,planner,speed_factor,n_items,picked,profit_eur,accuracy,sim_s,perception,variant\n"
 
@@ -60,7 +72,8 @@ def test_report_files(tmp_path):
     image = imageio.imread(tmp_path / "out" / "profit_eur.png")
     assert image.shape[0] > 100 and image.shape[1] > 100
     md = (tmp_path / "out" / "report.md").read_text()
-    assert "| base | truth | x1 | 80 | qlearning | 3 | 17.00 ± 2.48 |" in md
+    assert "| x1 | 80 | qlearning | 3 | 17.00 ± 2.48 |" in md  # variant, perception: constant
+    assert "Every episode: variant base, truth perception." in md
     assert "Table 4.5" in md  # the thesis's side-by-side layout
     page = (tmp_path / "out" / "report.html").read_text()
     assert page.count('src="data:image/png;base64,') == len([n for n in names if n.endswith("png")])
@@ -91,11 +104,165 @@ def test_one_purity_column_per_material_of_the_catalogue(tmp_path):
     (path / "episodes.csv").write_text(header + rows)
     write_report([path], tmp_path / "out")
     text = (tmp_path / "out" / "report.md").read_text()
-    head = next(line for line in text.splitlines() if line.startswith("| variant"))
+    head = next(line for line in text.splitlines() if "| purity" in line)
     cols = [c.strip() for c in head.strip("|").split("|")]
     purity = [c for c in cols if c.startswith("purity")]
     assert purity == ["purity paper", "purity pet", "purity hdpe", "purity aluminium"]
-    row = next(line for line in text.splitlines() if line.startswith("| base"))
+    lines = text.splitlines()
+    row = lines[lines.index(head) + 2]  # the sorting quality's table: its first row
     cells = [c.strip() for c in row.strip("|").split("|")]
     assert cells[cols.index("purity pet")].startswith("0.960")
     assert cells[cols.index("purity aluminium")] == "1.000"  # one episode had an empty bin
+
+
+def _sweep_rows(planner, profits, items=40, speed="1.500"):
+    return [
+        f"{seed},{planner},{speed},{items},{items - 2},{p:.2f},0.95,30.0,truth,base\n"
+        for seed, p in enumerate(profits)
+    ]
+
+
+PROXIMITY = [7.35, 7.54, 7.58, 7.44, 7.49]
+GREEDY = [7.19, 7.53, 7.58, 6.98, 7.47]
+
+
+def test_the_paired_interval_and_p_are_the_paired_t_tests():
+    diff, low, high, p = paired_difference(PROXIMITY, GREEDY)
+    d = [a - b for a, b in zip(PROXIMITY, GREEDY, strict=True)]
+    assert diff == pytest.approx(sum(d) / 5)
+    assert p == pytest.approx(stats.ttest_rel(PROXIMITY, GREEDY).pvalue)
+    half = stats.t.ppf(0.975, 4) * stats.tstd(d) / math.sqrt(5)
+    assert (low, high) == pytest.approx((diff - half, diff + half))
+    # the interval excludes 0 exactly when p < 0.05
+    assert (low > 0 or high < 0) == (p < 0.05)
+    assert paired_difference([1.0, 2.0], [1.0, 2.0]) == (0.0, 0.0, 0.0, 1.0)
+    same_gain = paired_difference([2.0, 3.0], [1.0, 2.0])
+    assert same_gain == (1.0, 1.0, 1.0, 0.0)
+    assert math.isnan(paired_difference([2.0], [1.0])[1])
+
+
+def test_paired_comparisons_against_the_best_planner_by_default(tmp_path):
+    """A 5-seed grid point at x1.5: proximity 7.48 against greedy 7.35 EUR, +0.13 EUR paired,
+    p 0.21: no difference; fifo far below on every seed: worse."""
+    rows = _sweep_rows("proximity", PROXIMITY) + _sweep_rows("greedy", GREEDY)
+    rows += _sweep_rows("fifo", [p - 1.0 for p in PROXIMITY])
+    folder = _folder(tmp_path / "sweep", rows)
+    comparisons, notes = paired_comparisons(read_folders([folder])[0])
+    assert notes == []
+    profit = {c.planner: c for c in comparisons if c.metric == "profit_eur"}
+    assert set(profit) == {"greedy", "fifo"}  # against proximity, the best by mean profit
+    greedy = profit["greedy"]
+    assert greedy.baseline == "proximity" and greedy.n == 5
+    assert greedy.baseline_mean.mean == pytest.approx(7.48)
+    assert greedy.planner_mean.mean == pytest.approx(7.35)
+    assert greedy.difference == pytest.approx(-0.13)
+    assert greedy.p == pytest.approx(0.21, abs=0.01)
+    assert greedy.verdict == "no difference at 95 %"
+    assert profit["fifo"].verdict == "worse" and profit["fifo"].difference == pytest.approx(-1.0)
+    write_report([folder], tmp_path / "out")
+    md = (tmp_path / "out" / "report.md").read_text()
+    assert "## Paired comparisons" in md and "paired t-test, scipy.stats.ttest_rel" in md
+    line = next(x for x in md.splitlines() if x.startswith("| x1.5 | 40 | greedy | proximity |"))
+    assert "| 5 | 7.35 ± 0.32 | 7.48 ± 0.11 | -0.13 [-0.37, +0.11] | 0.21 |" in line
+    assert line.endswith("| no difference at 95 % |")
+    page = (tmp_path / "out" / "report.html").read_text()
+    assert "<h2>Paired comparisons</h2>" in page and "no difference at 95 %" in page
+    assert "<td>-0.13 [-0.37, +0.11]</td>" in page
+
+
+def test_a_named_baseline_and_grid_points_it_did_not_run(tmp_path):
+    rows = _sweep_rows("proximity", PROXIMITY) + _sweep_rows("greedy", GREEDY)
+    rows += _sweep_rows("proximity", PROXIMITY, items=80)  # greedy did not run at 80 items
+    folder = _folder(tmp_path / "sweep", rows)
+    comparisons, notes = paired_comparisons(read_folders([folder])[0], baseline="greedy")
+    profit = [c for c in comparisons if c.metric == "profit_eur"]
+    assert [(c.planner, c.baseline) for c in profit] == [("proximity", "greedy")]
+    assert profit[0].difference == pytest.approx(0.13) and profit[0].point[3] == 40
+    assert notes == ["x1.5, 80 items: greedy did not run there."]
+
+
+def test_pairs_are_the_seeds_both_ran(tmp_path):
+    rows = _sweep_rows("proximity", PROXIMITY) + _sweep_rows("greedy", GREEDY[:3])
+    folder = _folder(tmp_path / "sweep", rows)
+    comparisons, _ = paired_comparisons(read_folders([folder])[0], baseline="greedy")
+    c = next(c for c in comparisons if c.metric == "profit_eur")
+    assert c.n == 3 and c.planner_mean.mean == pytest.approx(sum(PROXIMITY[:3]) / 3)
+
+
+def test_an_unknown_baseline_is_refused_before_any_write(tmp_path):
+    folder = _folder(tmp_path / "sweep", _sweep_rows("proximity", PROXIMITY))
+    proc = subprocess.run(
+        [sys.executable, "-m", "sim.cli.main", "report", str(folder), "--baseline", "nope"],
+        capture_output=True,
+        text=True,
+    )
+    assert proc.returncode == 2, proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1 and "--baseline" in proc.stderr
+    assert "proximity" in proc.stderr
+    assert not (folder / "report").exists()
+
+
+USER_PLANNERS = """
+class Named:
+    name = "mine"
+
+    def choose(self, items, robot, context):
+        return None
+
+    def reset(self):
+        pass
+
+
+class Plain:
+    def choose(self, items, robot, context):
+        return None
+
+    def reset(self):
+        pass
+"""
+
+
+def test_user_planners_are_labelled_by_their_name_or_class(tmp_path):
+    path = tmp_path / "my_planners.py"
+    path.write_text(USER_PLANNERS)
+    named, plain = f"{path}:Named", f"{path}:Plain"
+    assert planner_label(named) == "mine"
+    assert planner_label(plain) == "Plain"
+    assert planner_label("/gone/away.py:Gone") == "Gone"  # no longer imports: the class part
+    assert planner_label("lookahead") == "lookahead"
+    # two specs of the same short name keep their whole specs
+    assert planner_labels(["a.py:Gone", "b.py:Gone"]) == {
+        "a.py:Gone": "a.py:Gone",
+        "b.py:Gone": "b.py:Gone",
+    }
+    rows = _sweep_rows(named, PROXIMITY) + _sweep_rows(plain, GREEDY)
+    folder = _folder(tmp_path / "sweep", rows)
+    write_report([folder], tmp_path / "out", baseline="mine")
+    md = (tmp_path / "out" / "report.md").read_text()
+    assert "| x1.5 | 40 | Plain | mine | 5 |" in md
+    assert f"mine = `{named}`" in md
+    page = (tmp_path / "out" / "report.html").read_text()
+    assert str(tmp_path) not in page.split("Planners:")[1].split("</p>")[1]  # only in the key
+
+
+def test_figures_are_titled_in_words_and_tables_stay_narrow(tmp_path):
+    path = tmp_path / "four"
+    path.mkdir()
+    header = "seed,planner,speed_factor,n_items,picked,profit_eur,accuracy,sim_s,perception,"
+    header += "variant,wrong_bin,missed,failed_picks,energy_elec_j,"
+    header += "purity_paper,purity_pet,purity_hdpe,purity_aluminium\n"
+    rows = ""
+    for planner in ("proximity", "lookahead"):
+        for seed in range(3):
+            for items in (80, 100):
+                rows += f"{seed},{planner},1.000,{items},{items - 2},{20 + seed},0.98,90.0,"
+                rows += "camera,base,1,1,0,20000,1.0,0.95,0.90,1.0\n"
+    (path / "episodes.csv").write_text(header + rows)
+    write_report([path], tmp_path / "out")
+    page = (tmp_path / "out" / "report.html").read_text()
+    assert "<h2>Profit against items</h2>" in page
+    assert ".png" not in page.replace("image/png", "")
+    md = (tmp_path / "out" / "report.md").read_text()
+    assert "### Profit against items" in md and "![Profit against items](profit_eur.png)" in md
+    widths = [line.count("|") - 1 for line in md.splitlines() if line.startswith("|")]
+    assert max(widths) <= 11  # no table wider than 11 columns (the purities have their own)

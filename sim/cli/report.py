@@ -1,5 +1,5 @@
-"""`sortsim report`: means, 95 % intervals, figures and one HTML page of run or sweep folders
-(`sim.experiments.report`)."""
+"""`sortsim report`: means, 95 % intervals, paired comparisons of the planners, figures and
+one HTML page of run or sweep folders (`sim.experiments.report`)."""
 
 from __future__ import annotations
 
@@ -13,16 +13,24 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--out", type=Path, default=None, help="where to write the report (default: DIR/report)"
     )
+    parser.add_argument(
+        "--baseline",
+        default=None,
+        metavar="NAME",
+        help="the planner every other is compared with, seed by seed (a planner of the "
+        "episodes, by name or short label; default: the best of each grid point by mean profit)",
+    )
 
 
 def main(args: argparse.Namespace) -> int:
     """Write the report and list its files."""
-    from sim.experiments.report import read_folders, write_report
+    from sim.experiments.report import check_baseline, read_folders, write_report
     from sim.results.outputs import check_output_dir
 
     out = args.out if args.out is not None else args.dirs[0] / "report"
     check_output_dir(out, "--out")
-    read_folders(args.dirs)  # refuse a folder without episodes before writing anything
-    for path in write_report(args.dirs, out):
+    rows, _ = read_folders(args.dirs)  # refuse a folder without episodes before writing anything
+    check_baseline(rows, args.baseline)
+    for path in write_report(args.dirs, out, baseline=args.baseline):
         print(f"wrote {path}")
     return 0

@@ -1,16 +1,29 @@
-"""A report of any run or sweep folder: means and 95 % intervals per grid point, figures, HTML.
+"""A report of any run or sweep folder: means and 95 % intervals per grid point, paired
+comparisons of the planners, figures, HTML.
 
-`sortsim report DIR [DIR ...] [--out FOLDER]` reads each folder's `episodes.csv` and groups the
-episodes by grid point: (variant, perception, belt speed factor, items, planner). Per group and
-metric it gives the mean and the half-width of its 95 % confidence interval (Student's t over
-the seeds: t(0.975, n - 1) x sd / sqrt(n); none for a single episode). Metrics: profit, accuracy
-(SP/SI), items picked, picks per minute (picked over the simulated minutes), wrong bins, missed,
-failed picks, and, where the CSV has them, the motors' electrical energy per pick and the bins'
-purity. Figures (PNG): profit, accuracy and picks per minute against items (one line per planner
-and belt speed; against the belt speed when every episode has the same item count). A thesis
-table's sweep (its manifest or sweep.json names the table) also gets the thesis's side-by-side
-layout. Written to FOLDER (default: `DIR/report`): `report.md`, the PNGs and `report.html`, one
-self-contained page (the figures embedded).
+`sortsim report DIR [DIR ...] [--out FOLDER] [--baseline NAME]` reads each folder's
+`episodes.csv` and groups the episodes by grid point: (variant, perception, belt speed factor,
+items, planner). Per group and metric it gives the mean and the half-width of its 95 %
+confidence interval (Student's t over the seeds: t(0.975, n - 1) x sd / sqrt(n); none for a
+single episode). Metrics: profit, accuracy (SP/SI), items picked, picks per minute (picked over
+the simulated minutes), wrong bins, missed, failed picks, and, where the CSV has them, the
+motors' electrical energy per pick and the bins' purity: two tables, the means and the sorting
+quality, so that each fits a page.
+
+Paired comparisons: every planner of a sweep runs on the same seeds' flows, so at each grid
+point each planner is compared with a baseline (`--baseline NAME`, else the grid point's best
+planner by mean profit) over the seeds both ran: the mean of the per-seed differences (profit,
+accuracy) with its 95 % interval from the paired Student's t (`scipy.stats.ttest_rel`'s test,
+its p-value beside) and a verdict: better or worse when the interval excludes 0, else no
+difference at 95 %.
+
+Planners are shown by short labels: a built-in one by its name, a user's `module:Class` or
+`path/file.py:Class` by its class's `name` attribute, else its class name (`planner_label`).
+Figures (PNG, titled in words): profit, items picked, accuracy and picks per minute against
+items (one line per planner and belt speed; against the belt speed when every episode has the
+same item count). A thesis table's sweep (its manifest names the table) also gets the thesis's
+side-by-side layout. Written to FOLDER (default: `DIR/report`): `report.md`, the PNGs and
+`report.html`, one self-contained page (the figures embedded).
 """
 
 from __future__ import annotations
@@ -25,6 +38,7 @@ from collections import defaultdict
 from dataclasses import dataclass
 from pathlib import Path
 
+from planner.decision.registry import is_user_spec, user_class
 from sim.errors import InvalidInput
 from sim.results import outputs
 
@@ -39,14 +53,25 @@ METRICS = (
     ("failed_picks", "failed picks", "{:.1f}"),
     ("energy_per_pick_j", "energy per pick [J]", "{:.0f}"),
 )
+MAIN_METRICS = ("profit_eur", "accuracy", "picked", "picks_per_min", "energy_per_pick_j")
+"""The means table's metrics; the others (wrong bins, misses, failed picks, purity) make the
+sorting quality's table."""
 PURITY_PREFIX = "purity_"
 """Each material's bin purity (`purity_<material>`: the catalogue's materials) is a metric too."""
 FIGURES = (
-    ("profit_eur", "profit [EUR]"),
-    ("picked", "items picked"),
-    ("accuracy", "accuracy SP/SI"),
-    ("picks_per_min", "picks per minute"),
+    ("profit_eur", "profit [EUR]", "Profit"),
+    ("picked", "items picked", "Items picked"),
+    ("accuracy", "accuracy SP/SI", "Accuracy (picked over entered)"),
+    ("picks_per_min", "picks per minute", "Picks per minute"),
 )
+"""(metric, axis label, title in words) of each figure."""
+PAIRED_METRICS = (
+    ("profit_eur", "Profit [EUR]", "{:.2f}"),
+    ("accuracy", "Accuracy SP/SI", "{:.3f}"),
+)
+"""(metric, heading, format) of the paired comparisons; higher is better for each."""
+MEANS_METHOD = "Student's t over the seeds"
+PAIRED_METHOD = "paired t-test, scipy.stats.ttest_rel"
 
 
 @dataclass(frozen=True)
@@ -170,6 +195,80 @@ def summarise(rows: list[dict]) -> dict[tuple, dict[str, Estimate]]:
     }
 
 
+def planner_label(spec: str) -> str:
+    """The short name a report shows for a planner of episodes.csv.
+
+    A built-in planner is its name. A user's `module:Class` or `path/file.py:Class` is its
+    class's `name` attribute when it has one (a class attribute, else one its constructor
+    sets: user planners are built with no arguments, as an episode builds them), else the class
+    name; a spec that no longer imports (a file moved, another working directory) is the text
+    after its last colon.
+    """
+    if not is_user_spec(spec):
+        return spec
+    try:
+        cls = user_class(spec)
+    except Exception:  # a report never fails over a label
+        return spec.rpartition(":")[2] or spec
+    name = getattr(cls, "name", None)
+    if not isinstance(name, str):
+        try:
+            name = getattr(cls(), "name", None)
+        except Exception:
+            name = None
+    ok = isinstance(name, str) and name.strip() and name != spec
+    return name.strip() if ok else cls.__name__
+
+
+def planner_labels(specs) -> dict[str, str]:
+    """{spec: short label} of the planners of a report, every label unique (two specs of the
+    same short name keep their whole specs)."""
+    specs = list(dict.fromkeys(specs))
+    labels = {s: planner_label(s) for s in specs}
+    counts = defaultdict(int)
+    for label in labels.values():
+        counts[label] += 1
+    return {s: (label if counts[label] == 1 else s) for s, label in labels.items()}
+
+
+@dataclass(frozen=True)
+class GridColumns:
+    """Which grid-point columns a table shows: a column whose value is the same on every row
+    is said once above the tables instead (`constant_text`)."""
+
+    variant: bool
+    perception: bool
+
+    @classmethod
+    def of(cls, points) -> GridColumns:
+        """The columns that vary over `points` ((variant, perception, ...) tuples)."""
+        points = list(points)
+        return cls(len({p[0] for p in points}) > 1, len({p[1] for p in points}) > 1)
+
+    def head(self) -> list[str]:
+        """The grid point's header cells: [variant], [perception], belt, items."""
+        return ["variant"] * self.variant + ["perception"] * self.perception + ["belt", "items"]
+
+    def cells(self, point: tuple) -> list[str]:
+        """The grid point's cells of (variant, perception, speed factor, items, ...)."""
+        variant, perception, speed, items = point[:4]
+        out = [variant] * self.variant + [perception or "-"] * self.perception
+        return out + [f"x{speed:g}", str(items)]
+
+
+def constant_text(points) -> str:
+    """'Every episode: variant base, truth perception.' for the columns the tables leave out."""
+    points = list(points)
+    parts = []
+    variants = {p[0] for p in points}
+    perceptions = {p[1] for p in points}
+    if len(variants) == 1:
+        parts.append(f"variant {next(iter(variants))}")
+    if len(perceptions) == 1 and next(iter(perceptions)):
+        parts.append(f"{next(iter(perceptions))} perception")
+    return f"Every episode: {', '.join(parts)}." if parts else ""
+
+
 def metrics_present(summary: dict[tuple, dict[str, Estimate]]) -> list[tuple[str, str, str]]:
     """(column, label, format) of the metrics some group has: `METRICS`, then every material's
     purity in the order the episodes.csv columns gave them."""
@@ -181,32 +280,257 @@ def metrics_present(summary: dict[tuple, dict[str, Estimate]]) -> list[tuple[str
     return present + labels
 
 
-def markdown(summary: dict[tuple, dict[str, Estimate]]) -> str:
-    """The means ± 95 % half-widths as a markdown table (columns: the metrics present)."""
-    present = metrics_present(summary)
-    head = ["variant", "perception", "belt", "items", "planner", "n"] + [m[1] for m in present]
+def _md_table(head: list[str], rows: list[list[str]]) -> str:
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-    for (variant, perception, speed, items, planner), metrics in summary.items():
-        n = max(e.n for e in metrics.values())
-        cells = [variant, perception, f"x{speed:g}", str(items), planner, str(n)]
-        cells += [metrics[k].text(fmt) if k in metrics else "" for k, _, fmt in present]
-        lines.append("| " + " | ".join(cells) + " |")
+    lines += ["| " + " | ".join(cells) + " |" for cells in rows]
     return "\n".join(lines)
 
 
-def figures(summary: dict[tuple, dict[str, Estimate]]) -> dict[str, bytes]:
-    """{file name: PNG bytes}: each of `FIGURES` against items (or belt speed), one line per
-    planner and belt speed (or items), error bars the 95 % intervals."""
+def markdown(
+    summary: dict[tuple, dict[str, Estimate]],
+    labels: dict[str, str] | None = None,
+    which: str = "all",
+) -> str:
+    """The means ± 95 % half-widths as a markdown table.
+
+    `which`: "all" (every metric present, one wide table), "main" (profit, accuracy, picks,
+    energy: `MAIN_METRICS`) or "quality" (wrong bins, misses, failed picks and the bins'
+    purity). The grid point's columns that are the same on every row are left out
+    (`GridColumns`); planners are shown by their short labels (`planner_labels`).
+    """
+    labels = labels or {}
+    present = metrics_present(summary)
+    if which == "main":
+        present = [m for m in present if m[0] in MAIN_METRICS]
+    elif which == "quality":
+        present = [m for m in present if m[0] not in MAIN_METRICS]
+    if not present:
+        return ""
+    grid = GridColumns.of(summary) if which != "all" else GridColumns(True, True)
+    head = grid.head() + ["planner", "n"] + [m[1] for m in present]
+    rows = []
+    for group, metrics in summary.items():
+        n = max(e.n for e in metrics.values())
+        cells = grid.cells(group) + [labels.get(group[4], group[4]), str(n)]
+        cells += [metrics[k].text(fmt) if k in metrics else "" for k, _, fmt in present]
+        rows.append(cells)
+    return _md_table(head, rows)
+
+
+@dataclass(frozen=True)
+class Paired:
+    """One planner against the baseline at one grid point, over the seeds both ran.
+
+    Attributes:
+        point: (variant, perception, speed factor, items).
+        planner: The planner's spec (as episodes.csv has it).
+        baseline: The baseline's spec.
+        metric: The metric compared (`PAIRED_METRICS`).
+        planner_mean: The planner's mean over the paired seeds (its own 95 % interval).
+        baseline_mean: The baseline's, over the same seeds.
+        difference: Mean of the per-seed differences, planner minus baseline.
+        low: Lower end of the difference's 95 % interval (nan: fewer than 2 seeds).
+        high: Upper end.
+        p: Two-sided p-value of the paired t-test (nan: fewer than 2 seeds).
+    """
+
+    point: tuple
+    planner: str
+    baseline: str
+    metric: str
+    planner_mean: Estimate
+    baseline_mean: Estimate
+    difference: float
+    low: float
+    high: float
+    p: float
+
+    @property
+    def n(self) -> int:
+        """Seeds both ran."""
+        return self.planner_mean.n
+
+    @property
+    def verdict(self) -> str:
+        """'better' or 'worse' when the 95 % interval of the difference excludes 0 (higher is
+        better for every metric compared), else 'no difference at 95 %'."""
+        if self.n < 2:
+            return "too few seeds"
+        if self.low > 0.0:
+            return "better"
+        if self.high < 0.0:
+            return "worse"
+        return "no difference at 95 %"
+
+
+def paired_difference(a: list[float], b: list[float]) -> tuple[float, float, float, float]:
+    """(mean difference, interval low, interval high, p) of paired samples, a minus b.
+
+    The 95 % interval is the paired Student's t one, mean ± t(0.975, n - 1) x sd / sqrt(n) of
+    the per-pair differences, and p the two-sided p-value of `scipy.stats.ttest_rel(a, b)`.
+    Differences all equal (sd 0) give an interval of no width and p 0 (1 when they are all 0);
+    one pair gives no interval (nan).
+    """
+    from scipy import stats
+
+    d = [x - y for x, y in zip(a, b, strict=True)]
+    n = len(d)
+    mean = statistics.fmean(d)
+    if n < 2:
+        return mean, math.nan, math.nan, math.nan
+    sd = statistics.stdev(d)
+    if sd == 0.0:
+        return mean, mean, mean, (1.0 if mean == 0.0 else 0.0)
+    half = float(stats.t.ppf(0.975, n - 1)) * sd / math.sqrt(n)
+    p = float(stats.ttest_rel(a, b).pvalue)
+    return mean, mean - half, mean + half, p
+
+
+def _by_seed(rows: list[dict]) -> dict[tuple, dict[str, dict[int, dict[str, float]]]]:
+    """{grid point without planner: {planner: {seed: metrics}}}; a seed a planner ran twice at a
+    grid point (the same run read from two folders) counts once, its first row."""
+    out: dict[tuple, dict[str, dict[int, dict[str, float]]]] = defaultdict(
+        lambda: defaultdict(dict)
+    )
+    for row in rows:
+        key = group_key(row)
+        seed = _number(row.get("seed"))
+        if seed is None:
+            continue
+        out[key[:4]][key[4]].setdefault(int(seed), derived(row))
+    return out
+
+
+def best_planner(runs: dict[str, dict[int, dict[str, float]]], metric: str = "profit_eur"):
+    """The planner of highest mean `metric` over its seeds (ties: the first by name), or None."""
+    means = {}
+    for planner, seeds in runs.items():
+        values = [m[metric] for m in seeds.values() if metric in m]
+        if values:
+            means[planner] = statistics.fmean(values)
+    if not means:
+        return None
+    return max(sorted(means), key=lambda p: means[p])
+
+
+def _baseline_at(runs: dict, baseline: str | None, labels: dict[str, str]) -> str | None:
+    if baseline is None:
+        return best_planner(runs)
+    for spec in sorted(runs):
+        if baseline in (spec, labels.get(spec)):
+            return spec
+    return None
+
+
+def paired_comparisons(
+    rows: list[dict], baseline: str | None = None, labels: dict[str, str] | None = None
+) -> tuple[list[Paired], list[str]]:
+    """Every other planner against the baseline at each grid point, per metric of
+    `PAIRED_METRICS`, over the seeds both ran (the same seeds' flows).
+
+    Args:
+        rows: episodes.csv rows.
+        baseline: A planner's spec or short label; None: each grid point's best planner by mean
+            profit.
+        labels: {spec: short label} (`planner_labels`).
+
+    Returns:
+        (the comparisons, notes on grid points left out: the baseline did not run there, or a
+        planner shares no seed with it).
+    """
+    labels = labels or {}
+    out, notes = [], []
+    for point, runs in sorted(_by_seed(rows).items()):
+        where = f"x{point[2]:g}, {point[3]} items"
+        base = _baseline_at(runs, baseline, labels)
+        if base is None:
+            notes.append(f"{where}: {baseline} did not run there.")
+            continue
+        for planner in sorted(runs, key=lambda p: labels.get(p, p)):
+            if planner == base:
+                continue
+            seeds = sorted(set(runs[planner]) & set(runs[base]))
+            if not seeds:
+                notes.append(
+                    f"{where}: {labels.get(planner, planner)} shares no seed with "
+                    f"{labels.get(base, base)}."
+                )
+                continue
+            for metric, *_ in PAIRED_METRICS:
+                pairs = [(runs[planner][s].get(metric), runs[base][s].get(metric)) for s in seeds]
+                pairs = [(a, b) for a, b in pairs if a is not None and b is not None]
+                if not pairs:
+                    continue
+                a, b = [x for x, _ in pairs], [y for _, y in pairs]
+                diff, low, high, p = paired_difference(a, b)
+                out.append(
+                    Paired(
+                        point, planner, base, metric, estimate(a), estimate(b), diff, low, high, p
+                    )  # fmt: skip
+                )
+    return out, notes
+
+
+def _signed(value: float, fmt: str) -> str:
+    text = fmt.format(value)
+    return text if text.startswith(("-", "+")) else "+" + text
+
+
+def paired_markdown(comparisons: list[Paired], labels: dict[str, str] | None = None) -> str:
+    """The paired comparisons as one markdown table per metric (a '### label' heading each)."""
+    labels = labels or {}
+    grid = GridColumns.of(c.point for c in comparisons)
+    parts = []
+    for metric, title, fmt in PAIRED_METRICS:
+        chosen = [c for c in comparisons if c.metric == metric]
+        if not chosen:
+            continue
+        head = grid.head() + ["planner", "baseline", "seeds", "planner's mean"]
+        head += ["baseline's mean", "difference [95 % interval]", "p", "verdict"]
+        rows = []
+        for c in chosen:
+            interval = (
+                "" if math.isnan(c.low) else f" [{_signed(c.low, fmt)}, {_signed(c.high, fmt)}]"
+            )
+            p = "" if math.isnan(c.p) else (f"{c.p:.2f}" if c.p >= 0.01 else f"{c.p:.0e}")
+            rows.append(
+                grid.cells(c.point)
+                + [labels.get(c.planner, c.planner), labels.get(c.baseline, c.baseline)]
+                + [str(c.n), c.planner_mean.text(fmt), c.baseline_mean.text(fmt)]
+                + [_signed(c.difference, fmt) + interval, p, c.verdict]
+            )
+        parts.append(f"### {title}\n\n{_md_table(head, rows)}")
+    return "\n\n".join(parts)
+
+
+def paired_intro(baseline: str | None) -> str:
+    """What the paired comparisons are, in words (the report's and the page's paragraph)."""
+    against = f"`{baseline}`" if baseline else "the best planner of the grid point (by mean profit)"
+    return (
+        f"Each planner against {against}, over the seeds both ran: every planner of a sweep "
+        "runs on the same seeds' flows, so the seeds pair the episodes. Difference = planner's "
+        "mean minus the baseline's, with its 95 % interval from the paired Student's t over "
+        f"the seeds ({PAIRED_METHOD}); p is the test's two-sided p-value. Verdict: better or "
+        "worse when the interval excludes 0, else no difference at 95 %."
+    )
+
+
+def figures(
+    summary: dict[tuple, dict[str, Estimate]], labels: dict[str, str] | None = None
+) -> dict[str, tuple[str, bytes]]:
+    """{file name: (title in words, PNG bytes)}: each of `FIGURES` against items (or belt
+    speed), one line per planner and belt speed (or items), error bars the 95 % intervals."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    labels = labels or {}
     items = {g[3] for g in summary}
     against_items = len(items) > 1
     several_perceptions = len({g[1] for g in summary}) > 1
     out = {}
-    for metric, label in FIGURES:
+    for metric, label, words in FIGURES:
         lines: dict[tuple, list[tuple[float, Estimate]]] = defaultdict(list)
         for (variant, perception, speed, n_items, planner), metrics in summary.items():
             if metric not in metrics:
@@ -216,6 +540,7 @@ def figures(summary: dict[tuple, dict[str, Estimate]]) -> dict[str, bytes]:
             lines[series].append((x, metrics[metric]))
         if not lines:
             continue
+        title = f"{words} against {'items' if against_items else 'belt speed'}"
         fig, ax = plt.subplots(figsize=(6.4, 4.0), dpi=100)
         for (variant, perception, planner, other), points in sorted(lines.items()):
             points.sort(key=lambda p: p[0])
@@ -223,9 +548,11 @@ def figures(summary: dict[tuple, dict[str, Estimate]]) -> dict[str, bytes]:
             ys = [p[1].mean for p in points]
             err = [0.0 if math.isnan(p[1].half_width) else p[1].half_width for p in points]
             tag = f"x{other:g}" if against_items else f"{other} items"
-            name = planner if variant == "base" else f"{variant}/{planner}"
+            name = labels.get(planner, planner)
+            name = name if variant == "base" else f"{variant}/{name}"
             name += f" ({perception})" if several_perceptions else ""
             ax.errorbar(xs, ys, yerr=err, marker="o", capsize=3, label=f"{name} {tag}")
+        ax.set_title(title)
         ax.set_xlabel("items" if against_items else "belt speed factor")
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
@@ -234,61 +561,160 @@ def figures(summary: dict[tuple, dict[str, Estimate]]) -> dict[str, bytes]:
         buffer = io.BytesIO()
         fig.savefig(buffer, format="png")
         plt.close(fig)
-        out[f"{metric}.png"] = buffer.getvalue()
+        out[f"{metric}.png"] = (title, buffer.getvalue())
     return out
 
 
-def page(title: str, table_md: str, thesis: list[str], images: dict[str, bytes]) -> str:
-    """One self-contained HTML page: the table, the thesis tables, the figures embedded."""
-    rows = [r for r in table_md.splitlines() if not r.startswith("|---")]
-    cells = [[c.strip() for c in r.strip("|").split("|")] for r in rows]
+@dataclass(frozen=True)
+class Section:
+    """A part of the report: a heading, a paragraph, then markdown (tables, '###' headings)."""
+
+    heading: str
+    text: str
+    body: str
+
+
+VERDICTS = ("better", "worse", "no difference at 95 %", "too few seeds")
+
+
+def _cell_class(text: str) -> str:
+    """A verdict's cell class (left-aligned, better and worse in bold)."""
+    if text not in VERDICTS:
+        return ""
+    return ' class="verdict strong"' if text in VERDICTS[:2] else ' class="verdict"'
+
+
+def _html_body(body: str) -> list[str]:
+    """HTML of a section's markdown body: its tables, '### ' headings and paragraphs."""
+    parts, table = [], []
+
+    def flush() -> None:
+        if not table:
+            return
+        cells = [[c.strip() for c in r.strip().strip("|").split("|")] for r in table]
+        cells = [c for c in cells if not all(set(x) <= {"-"} and x for x in c)]
+        parts.append("<table>")
+        parts.append("<tr>" + "".join(f"<th>{html.escape(c)}</th>" for c in cells[0]) + "</tr>")
+        for row in cells[1:]:
+            tds = (f"<td{_cell_class(c)}>{html.escape(c)}</td>" for c in row)
+            parts.append("<tr>" + "".join(tds) + "</tr>")
+        parts.append("</table>")
+        table.clear()
+
+    for line in body.splitlines():
+        if line.startswith("|"):
+            table.append(line)
+            continue
+        flush()
+        if line.startswith("### "):
+            parts.append(f"<h3>{html.escape(line[4:])}</h3>")
+        elif line.strip():
+            parts.append(f"<p>{html.escape(line.replace('`', ''))}</p>")
+    flush()
+    return parts
+
+
+STYLE = (
+    "body{font-family:sans-serif;margin:1.5em;max-width:1150px}"
+    "table{border-collapse:collapse;font-size:0.8em;margin-bottom:1em}"
+    "td,th{border:1px solid #bbb;padding:3px 6px;text-align:right}"
+    "th{background:#eee;white-space:normal;vertical-align:bottom}td{white-space:nowrap}"
+    "td.verdict{text-align:left;white-space:normal}td.strong{font-weight:bold}pre{background:#f6f6f6;padding:1em;overflow-x:auto}"
+    "img{max-width:100%}"
+)
+"""The page's style: tables within a 1200 px window (headers wrap; the widest table, the
+paired comparisons', is about 900 px at this font)."""
+
+
+def page(
+    title: str, sections: list[Section], thesis: list[str], images: dict[str, tuple[str, bytes]]
+) -> str:
+    """One self-contained HTML page: the sections' tables, the thesis tables, the figures
+    embedded (each under its title in words)."""
     parts = [
         "<!DOCTYPE html>",
         '<html lang="en"><head><meta charset="utf-8">',
         f"<title>{html.escape(title)}</title>",
-        "<style>body{font-family:sans-serif;margin:2em}"
-        "table{border-collapse:collapse;font-size:0.8em}.wide{overflow-x:auto}"
-        "td,th{border:1px solid #bbb;padding:3px 6px;text-align:right}td{white-space:nowrap}"
-        "th{background:#eee}pre{background:#f6f6f6;padding:1em}</style></head><body>",
+        f"<style>{STYLE}</style></head><body>",
         f"<h1>{html.escape(title)}</h1>",
-        "<p>Means over seeds ± the half-width of the 95 % confidence interval (Student's t).</p>",
-        '<div class="wide"><table>',
-        "<tr>" + "".join(f"<th>{html.escape(c)}</th>" for c in cells[0]) + "</tr>",
     ]
-    for row in cells[1:]:
-        parts.append("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in row) + "</tr>")
-    parts.append("</table></div>")
+    for section in sections:
+        parts.append(f"<h2>{html.escape(section.heading)}</h2>")
+        if section.text:
+            parts.append(f"<p>{html.escape(section.text.replace('`', ''))}</p>")
+        parts += _html_body(section.body)
     for text in thesis:
         parts.append(f"<h2>The thesis's table, ours (thesis)</h2><pre>{html.escape(text)}</pre>")
-    for name, png in images.items():
+    for words, png in images.values():
         data = base64.b64encode(png).decode("ascii")
-        parts.append(f'<h2>{html.escape(name)}</h2><img alt="{html.escape(name)}" ')
+        parts.append(f'<h2>{html.escape(words)}</h2><img alt="{html.escape(words)}" ')
         parts[-1] += f'src="data:image/png;base64,{data}">'
     parts.append("</body></html>")
     return "\n".join(parts) + "\n"
 
 
-def write_report(folders: list[Path], out: Path) -> list[Path]:
-    """Write the report of `folders` into `out`; the files written."""
+def check_baseline(rows: list[dict], baseline: str | None) -> None:
+    """Refuse a `--baseline` that names no planner of the rows (by spec or short label)."""
+    if baseline is None:
+        return
+    specs = list(dict.fromkeys(r["planner"] for r in rows))
+    labels = planner_labels(specs)
+    if baseline not in specs and baseline not in labels.values():
+        names = ", ".join(sorted(set(labels.values())))
+        raise InvalidInput("--baseline", f"a planner of the episodes: {names}", baseline)
+
+
+def sections(rows: list[dict], baseline: str | None = None) -> tuple[list[Section], dict]:
+    """The report's sections (means, sorting quality, paired comparisons) and the labels."""
+    summary = summarise(rows)
+    labels = planner_labels(g[4] for g in summary)
+    renamed = [f"{label} = `{spec}`" for spec, label in labels.items() if label != spec]
+    lines = [f"Means over seeds ± the half-width of the 95 % interval ({MEANS_METHOD})."]
+    lines += [constant_text(summary)] if constant_text(summary) else []
+    lines += ["Planners: " + "; ".join(renamed) + "."] if renamed else []
+    out = [Section("Means per grid point", " ".join(lines), markdown(summary, labels, "main"))]
+    quality = markdown(summary, labels, "quality")
+    if quality:
+        text = "Counts per episode and each bin's purity (its own material's share), means."
+        out.append(Section("Sorting quality", text, quality))
+    comparisons, notes = paired_comparisons(rows, baseline, labels)
+    if comparisons or notes:
+        body = paired_markdown(comparisons, labels)
+        body += ("\n\n" + "\n".join(notes)) if notes else ""
+        out.append(Section("Paired comparisons", paired_intro(baseline), body))
+    return out, labels
+
+
+def write_report(folders: list[Path], out: Path, baseline: str | None = None) -> list[Path]:
+    """Write the report of `folders` into `out`; the files written.
+
+    Args:
+        folders: Run or sweep folders (each with episodes.csv).
+        out: The report's folder.
+        baseline: The planner every other is compared with (spec or short label); None: each
+            grid point's best by mean profit.
+    """
     from sim.experiments import thesis_report
 
     rows, tables = read_folders(folders)
-    summary = summarise(rows)
-    table_md = markdown(summary)
+    check_baseline(rows, baseline)
+    parts, labels = sections(rows, baseline)
     thesis = []
     for table_id in dict.fromkeys(tables):
         text = thesis_report.format_table(table_id, rows)
         if text:
             thesis.append(text)
-    images = figures(summary)
+    images = figures(summarise(rows), labels)
     title = "sortsim report: " + ", ".join(Path(f).name for f in folders)
-    md = [f"# {title}", "", "Means ± 95 % interval half-width (Student's t over seeds).", ""]
-    md += [table_md, ""]
+    md = [f"# {title}", ""]
+    for section in parts:
+        md += [f"## {section.heading}", "", section.text, "", section.body, ""]
     for text in thesis:
         md += ["```", text, "```", ""]
-    md += [f"![{name}]({name})" for name in images]
-    written = [outputs.write_atomic(out / "report.md", "\n".join(md) + "\n")]
-    for name, png in images.items():
+    for name, (words, _) in images.items():
+        md += [f"### {words}", "", f"![{words}]({name})", ""]
+    written = [outputs.write_atomic(out / "report.md", "\n".join(md))]
+    for name, (_, png) in images.items():
         written.append(outputs.write_atomic(out / name, png))
-    written.append(outputs.write_atomic(out / "report.html", page(title, table_md, thesis, images)))
+    written.append(outputs.write_atomic(out / "report.html", page(title, parts, thesis, images)))
     return written
