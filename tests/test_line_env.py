@@ -76,3 +76,26 @@ def test_the_line_env_is_deterministic_by_seed():
 def test_a_line_env_of_a_bad_robot_count_is_refused(robots):
     with pytest.raises(InvalidInput, match="robots"):
         SortingLineParallelEnv(robots=robots)
+
+
+def test_each_agents_mask_is_asked_for_and_raise_refuses_a_masked_out_action():
+    from sim.envs.actions import InvalidAction
+
+    env = SortingLineParallelEnv(robots=2, invalid_action="raise", **SMALL)
+    observations, infos = env.reset(seed=3)
+    masks = env.action_masks()
+    assert set(masks) == set(env.agents)
+    for agent in env.agents:
+        assert np.array_equal(env.action_mask(agent), infos[agent]["action_mask"])
+    deciding = infos[env.agents[0]]["deciding"]
+    mask = masks[deciding]
+    t0 = env.episode.data.time
+    if not mask.all():
+        with pytest.raises(InvalidAction, match="action"):
+            env.step({deciding: int(np.flatnonzero(~mask)[0])})
+    with pytest.raises(InvalidAction, match="0..8"):
+        env.step({deciding: 9})
+    assert env.episode.data.time == t0
+    _, rewards, *_ = env.step({deciding: int(np.flatnonzero(mask)[0])})  # allowed: it steps
+    assert set(rewards) == {"robot_0", "robot_1"}
+    env.close()

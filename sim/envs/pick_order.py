@@ -6,6 +6,12 @@ the reach window and bins of the compiled scene: the rules of `planner.decision.
 which scores every decision manager. One step is one decision: pick the candidate in a slot
 (the robot meets it, carries it to its bin, and the reward is its value if the bin is right),
 or wait `idle_step_s`. The episode ends when every item has been picked or has left the window.
+
+`action_masks()` (and `info["action_mask"]`) marks the slots holding a candidate, and wait; an
+action the mask rules out raises `sim.envs.actions.InvalidAction` unless the environment was
+made with `invalid_action="wait"` (then it waits). `render_mode="rgb_array"`: `render()` draws
+the belt from above (`sim.envs.belt_picture`). docs/envs.md has the observation, the action,
+the reward and examples.
 """
 
 from __future__ import annotations
@@ -18,6 +24,8 @@ from planner.decision.interface import RobotState, TrackedItem
 from planner.decision.kinematic_belt import HOME_TCP, random_belt
 from planner.decision.slot_features import bounds, choice_for, observe, slot_candidates
 from planner.motion.belt_speeds import SPEED_FACTORS, SPEED_X1_MPS
+from sim.envs import belt_picture
+from sim.envs.actions import check_invalid_action, slot_of
 from sim.episode.decision_view import cell_context
 from sim.errors import InvalidInput
 
@@ -42,9 +50,13 @@ class PickOrderEnv(gym.Env):
         speed_factors: Belt speed factors drawn from per episode (x1 = 0.185 m/s).
         idle_step_s: Time a wait lets pass [s].
         view_start_x: Items upstream of this x [m] are not yet in view.
+        render_mode: None, or "rgb_array": `render()` returns the belt from above (an RGB
+            array, `sim.envs.belt_picture`).
+        invalid_action: "raise" (default): an action the mask rules out, or outside the action
+            space, raises `InvalidAction`; "wait": it is taken as waiting.
     """
 
-    metadata = {"render_modes": []}
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
 
     def __init__(
         self,
@@ -54,7 +66,11 @@ class PickOrderEnv(gym.Env):
         speed_factors: tuple[float, ...] = SPEED_FACTORS,
         idle_step_s: float = 0.05,
         view_start_x: float = -1.5,
+        render_mode: str | None = None,
+        invalid_action: str = "raise",
     ):
+        if render_mode not in (None, *self.metadata["render_modes"]):
+            raise InvalidInput("render_mode", "None | rgb_array", render_mode)
         if not (isinstance(k_slots, int) and 1 <= k_slots <= 64):
             raise InvalidInput("k_slots", "an integer 1..64", k_slots)
         if not (1 <= items[0] <= items[1] <= 500):
@@ -66,6 +82,8 @@ class PickOrderEnv(gym.Env):
         self.k_slots, self.items, self.rate = k_slots, items, rate
         self.speed_factors = tuple(float(f) for f in speed_factors)
         self.idle_step_s, self.view_start_x = float(idle_step_s), float(view_start_x)
+        self.render_mode = render_mode
+        self.invalid_action = check_invalid_action(invalid_action)
         low, high = bounds(k_slots)
         self.observation_space = gym.spaces.Box(low, high, dtype=np.float32)
         self.action_space = gym.spaces.Discrete(k_slots + 1)
@@ -92,6 +110,7 @@ class PickOrderEnv(gym.Env):
             for it in self.belt.items
         }
         self.profit, self.picked = 0.0, 0
+        self._binned: dict[int, int] = {}
         self._advance_to_decision()
         return self._obs, self._info()
 
@@ -128,8 +147,14 @@ class PickOrderEnv(gym.Env):
             "items": len(self.belt.items),
         }
 
+    def action_masks(self) -> np.ndarray:
+        """The action mask now: (k_slots + 1,) bool, True for a slot holding a candidate and
+        for wait (the last); what MaskablePPO asks for."""
+        return self._mask.copy()
+
     def step(self, action):
-        choice = choice_for(int(action), self._cands, self.k_slots)
+        slot = slot_of(action, self._mask, self.invalid_action)
+        choice = choice_for(slot, self._cands, self.k_slots)
         reward = 0.0
         if choice is None:
             self.t += self.idle_step_s
@@ -140,6 +165,27 @@ class PickOrderEnv(gym.Env):
                 reward = self.context.value_of(item.true_class)
             self.profit += reward
             self.picked += 1
+            self._binned[choice.bin_class] = self._binned.get(choice.bin_class, 0) + 1
             self.t, self.tcp = cand.end_time, self.context.bin_of(choice.bin_class)
         self._advance_to_decision()
         return self._obs, float(reward), self._done, False, self._info()
+
+    def render(self):
+        """The belt from above (`sim.envs.belt_picture`) with `render_mode="rgb_array"`: an RGB
+        array (400, 800, 3) uint8; None without a render mode."""
+        if self.render_mode != "rgb_array":
+            return None
+        v, t = self.belt.speed, self.t
+        window = self.context.window
+        scene = belt_picture.BeltScene(
+            items=[(it.x0 + v * t, it.y, it.true_class) for it in self.left.values()],
+            candidates=[(c.item.x, c.item.y) for c in self._cands],
+            tcp=(float(self.tcp[0]), float(self.tcp[1])),
+            window=(np.asarray(window.y), np.asarray(window.x_entry), np.asarray(window.x_exit)),
+            bins={k + 2: (b[0], b[1]) for k, b in enumerate(self.context.bins)},
+            binned=dict(self._binned),
+            view_start_x=self.view_start_x,
+            counters=f"t {t:5.1f} s   belt {v:.3f} m/s   picked {self.picked} of "
+            f"{len(self.belt.items)}   profit {self.profit:.2f} EUR",
+        )
+        return belt_picture.draw(scene)

@@ -13,6 +13,12 @@ picks one or waits; the other agents see zeros, their action masks allow only wa
 actions are ignored. The reward is the line's profit earned since the last step [EUR], the same
 for every agent (a cooperative game); every agent terminates when the episode ends.
 
+Each agent's mask is in its info (`infos[agent]["action_mask"]`) and also asked for directly:
+`action_mask(agent)`, or `action_masks()` for every agent. The deciding robot's action that its
+mask rules out is taken as waiting by default (`invalid_action="wait"`: PettingZoo's
+`parallel_api_test` samples actions without masks); `invalid_action="raise"` refuses it
+(`sim.envs.actions.InvalidAction`). The other agents' actions are ignored either way.
+
 The API is PettingZoo's `ParallelEnv` (`reset`, `step` on dicts keyed by agent,
 `observation_space(agent)`, `action_space(agent)`, `agents`, `possible_agents`), written out here
 so that the default install needs no PettingZoo; `tests/test_line_env.py` runs PettingZoo's own
@@ -25,6 +31,7 @@ import gymnasium as gym
 import numpy as np
 
 from planner.decision.slot_features import N_FEATURES, bounds, choice_for, observe, slot_candidates
+from sim.envs.actions import check_invalid_action, slot_of
 from sim.episode import config as episode_config
 from sim.episode.loop import Episode
 from sim.episode.runner import config_cell
@@ -37,18 +44,21 @@ class SortingLineParallelEnv:
     Args:
         robots: Robots of the line, 2..4.
         k_slots: Candidates shown per decision (each action space is k_slots + 1, the last wait).
+        invalid_action: "wait" (default): the deciding robot's action that its mask rules out
+            waits; "raise": it raises `InvalidAction`.
         **config: Episode settings as for `sortsim run` (`items`, `duration_s`, `speed_factor`,
             `perception`, ...), validated like a config file; the seed comes from `reset`.
     """
 
     metadata = {"render_modes": [], "name": "sortsim_line_v0", "is_parallelizable": True}
 
-    def __init__(self, robots: int = 2, k_slots: int = 8, **config):
+    def __init__(self, robots: int = 2, k_slots: int = 8, invalid_action: str = "wait", **config):
         if not (isinstance(robots, int) and 2 <= robots <= episode_config.MAX_ROBOTS):
             raise InvalidInput("robots", f"2..{episode_config.MAX_ROBOTS}", robots)
         settings = {"perception": "truth", **config, "robots": robots}
         self.config = episode_config.load(None, **{**settings, "coordination": "independent"})
         self.k_slots = int(k_slots)
+        self.invalid_action = check_invalid_action(invalid_action)
         self.possible_agents = [f"robot_{k}" for k in range(robots)]
         self._low, self._high = bounds(self.k_slots)
         self._observation_spaces = {
@@ -58,6 +68,8 @@ class SortingLineParallelEnv:
             a: gym.spaces.Discrete(self.k_slots + 1) for a in self.possible_agents
         }
         self.agents: list[str] = []
+        self._deciding: str | None = None
+        self._mask = np.zeros(self.k_slots + 1, dtype=bool)
         self.render_mode = None
         self.episode: Episode | None = None
         self._rng = np.random.default_rng()
@@ -87,8 +99,9 @@ class SortingLineParallelEnv:
         """Apply the deciding robot's action (the others' are ignored) and run the physics to
         the next decision; returns (observations, rewards, terminations, truncations, infos)."""
         if self._running and self._deciding is not None:
-            action = int(actions.get(self._deciding, self.k_slots))
-            self.episode.apply(choice_for(action, self._cands, self.k_slots))
+            action = actions.get(self._deciding, self.k_slots)
+            slot = slot_of(action, self._mask, self.invalid_action)
+            self.episode.apply(choice_for(slot, self._cands, self.k_slots))
             self._advance()
         profit = float(self.episode.metrics.profit)
         reward, self._profit = profit - self._profit, profit
@@ -125,10 +138,21 @@ class SortingLineParallelEnv:
         idle = np.zeros(self.k_slots * N_FEATURES, dtype=np.float32)
         return {a: self._obs.copy() if a == self._deciding else idle.copy() for a in self.agents}
 
-    def _infos(self) -> dict[str, dict]:
-        m = self.episode.metrics
+    def action_mask(self, agent: str) -> np.ndarray:
+        """The agent's action mask now, (k_slots + 1,) bool: the deciding robot's candidates
+        and wait; wait only for the others (and for every agent once the episode ended)."""
+        if agent == self._deciding:
+            return self._mask.copy()
         wait_only = np.zeros(self.k_slots + 1, dtype=bool)
         wait_only[self.k_slots] = True
+        return wait_only
+
+    def action_masks(self) -> dict[str, np.ndarray]:
+        """Every live agent's action mask (`action_mask`)."""
+        return {a: self.action_mask(a) for a in self.agents}
+
+    def _infos(self) -> dict[str, dict]:
+        m = self.episode.metrics
         shared = {
             "deciding": self._deciding,
             "time_s": float(self.episode.data.time),
@@ -136,10 +160,7 @@ class SortingLineParallelEnv:
             "picked": int(m.n_picked),
             "entered": int(m.n_entered),
         }
-        return {
-            a: {**shared, "action_mask": (self._mask if a == self._deciding else wait_only).copy()}
-            for a in self.agents
-        }
+        return {a: {**shared, "action_mask": self.action_mask(a)} for a in self.agents}
 
     @property
     def num_agents(self) -> int:
