@@ -9,7 +9,7 @@ import pytest
 from sim.cell.cell import Cell
 from sim.episode import config
 from sim.episode.loop import Episode
-from sim.episode.scheduler import DUE_TOLERANCE_S
+from sim.episode.scheduler import DUE_TOLERANCE_S, is_due, steps_until_due
 from sim.errors import InvalidInput
 
 
@@ -83,3 +83,35 @@ def test_a_period_that_is_not_positive_is_refused(cell, period):
     episode = Episode(config.load(None, perception="truth", items=5, duration_s=5.0), cell)
     with pytest.raises(InvalidInput, match="period_s"):
         episode.every(period, lambda ep: None)
+
+
+@pytest.mark.parametrize("period", [0.5, 0.37, 0.02])
+def test_events_fire_at_the_first_step_they_are_due(cell, period):
+    """The idle stepping's blocks end where the loop's own due test first holds: no event
+    fires a step late (`scheduler.steps_until_due`, `scheduler.is_due`)."""
+    episode = Episode(config.load(None, perception="truth", items=15, duration_s=8.0), cell)
+    fired = []
+    event = episode.every(period, lambda ep: fired.append((float(ep.data.time), event.next_s)))
+    episode.reset(seed=0)
+    episode.run()
+    dt = float(cell.model.opt.timestep)
+    assert len(fired) > 10
+    for t, when in fired:
+        assert is_due(t, when)
+        if when > 0.0:  # due at the start: fired after the first step
+            assert not is_due(t - dt, when), (t, when)
+
+
+def test_steps_until_due_is_the_loops_due_test():
+    rng = np.random.default_rng(7)
+    dt = 0.001
+    for _ in range(500):
+        t = float(rng.integers(0, 100_000)) * dt + float(rng.normal(0.0, 1e-11))
+        when = t + float(rng.uniform(0.0, 0.6))
+        n = steps_until_due(t, when, dt)
+        clock = t
+        for _ in range(n):
+            clock += dt  # the clock MuJoCo keeps: a sum of steps
+        assert is_due(clock, when)
+        if n > 1:
+            assert not is_due(clock - dt, when)

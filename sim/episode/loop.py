@@ -17,7 +17,6 @@ by `sim.episode.builder`.
 from __future__ import annotations
 
 import logging
-import math
 import time
 from collections.abc import Callable
 from dataclasses import replace
@@ -29,21 +28,21 @@ from planner.decision.interface import Choice, DecisionContext, RobotState, Trac
 from sim.cell.cell import Cell
 from sim.cell.held_slots import held_slots
 from sim.cell.riding import PlannedPath
-from sim.episode import builder, item_checks, step_hooks
+from sim.episode import builder, item_checks, stations, step_hooks
 from sim.episode.builder import CHECK_PERIOD_S, SETTLE_S, make_decision_manager
 from sim.episode.config import EpisodeConfig
 from sim.episode.infeed import Infeed
 from sim.episode.overlay import overlay_of
 from sim.episode.pick_control import PickController, PickOutcome
-from sim.episode.scheduler import FrameEvent, Hooks, PeriodicEvent, Scheduler, is_due
-from sim.episode.stations import (
-    RobotStation,
-    StartedPick,
-    book_pick,
-    line_offer,
-    offerable_items,
-    robot_columns,
+from sim.episode.scheduler import (
+    FrameEvent,
+    Hooks,
+    PeriodicEvent,
+    Scheduler,
+    is_due,
+    steps_until_due,
 )
+from sim.episode.stations import RobotStation, StartedPick
 from sim.monitors.energy import ActuatorLog, EnergyMeter
 from sim.monitors.mj_warnings import WarningCounter
 from sim.monitors.thrown import ThrowWatch
@@ -262,8 +261,8 @@ class Episode:
                 if not station.robot.busy and is_due(t, station.next_decision):
                     station.next_decision = t + DECIDE_PERIOD_S
                     if items is None:
-                        items = offerable_items(self, t)
-                    self._candidates = line_offer(
+                        items = stations.offerable_items(self, t)
+                    self._candidates = stations.line_offer(
                         self.stations,
                         station,
                         items,
@@ -380,7 +379,7 @@ class Episode:
         """Physics steps until the next event or decision while every robot idles."""
         t, dt = self.data.time, self.model.opt.timestep
         when = min(self.scheduler.next_time(t), *(s.next_decision for s in self.stations))
-        return max(1, int(math.ceil((when - t) / dt - 1e-9)))
+        return steps_until_due(t, when, dt)
 
     def sink_frame(self, sink, overlay) -> None:
         """Hand `sink` a frame of the cell as it is now with `overlay` (timed)."""
@@ -394,7 +393,7 @@ class Episode:
 
     def _finish_pick(self, station: RobotStation, outcome: PickOutcome) -> None:
         """Book a finished pick (`sim.episode.stations.book_pick`) and decide again at once."""
-        book_pick(self, station, outcome)
+        stations.book_pick(self, station, outcome)
         station.next_decision = self.data.time
 
     def observe(self) -> None:
@@ -411,7 +410,8 @@ class Episode:
 
     def robot_columns(self, sim_s: float) -> dict[str, object]:
         """A line's episodes.csv columns (`sim.episode.stations.robot_columns`); none for one."""
-        return robot_columns(self.stations, self.metrics, self.config.coordination, sim_s)
+        coordination = self.config.coordination
+        return stations.robot_columns(self.stations, self.metrics, coordination, sim_s)
 
     def book_unsure(self, gone: list) -> None:
         """Count the tracks among `gone` (went past the robot unpicked, or still tracked at the

@@ -56,6 +56,11 @@ surface lies this much lower (a tilted item, one leaning on another) [m]."""
 LIES_ON_DZ_M = 1e-3
 """Of two items whose outlines overlap, the one whose centre is this much higher lies on the
 other [m]."""
+TOUCH_GAP_M = 0.005
+"""A neighbour whose outline comes this close to the item's lies against its edge [m]: lifting
+the item would catch it if it is higher (a flat sheet's corner under a lying bottle's flank,
+their outlines 0.03 mm apart, flung the bottle into the held sheet's way), so such a pick waits
+until the neighbour is gone. Items the flow drops lie at least 5 mm apart unless they shift."""
 DEFAULT_TOP_Z = 0.02
 """Assumed top of an item when no item is found near the detection [m]."""
 NEAR_M = 0.08
@@ -274,17 +279,17 @@ class PickController:
         return [slot for slot, dz in self._overlapping(target, neighbours) if dz < -LIES_ON_DZ_M]
 
     def _overlapping(
-        self, target: int, neighbours: list[tuple[int, Obstacle]]
+        self, target: int, neighbours: list[tuple[int, Obstacle]], gap: float = 0.0
     ) -> list[tuple[int, float]]:
         """(slot, its centre's height over the target's [m]) of the neighbours whose outline
-        the target's outline overlaps."""
+        the target's outline overlaps, or comes within `gap` [m] of (touching edge to edge)."""
         if not neighbours:
             return []
         points = outline_points(self.obstacle_of(target))
         items = self.cell.items
         z = items.position(target)[2]
         obstacles = [o for _, o in neighbours]
-        inside = footprint_distances(obstacles, points, np.zeros(len(points))) <= 0.0
+        inside = footprint_distances(obstacles, points, np.zeros(len(points))) <= gap
         return [
             (slot, float(items.position(slot)[2] - z))
             for (slot, _), overlap in zip(neighbours, inside.any(axis=1), strict=True)
@@ -343,11 +348,15 @@ class PickController:
         # Long items overhang the bin towards the belt: keep them above the rails too.
         drop[2] = max(drop[2], self.clear_z + height)
         neighbours = self.neighbours(exclude=target)
-        # (slot, height of its centre over the target's) of the neighbours overlapping it.
+        # (slot, height of its centre over the target's) of the neighbours overlapping it, and
+        # of those touching it edge to edge (within `TOUCH_GAP_M`).
         overlaps = self._overlapping(target, neighbours) if target is not None else []
-        if any(dz > LIES_ON_DZ_M for _, dz in overlaps):
+        touching = self._overlapping(target, neighbours, TOUCH_GAP_M) if target is not None else []
+        if any(dz > LIES_ON_DZ_M for _, dz in touching):
             self.neighbour_refusals += 1
-            reason = "another item lies on it (lifting it would fling that one)"
+            reason = (
+                "a higher item lies on it or against its edge (lifting it would fling that one)"
+            )
             return Intercept(False, reason, float("nan"), np.full(3, np.nan))
         obstacles = [o for _, o in neighbours]
         under = {slot for slot, dz in overlaps if dz < -LIES_ON_DZ_M}

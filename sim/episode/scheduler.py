@@ -36,6 +36,12 @@ def is_due(t: float, when: float) -> bool:
     return t + DUE_TOLERANCE_S >= when
 
 
+def steps_until_due(t: float, when: float, dt: float) -> int:
+    """Physics steps of `dt` [s] from sim time `t` [s] until something due at `when` [s] is
+    due by `is_due` (at least one): the idle stepping's block, by the loop's own due test."""
+    return max(1, math.ceil((when - t - DUE_TOLERANCE_S) / dt))
+
+
 class Event(Protocol):
     """Something the scheduler fires when due."""
 
