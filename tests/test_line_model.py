@@ -25,6 +25,8 @@ from sim.errors import InvalidInput
 from sim.flow.catalogue import load_catalogue
 from sim.model.line_model import (
     CAGE_GEOMS,
+    CAMERA_BOX_GEOMS,
+    MARKER_GEOMS,
     LineLayout,
     compile_line,
     reset_robot_home,
@@ -100,6 +102,7 @@ def test_default_layouts():
         ({"robots": 2, "prefixes": ("a_", "a_")}, "line.prefixes"),
         ({"robots": 1, "prefixes": ("r 0",)}, "line.prefixes"),
         ({"robots": 1, "prefixes": ("r0_", "r1_")}, "line.prefixes"),
+        ({"robots": 2, "cameras_per_robot": 1}, "line.cameras_per_robot"),
     ],
 )
 def test_bad_layouts_are_refused_naming_the_field(kwargs, field):
@@ -377,3 +380,102 @@ def test_step_cost_of_the_4_robot_line_at_home(line4):
     cost = (time.perf_counter() - start) / steps
     print(f"\n4-robot line at home, items parked: {cost * 1e6:.0f} us per 1 ms step")
     assert cost < 5e-3  # real time with room to spare, even on a loaded machine
+
+
+# --- a camera per robot ---------------------------------------------------------------------
+
+
+def _geom_ids(model: mujoco.MjModel, names) -> list[int]:
+    return [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, n) for n in names]
+
+
+@pytest.fixture(scope="module")
+def line4_cameras() -> mujoco.MjModel:
+    return compile_line(LineLayout(4, cameras_per_robot=True))
+
+
+def test_camera_lines_sit_between_the_robots_or_at_the_scenes_offset():
+    assert LineLayout(4).camera_lines_m == (-1.48,)
+    assert LineLayout(4, cameras_per_robot=True).camera_lines_m == pytest.approx(
+        (-1.48, 0.9, 2.7, 4.5)
+    )
+    # Robots far apart: the scene's 1.48 m upstream of the robot; else half-way.
+    spread = LineLayout(3, (0.0, 3.5, 5.5), cameras_per_robot=True)
+    assert spread.camera_lines_m == pytest.approx((-1.48, 2.02, 4.5))
+    assert spread.camera_prefixes == ("", "r1_", "r2_")
+    assert LineLayout(cameras_per_robot=True).camera_lines_m == (-1.48,)
+
+
+def test_a_line_with_a_camera_per_robot_names_every_camera_element(line4_cameras):
+    line, layout = line4_cameras, LineLayout(4, cameras_per_robot=True)
+    scene = compile_scene()
+    box = scene.geom("camera_box_top")
+    for prefix, x_line in zip(layout.camera_prefixes, layout.camera_lines_m, strict=True):
+        camera = line.cam(f"{prefix}belt_camera")
+        np.testing.assert_allclose(camera.pos, [x_line, 0.0, 0.75])
+        np.testing.assert_allclose(camera.quat, scene.cam("belt_camera").quat)
+        assert camera.fovy[0] == 60.0 and line.cam_resolution[camera.id].tolist() == [1280, 720]
+        ids = _geom_ids(line, [prefix + n for n in (*CAMERA_BOX_GEOMS, *MARKER_GEOMS)])
+        assert min(ids) >= 0, "every element of the camera's rig is named"
+        for g in ids:  # drawn only, in the frame's group, never colliding
+            assert line.geom_contype[g] == line.geom_conaffinity[g] == 0
+            assert line.geom_group[g] == 2
+        for i in range(4):  # the scene's colours, on the belt plane, around the camera line
+            marker = line.geom(f"{prefix}marker_{i}")
+            np.testing.assert_allclose(marker.rgba, scene.geom(f"marker_{i}").rgba)
+            assert marker.pos[2] + marker.size[2] == pytest.approx(0.0)
+            assert abs(marker.pos[0] - x_line) == pytest.approx(0.32 if prefix == "" else 0.2)
+        if prefix:
+            assert line.geom(f"{prefix}camera_box_top").matid == box.matid
+    assert line.ncam == 5  # four belt cameras and the overview camera
+
+
+def test_cameras_per_robot_add_only_the_cameras_rigs(line4_cameras, line4):
+    assert line4_cameras.nbody == line4.nbody and line4_cameras.nq == line4.nq
+    rig = 4 * (len(CAMERA_BOX_GEOMS) + len(MARKER_GEOMS))
+    assert line4_cameras.ngeom == line4.ngeom + 3 * rig // 4
+    assert mujoco.mj_name2id(line4, mujoco.mjtObj.mjOBJ_CAMERA, "r1_belt_camera") < 0
+    off = compile_line(LineLayout(2, cameras_per_robot=False))
+    assert model_bytes(off) == model_bytes(compile_line(LineLayout(2)))
+
+
+def test_each_cameras_box_clears_both_robots_over_their_reach(line4_cameras):
+    """Robots r0 and r1 at every reachable point of their windows up to 0.4 m above the belt:
+    no part of either comes within 5 cm of camera r1's box (drawn only: MuJoCo would not
+    report it) or between the camera and one of its markers."""
+    from planner.motion.kinematics import inverse_kinematics, reachable_mask
+    from sim.cell.robot import set_configuration
+    from sim.cell.robots import RobotView
+
+    line = line4_cameras
+    data = at_home(line)
+    box = _geom_ids(line, [f"r1_{n}" for n in CAMERA_BOX_GEOMS])
+    markers = np.array([line.geom(f"r1_marker_{i}").pos for i in range(4)])
+    eye = line.cam("r1_belt_camera").pos
+    sight = eye + np.linspace(0.0, 1.0, 200)[:, None, None] * (markers - eye)
+    fromto = np.zeros(6)
+    for k, prefix in enumerate(("r0_", "r1_")):
+        view = RobotView(line, data, k, prefix, load_catalogue().materials)
+        geo, window = view.geometry, view.window
+        parts = [g for g in range(line.ngeom) if body_of(line, g).startswith(prefix)
+                 and "bin" not in body_of(line, g)]  # fmt: skip
+        nearest = np.inf
+        for y in np.linspace(-0.4, 0.4, 9):
+            for x in np.linspace(*window.bounds(y), 6):
+                for z in (0.02, 0.2, 0.4):
+                    p = np.array([x, y, z])
+                    if not reachable_mask(geo, p[None])[0]:
+                        continue
+                    set_configuration(
+                        line, data, inverse_kinematics(geo, p), geom=geo, prefix=prefix
+                    )
+                    for g in parts:
+                        for b in box:
+                            nearest = min(
+                                nearest, mujoco.mj_geomDistance(line, data, g, b, 0.2, fromto)
+                            )
+                        # The sight lines in the part's frame against its bounding box.
+                        local = (sight - data.geom_xpos[g]) @ data.geom_xmat[g].reshape(3, 3)
+                        centre, half = line.geom_aabb[g][:3], line.geom_aabb[g][3:]
+                        assert not np.any(np.all(np.abs(local - centre) <= half, axis=-1))
+        assert nearest > 0.05

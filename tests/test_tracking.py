@@ -62,3 +62,54 @@ def test_metrics_accuracy_profit_and_wrong_bins():
     )
     assert row["mean_cycle_s"] == pytest.approx(0.6) and row["failed_picks"] == 1
     assert [p["true_class"] for p in m.pick_rows()] == ["paper", "none"]
+
+
+# --- a line's camera per robot: one tracker, detections fused across cameras ----------------
+
+
+def test_the_same_item_seen_by_two_cameras_is_one_track():
+    tracker = Tracker(belt_speed=0.2)
+    [track] = tracker.update([Detection(1.0, -1.4, 0.1, AL)])  # the first camera
+    # 2.3 m downstream, 11.5 s later, 7 cm off where the belt carried it and classed another
+    # way: beyond the match radius, within the fusion gate; the second camera's position wins.
+    later = Detection(12.5, 0.97, 0.07, PAPER, camera=1)
+    assert tracker.update([later]) == []
+    assert len(tracker) == 1 and track.camera == 1 and track.hits == 2
+    assert track.x_at(12.5, 0.2) == pytest.approx(0.97) and track.y == pytest.approx(0.07)
+    assert track.probs.tolist() == pytest.approx([0.0, 0.5, 0.05, 0.45])
+    # Reported again by the same camera half a period on: the ordinary match, no new track.
+    assert tracker.update([Detection(13.0, 1.07, 0.07, PAPER, camera=1)]) == []
+    # The next camera joins it as well.
+    assert tracker.update([Detection(22.0, 2.86, 0.08, AL, camera=2)]) == []
+    assert len(tracker) == 1 and track.camera == 2
+
+
+def test_an_item_no_upstream_camera_saw_is_a_new_track():
+    tracker = Tracker(belt_speed=0.2)
+    tracker.update([Detection(1.0, -1.4, 0.1, AL)])
+    # Uncovered by an upstream pick: 25 cm from every track, a new one.
+    [new] = tracker.update([Detection(12.5, 0.95, -0.15, AL, camera=1)])
+    assert new.camera == 1 and len(tracker) == 2
+
+
+def test_two_items_next_to_each_other_take_one_track_each():
+    tracker = Tracker(belt_speed=0.2)
+    a, b = tracker.update([Detection(1.0, -1.4, 0.0, AL), Detection(1.0, -1.4, 0.12, PAPER)])
+    # Both within the fusion gate of track a; each detection takes the nearest free track.
+    near_b = Detection(12.5, 0.9, 0.09, PAPER, camera=1)
+    near_a = Detection(12.5, 0.9, 0.03, AL, camera=1)
+    # A third item 7 cm from where track a was is new: each upstream track is taken once.
+    third = Detection(12.5, 0.9, -0.07, AL, camera=1)
+    [new] = tracker.update([near_b, third, near_a])
+    assert a.y == pytest.approx(0.03) and b.y == pytest.approx(0.09)
+    assert new.y == pytest.approx(-0.07) and len(tracker) == 3
+
+
+def test_a_downstream_detection_never_joins_a_track_past_the_gate_or_by_the_match_radius():
+    tracker = Tracker(belt_speed=0.2, match_radius=0.06, fusion_gate=0.05)
+    [track] = tracker.update([Detection(1.0, -1.4, 0.1, AL)])
+    # 5.5 cm off: inside the match radius, outside the fusion gate: another camera's item.
+    assert len(tracker.update([Detection(12.5, 0.9, 0.155, AL, camera=1)])) == 1
+    assert track.camera == 0 and len(tracker) == 2
+    # The first camera's detections never join a downstream camera's track (4.5 cm away).
+    assert len(tracker.update([Detection(13.0, 1.0, 0.2, AL)])) == 1

@@ -21,6 +21,11 @@ hide that sky from the test; in the cell the belt and the floor lie behind every
 
 `true_camera_matrix` is the renderer's exact intrinsics, for tests: perception never uses it,
 it calibrates the camera from checkerboard images instead (`sortsim calibrate`).
+
+A line with a camera per robot (`sim.model.line_model`) has more belt cameras: robot k's is
+`camera_name(prefix)` with the markers `marker_names(prefix)` ("" for the scene's camera, the
+first robot's). Every one of them is the same camera model (lens, `fovy`, resolution) and so
+shares the calibration file; its pose comes from its own markers (`camera_pipeline`).
 """
 
 from __future__ import annotations
@@ -44,6 +49,26 @@ MARKER_NAMES = ("marker_0", "marker_1", "marker_2", "marker_3")
 DEFAULT_CALIBRATION = CAMERA_CALIBRATION_JSON
 FRAME_SIZE = (640, 360)
 """The belt camera's frame size by default [px] (an episode config's `[camera]` may change it)."""
+
+
+def camera_name(prefix: str = "") -> str:
+    """The belt camera of the robot of name prefix `prefix` in a line with a camera per robot
+    ("": the scene's camera, the first robot's)."""
+    return prefix + CAMERA_NAME
+
+
+def marker_names(prefix: str = "") -> tuple[str, ...]:
+    """The corner markers of the belt camera `camera_name(prefix)`, in `MARKER_NAMES`' order."""
+    return tuple(prefix + name for name in MARKER_NAMES)
+
+
+def camera_line(model: mujoco.MjModel, name: str = CAMERA_NAME) -> float:
+    """The camera line of belt camera `name` [m]: the x it hangs at in the model (it looks
+    straight down), as the cell's drawings give it."""
+    cam = camera_id(model, name)
+    if model.cam_bodyid[cam] != 0:
+        raise ModelFileError("model", f"camera {name!r}: a belt camera hangs in the world body")
+    return float(model.cam_pos[cam][0])
 
 
 def camera_id(model: mujoco.MjModel, name: str = CAMERA_NAME) -> int:
@@ -174,6 +199,7 @@ class BeltCamera:
         if not (isinstance(samples, (int, np.integer)) and 0 <= samples <= MAX_SAMPLES):
             raise InvalidInput("camera samples", f"an integer 0..{MAX_SAMPLES}", samples)
         self.model = model
+        self.name = name
         self.size = (int(width), int(height))
         self._cam = camera_id(model, name)
         self.camera_matrix = true_camera_matrix(model, width, height, name)
@@ -253,9 +279,23 @@ def camera_pipeline(
     size: tuple[int, int] = (1280, 720),
     grid: BeltGrid | None = None,
     calibration_path=DEFAULT_CALIBRATION,
+    markers: tuple[str, ...] = MARKER_NAMES,
 ) -> CameraPipeline:
-    """The perception pipeline of the cell's camera: the calibration file (scaled to `size`),
-    the belt grid (default: camera line x = -1.48 m, T = 0.5 s) and the markers' MJCF positions
-    and colours, the cell's drawings. The belt is located from the markers on the first frame."""
+    """The perception pipeline of a belt camera: the calibration file (scaled to `size`),
+    the belt grid (default: camera line x = -1.48 m, T = 0.5 s) and the MJCF positions and
+    colours of its markers `markers` (default: the scene's camera's), the cell's drawings. The
+    belt is located from the markers on the first frame.
+
+    Args:
+        model: The compiled cell.
+        data: Its data (the markers' world positions).
+        size: Frame size (width, height) [px]; the calibration is scaled to it.
+        grid: The belt grid on the camera's line.
+        calibration_path: The lens's calibration file (`sortsim calibrate`).
+        markers: The names of the camera's four corner markers (`marker_names`).
+
+    Returns:
+        The pipeline, its pose not yet solved.
+    """
     calibration = CameraCalibration.load(calibration_path).scaled(size)
-    return CameraPipeline(calibration, grid or BeltGrid(), *marker_points(model, data))
+    return CameraPipeline(calibration, grid or BeltGrid(), *marker_points(model, data, markers))

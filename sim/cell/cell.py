@@ -80,7 +80,7 @@ class Cell:
         """Settled items riding the belt wake before this x (`sim.cell.riding`) [m]; an episode
         whose largest item is larger than `item_radius` wakes them that much earlier, a cup
         larger than the scene's by its extra radius."""
-        self._camera = None
+        self._cameras: dict = {}  # belt camera name -> its renderer (sim.cell.camera)
 
     @property
     def robot(self) -> RobotView:
@@ -154,14 +154,26 @@ class Cell:
             robot.executor.set_payload(0.0)
         mujoco.mj_forward(self.model, self.data)
 
-    def belt_camera(self, size: tuple[int, int]):
-        """The belt camera's renderer at `size` [px] (the perception's multisampling), created
-        once and kept for later episodes."""
-        from sim.cell.camera import PERCEPTION_SAMPLES, BeltCamera
+    def belt_camera(self, size: tuple[int, int], name: str | None = None):
+        """A belt camera's renderer at `size` [px] (the perception's multisampling), created
+        once and kept for later episodes.
 
-        camera = self._camera
+        Args:
+            size: Frame size (width, height) [px].
+            name: The MJCF camera (a line's robot's own, `sim.cell.camera.camera_name`); None:
+                the scene's `belt_camera`.
+
+        Returns:
+            The `sim.cell.camera.BeltCamera`: one per camera name and cell.
+        """
+        from sim.cell.camera import CAMERA_NAME, PERCEPTION_SAMPLES, BeltCamera
+
+        name = CAMERA_NAME if name is None else name
+        camera = self._cameras.get(name)
         if camera is None or camera.size != tuple(size):
             if camera is not None:
-                camera.close()  # one renderer (GL context) per cell
-            self._camera = BeltCamera(self.model, *size, samples=PERCEPTION_SAMPLES)
-        return self._camera
+                camera.close()  # one renderer (GL context) per camera and cell
+            self._cameras[name] = BeltCamera(
+                self.model, *size, name=name, samples=PERCEPTION_SAMPLES
+            )
+        return self._cameras[name]

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import mujoco
 import numpy as np
 
 from planner.decision.energy_cost import EnergyPrice
@@ -27,7 +28,11 @@ from sim.flow.config import X_INFEED
 from sim.flow.generator import Flow, generate_flow
 from sim.monitors.energy import ActuatorLog, EnergyMeter
 from sim.results.metrics import EpisodeMetrics
-from sim.sensing.perception import CameraPerception, TruthPerception
+from sim.sensing.perception import (
+    CameraPerception,
+    TruthPerception,
+    line_camera_perception,
+)
 
 CHECK_PERIOD_S = 0.02
 """How often items leaving the belt, landing in bins or falling are looked for [s]."""
@@ -231,10 +236,34 @@ def robot_stations(
 
 def perception(config: EpisodeConfig, cell: Cell, flow: Flow):
     """The episode's perception: true items at the camera line, or the belt camera's frames
-    through the pipeline (`sim.sensing.perception`)."""
+    through the pipeline (`sim.sensing.perception`); a line's cameras, one per robot, with
+    `[camera] per_robot` (the cell compiled with them, `sim.episode.runner.config_cell`)."""
     speed, period = config.belt_speed_mps, config.observation_period_s
     if config.perception == "truth":
         return TruthPerception(cell.items, flow, speed, period)
+    if config.camera.per_robot and len(cell.robots) > 1:
+        from sim.cell.camera import camera_name
+
+        prefixes = ("", *(robot.prefix for robot in cell.robots[1:]))
+        names = [camera_name(p) for p in prefixes]
+        ids = [mujoco.mj_name2id(cell.model, mujoco.mjtObj.mjOBJ_CAMERA, n) for n in names]
+        if min(ids) < 0:
+            allowed = "a cell compiled with a camera per robot (sim.episode.runner.config_cell)"
+            raise InvalidInput("camera.per_robot", allowed, f"no camera {names[ids.index(-1)]}")
+        return line_camera_perception(
+            cell.model,
+            cell.items.current(),
+            cell.catalogue,
+            prefixes,
+            [cell.belt_camera(config.camera.size, n) for n in names],
+            belt_speed=speed,
+            period_s=period,
+            classifier=config.classifier,
+            depth_noise=ZED_CLASS if config.depth_noise else None,
+            seed=config.seed,
+            mix=config.flow.flow_kwargs(),
+            size=config.camera.size,
+        )
     return CameraPerception(
         cell.model,
         cell.items.current(),

@@ -83,6 +83,8 @@ TOML layout (every key optional; defaults are the headline episode)::
     [camera]                    # the belt camera's frames [px], 16:9 like its calibration
     width = 640                 # 384..1920, a multiple of 16 (the calibration is scaled to it)
     height = 360                # width x 9/16
+    per_robot = false           # a line: each robot its own belt camera upstream of its reach,
+                                # their tracks fused (docs/line.md); false: the one camera
     [cup]                       # the vacuum cup
     diameter_m = 0.06           # lip diameter 0.02..0.12 m (recompiles the cell's model)
     vacuum_pa = 80000.0         # vacuum below atmosphere, 1000..101325 Pa; holds area x vacuum
@@ -479,15 +481,22 @@ VACUUM_RANGE_PA = (1e3, 101325.0)
 @dataclass(frozen=True)
 class Camera:
     """The belt camera's frame size: the calibration is scaled to it, the stereo depth (and
-    its noise, correlated over pixels) comes at it, so coarser frames see coarser items.
+    its noise, correlated over pixels) comes at it, so coarser frames see coarser items; and
+    whether a line's every robot has its own camera.
 
     Attributes:
         width: Frame width [px] (`CAMERA_WIDTH_RANGE`, a multiple of 16).
         height: Frame height [px]: width x 9/16.
+        per_robot: A line of several robots with camera perception: each robot its own belt
+            camera upstream of its reach (`sim.model.line_model`; a model setting: the line is
+            compiled with them), all observed every period, their detections fused in the one
+            tracker (`sim.sensing.tracking`). False: the one camera upstream of the first
+            robot. No effect with one robot or truth perception.
     """
 
     width: int = FRAME_SIZE[0]
     height: int = FRAME_SIZE[1]
+    per_robot: bool = False
 
     def __post_init__(self) -> None:
         lo, hi = CAMERA_WIDTH_RANGE
@@ -497,6 +506,8 @@ class Camera:
         check(ok, "camera.width", f"{lo}..{hi} px, a multiple of {aw}", w, None)
         allowed = f"width x {ah}/{aw} (the calibration's {aw}:{ah}): {w * ah // aw} px"
         check(is_integer(h) and h * aw == w * ah, "camera.height", allowed, h, None)
+        v = self.per_robot
+        check(isinstance(v, bool), "camera.per_robot", "true | false", v, None)
 
     @property
     def size(self) -> tuple[int, int]:

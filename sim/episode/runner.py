@@ -48,7 +48,7 @@ class EpisodeResult:
     latencies: dict[str, list[float]] = field(default_factory=dict)
 
 
-_CELLS: dict[tuple[int, CellSettings, str, int, bool, tuple[float, ...]], object] = {}
+_CELLS: dict[tuple[int, CellSettings, str, int, bool, tuple[float, ...], bool], object] = {}
 
 
 def planner_name(planner) -> str:
@@ -62,13 +62,15 @@ def shared_cell(
     robots: int = 1,
     line: bool = False,
     positions_m: tuple[float, ...] = (),
+    cameras_per_robot: bool = False,
 ):
     """This process's cell of `settings` (an episode config's `cell_settings`; the scene's when
     None) and `catalogue` (the default one when None; its materials name the bins): compiled
     once per process, settings and catalogue, reused by every episode run here with them, so a
     sweep over the cup's diameter, the belt's length or the catalogue gets each its own model.
     A line of `robots` stands at `positions_m` along the belt [m] (() the default spacing,
-    `sim.model.line_model.LineLayout`); one robot away from x = 0 runs on a line's model."""
+    `sim.model.line_model.LineLayout`); one robot away from x = 0 runs on a line's model; a
+    line of several robots with `cameras_per_robot` has a belt camera for each robot."""
     from sim.model.line_model import LineLayout, compile_line
 
     if catalogue is None:
@@ -76,10 +78,11 @@ def shared_cell(
 
         catalogue = load_catalogue()
     prefixes = ("r0_",) if robots == 1 else ()
-    layout = LineLayout(robots=robots, positions_m=tuple(positions_m), prefixes=prefixes)
+    cameras = bool(cameras_per_robot) and robots > 1
+    layout = LineLayout(robots, tuple(positions_m), prefixes, cameras_per_robot=cameras)
     line = line or robots > 1 or layout.positions_m[0] != 0.0
     settings = settings or CellSettings()
-    key = (os.getpid(), settings, catalogue.digest, robots, line, layout.positions_m)
+    key = (os.getpid(), settings, catalogue.digest, robots, line, layout.positions_m, cameras)
     if key not in _CELLS:
         if not line:
             _CELLS[key] = Cell(settings=key[1], catalogue=catalogue)
@@ -91,13 +94,15 @@ def shared_cell(
 
 def config_cell(config: EpisodeConfig):
     """This process's shared cell for `config` (`shared_cell` of its model settings,
-    catalogue, robots and their positions)."""
+    catalogue, robots and their positions, and a camera per robot for a line's camera
+    perception with `[camera] per_robot`)."""
     return shared_cell(
         config.cell_settings,
         config.item_catalogue,
         config.robot_count,
         config.line_cell,
         config.robot_positions_m,
+        config.camera.per_robot and config.perception == "camera",
     )
 
 

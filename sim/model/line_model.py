@@ -27,6 +27,22 @@ Robots are kept apart by their cages: each stands in its own, 1.8 m long, so nei
 least 1.8 m apart; their working circles (1.13 m across) and bins (within 0.42 m of the robot
 along the belt) never overlap, so no robot can touch another or another's bins.
 
+A camera per robot (`LineLayout(cameras_per_robot=True)`, the episode config's `[camera]
+per_robot`): the first robot keeps the scene's `belt_camera`; every other robot k gets its own
+belt camera `rk_belt_camera` on its camera line `camera_lines_m[k]`, with its LED box
+(`rk_camera_box_*`), its marker shelves (`rk_marker_shelf_left`, `rk_marker_shelf_right`) and its
+four corner markers (`rk_marker_0` .. `rk_marker_3`, the scene's colours in the scene's order),
+by which its pipeline finds the belt as the first camera's does. The camera hangs where the
+first one hangs ahead of the first robot, 1.48 m upstream of its robot, when that lies at least
+half-way from the robot upstream; else half-way between the two robots (0.9 m upstream of its
+robot at the default spacing of 1.8 m: on the line of the two cages' shared posts, 0.31 m
+upstream of its robot's reach and 0.28 m downstream of the robot upstream's). Its rig is the
+scene's shortened along the belt (`CAMERA_RIG_SCALE_X`): box and markers at +-0.2 m of the
+camera line instead of +-0.32 m, so that the box clears the arms and rods of both robots over
+their whole reach and neither robot nor an item it carries comes between the camera and a
+marker (`tests/test_line_model.py`). Without it (the default) a line has the one camera, and its
+model is the same as before cameras per robot existed.
+
 A line of one robot with the prefix "" (`LineLayout()`) is the single cell: the scene edited in
 place (moved when its position is not 0), which at x = 0 compiles to today's cell to the byte.
 Every per-robot function of the cell takes that prefix (`sim.cell.robot`, `sim.cell.executor`,
@@ -47,7 +63,7 @@ import numpy as np
 from perception.codes import THESIS_MATERIALS
 from sim.checks import is_finite_number, is_integer
 from sim.errors import InvalidInput
-from sim.flow.config import BELT_X_RANGE
+from sim.flow.config import BELT_X_RANGE, X_CAMERA
 from sim.model.scene_edits import (
     BELT_LENGTH_RANGE_M,
     CellSettings,
@@ -71,6 +87,21 @@ CAGE_GEOMS = (
     "cage_mount_plate",
 )
 """The scene's cage around its robot (drawn only), copied for each robot of a line."""
+SCENE_CAMERA = "belt_camera"
+"""The scene's belt camera: the first robot's (and a line's only one without cameras per robot)."""
+CAMERA_BOX_GEOMS = tuple(
+    f"camera_box_{part}"
+    for part in ("top", "upstream", "downstream", "left", "right", "post_left", "post_right")
+)
+"""The scene's LED box around its camera (drawn only), copied for each other robot's camera."""
+MARKER_GEOMS = ("marker_shelf_left", "marker_shelf_right", *(f"marker_{i}" for i in range(4)))
+"""The scene's corner markers (the pipeline locates the belt by them) and their shelves."""
+FIRST_CAMERA_OFFSET_M = -X_CAMERA
+"""How far the scene's camera hangs upstream of the scene's robot [m] (1.48)."""
+CAMERA_RIG_SCALE_X = 0.625
+"""Along the belt, another robot's camera rig is the scene's scaled by this: its box and its
+markers at +-0.2 m of the camera line (the scene's at +-0.32 m), their shelves +-0.28 m long;
+thicknesses and everything across the belt and in height as the scene's."""
 ROBOT_ROOTS = ("base_link", "platform_link")
 """The robot's top bodies (base with the arms and rods; the free platform with the cup)."""
 _PREFIX = re.compile(r"[A-Za-z][A-Za-z0-9]*_")
@@ -89,11 +120,14 @@ class LineLayout:
         prefixes: Name prefix of each robot's elements (a letter, letters or digits, "_").
             Default: "" for one robot (the single cell's names), else "r0_", "r1_", ...; ""
             is allowed only for a line of one robot.
+        cameras_per_robot: Whether every robot after the first has its own belt camera
+            upstream of it (`camera_lines_m`; module docstring); False: the scene's one camera.
     """
 
     robots: int = 1
     positions_m: tuple[float, ...] = ()
     prefixes: tuple[str, ...] = ()
+    cameras_per_robot: bool = False
 
     def __post_init__(self) -> None:
         n = self.robots
@@ -125,6 +159,26 @@ class LineLayout:
             allowed = f"{n} distinct prefixes like 'r0_' (or '' for a line of one robot)"
             raise InvalidInput("line.prefixes", allowed, self.prefixes)
         object.__setattr__(self, "prefixes", tuple(prefixes))
+        if not isinstance(self.cameras_per_robot, bool):
+            raise InvalidInput("line.cameras_per_robot", "true | false", self.cameras_per_robot)
+
+    @property
+    def camera_lines_m(self) -> tuple[float, ...]:
+        """x of each robot's camera line [m], upstream first: the scene's camera's (-1.48 m)
+        for the first robot; for robot k > 0 with `cameras_per_robot`, 1.48 m upstream of it or
+        half-way from the robot upstream, whichever is nearer to it. Only the first without
+        cameras per robot."""
+        lines = [X_CAMERA]
+        if self.cameras_per_robot:
+            x = self.positions_m
+            for k in range(1, self.robots):
+                lines.append(x[k] - min(FIRST_CAMERA_OFFSET_M, 0.5 * (x[k] - x[k - 1])))
+        return tuple(lines)
+
+    @property
+    def camera_prefixes(self) -> tuple[str, ...]:
+        """Name prefix of each camera's elements, upstream first ("" for the scene's)."""
+        return ("", *self.prefixes[1 : len(self.camera_lines_m)])
 
     @property
     def belt_length_m(self) -> float:
@@ -149,7 +203,12 @@ def line_elements(layout: LineLayout, materials=None) -> tuple:
     robots = tuple(
         e for p in layout.prefixes for e in (*robot_elements(p), *bin_elements(materials, p))
     )
-    return (*robots, *shared, (("key",), "home"))
+    cameras = tuple(
+        e
+        for p in layout.camera_prefixes[1:]
+        for e in ((("camera",), p + SCENE_CAMERA), *((("geom",), p + m) for m in MARKER_GEOMS))
+    )
+    return (*robots, *cameras, *shared, (("key",), "home"))
 
 
 @lru_cache(maxsize=1)
@@ -268,6 +327,38 @@ def _add_robot(spec, prefix: str, x: float, cup_diameter_m: float, materials, gr
         )
 
 
+def _add_camera(spec: mujoco.MjSpec, prefix: str, x_line: float) -> None:
+    """A copy of the scene's belt camera, its box, shelves and markers on the camera line
+    `x_line` [m], names prefixed with `prefix`, the rig shortened along the belt by
+    `CAMERA_RIG_SCALE_X` (lengths over 5 cm and offsets from the camera)."""
+    scene = spec.camera(SCENE_CAMERA)
+    x0 = float(scene.pos[0])
+    for name in (*CAMERA_BOX_GEOMS, *MARKER_GEOMS):
+        geom = spec.geom(name)
+        size, pos = geom.size.copy(), geom.pos.copy()
+        if size[0] > 0.05:  # a length along the belt, not a wall's or a marker's thickness
+            size[0] *= CAMERA_RIG_SCALE_X
+        pos[0] = x_line + CAMERA_RIG_SCALE_X * (pos[0] - x0)
+        spec.worldbody.add_geom(
+            geom.classname,
+            name=prefix + name,
+            type=geom.type,
+            size=size,
+            pos=pos,
+            material=geom.material,
+            rgba=geom.rgba.copy(),
+        )
+    camera = spec.worldbody.add_camera(
+        name=prefix + SCENE_CAMERA,
+        pos=[x_line, float(scene.pos[1]), float(scene.pos[2])],
+        fovy=scene.fovy,
+        resolution=scene.resolution.copy(),
+    )
+    camera.alt.type = scene.alt.type
+    camera.alt.xyaxes = scene.alt.xyaxes.copy()
+    camera.quat = scene.quat.copy()
+
+
 LINE_POOL_SIZE = 160
 """Item bodies of a line of several robots: a line exists to serve belts one robot cannot clear
 (`sim.flow.config.LINE_MAX_ITEMS_PER_METRE`)."""
@@ -331,6 +422,8 @@ def line_spec(
         spec.delete(spec.geom(name))
     for name in materials.names:
         spec.delete(spec.body(f"bin_{name}"))
+    for prefix, x_line in zip(layout.camera_prefixes[1:], layout.camera_lines_m[1:], strict=True):
+        _add_camera(spec, prefix, x_line)
     return spec
 
 

@@ -28,7 +28,7 @@ import hashlib
 import logging
 import os
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -198,9 +198,17 @@ class CameraPerception:
         seed: int = 0,
         mix: dict | None = None,
         size: tuple[int, int] = CAMERA_SIZE,
+        prefix: str = "",
     ):
         from perception.camera.grid import BeltGrid
-        from sim.cell.camera import PERCEPTION_SAMPLES, BeltCamera, camera_pipeline
+        from sim.cell.camera import (
+            PERCEPTION_SAMPLES,
+            BeltCamera,
+            camera_line,
+            camera_name,
+            camera_pipeline,
+            marker_names,
+        )
 
         if classifier not in CLASSIFIER_MODES:
             raise InvalidInput("classifier", " | ".join(CLASSIFIER_MODES), classifier)
@@ -213,14 +221,20 @@ class CameraPerception:
         # The camera's own random stream (depth noise), apart from the flow's and the planner's.
         self.rng = np.random.default_rng([int(seed), 0x5E4])
         self.reported: list[ReportedItem] = []
-        grid = BeltGrid(x_line=X_CAMERA, period_s=period_s)
+        # The camera of the robot of name prefix `prefix` (a line's camera per robot); "" the
+        # scene's, on the flow's camera line.
+        name = camera_name(prefix)
+        self.x_line = X_CAMERA if prefix == "" else camera_line(model, name)
+        grid = BeltGrid(x_line=self.x_line, period_s=period_s)
         size = (int(size[0]), int(size[1]))
         if camera is not None and tuple(camera.size) != size:
             raise InvalidInput("camera", f"a camera of {size[0]} x {size[1]} px", camera.size)
-        self.pipeline = camera_pipeline(model, data, size, grid)
+        if camera is not None and getattr(camera, "name", name) != name:
+            raise InvalidInput("camera", f"the renderer of camera {name!r}", camera.name)
+        self.pipeline = camera_pipeline(model, data, size, grid, markers=marker_names(prefix))
         self._own_camera = camera is None
         if camera is None:
-            camera = BeltCamera(model, *size, samples=PERCEPTION_SAMPLES)
+            camera = BeltCamera(model, *size, name=name, samples=PERCEPTION_SAMPLES)
         self.camera = camera
         models, self.cells_per_item = stripe_models(catalogue, mix)
         self.hmm = OnlineStripeHmms(models)
@@ -257,7 +271,7 @@ class CameraPerception:
             heights = [np.zeros(0)] * stripes
             rgb = [np.zeros((0, 3), np.uint8)] * stripes
         # Belt coordinate b of each item pixel: the belt travel until it crosses the camera line.
-        self.pixels = self.pixels[1:] + [[self.speed * t + X_CAMERA - p[:, 0] for p in pixels]]
+        self.pixels = self.pixels[1:] + [[self.speed * t + self.x_line - p[:, 0] for p in pixels]]
         self.pixel_y = self.pixel_y[1:] + [[p[:, 1] for p in pixels]]
         self.pixel_height = self.pixel_height[1:] + [heights]
         self.pixel_rgb = self.pixel_rgb[1:] + [rgb]
@@ -306,7 +320,7 @@ class CameraPerception:
         else:
             probs = combine(self.mode, priors, clf_probs, clf.train_prior)
         for k, blob in enumerate(blobs):
-            x = X_CAMERA + self.speed * t - blob.b
+            x = self.x_line + self.speed * t - blob.b
             det = Detection(t, x, blob.y, (0.0, *(float(p) for p in probs[k])))
             out.append(det)
             self.reported.append(
@@ -349,3 +363,102 @@ class CameraPerception:
         """Free the camera's renderer (unless it was lent by the caller)."""
         if self._own_camera:
             self.camera.close()
+
+
+class LineCameraPerception:
+    """A line's camera per robot (`[camera] per_robot`): one `CameraPerception` per belt camera,
+    upstream first, each with its own renderer, pipeline, stripe HMMs, item window and depth
+    noise stream, all observed every period. Their detections go to the one tracker, each
+    marked with its camera (`Detection.camera`), which fuses a downstream camera's detections
+    with the tracks of the cameras upstream (`sim.sensing.tracking`).
+
+    Args:
+        cameras: The cameras' perceptions, upstream first (the first on the scene's camera).
+    """
+
+    name = "camera"
+
+    def __init__(self, cameras: list[CameraPerception]):
+        if not cameras:
+            raise ValueError("a line's perception has at least one camera")
+        self.cameras = tuple(cameras)
+
+    def observe(self, t: float) -> list[Detection]:
+        """Every camera's frame of time `t` [s]; their detections, each marked with its camera.
+
+        Args:
+            t: Simulated time [s].
+
+        Returns:
+            The detections of every camera, upstream camera first.
+        """
+        out = []
+        for index, camera in enumerate(self.cameras):
+            out += [replace(det, camera=index) for det in camera.observe(t)]
+        return out
+
+    @property
+    def reported(self) -> list[ReportedItem]:
+        """The items every camera reported at the last observation, upstream camera first."""
+        return [item for camera in self.cameras for item in camera.reported]
+
+    @property
+    def rows(self) -> int:
+        """Rows observed, summed over the cameras."""
+        return sum(camera.rows for camera in self.cameras)
+
+    @property
+    def unobserved(self) -> int:
+        """Rows read as empty (an unusable frame), summed over the cameras."""
+        return sum(camera.unobserved for camera in self.cameras)
+
+    @property
+    def render_s(self) -> float:
+        """Wall time spent rendering frames, summed over the cameras [s]."""
+        return sum(camera.render_s for camera in self.cameras)
+
+    @property
+    def pipeline_s(self) -> float:
+        """Wall time spent in the pipeline, summed over the cameras [s]."""
+        return sum(camera.pipeline_s for camera in self.cameras)
+
+    @property
+    def hmm_s(self) -> float:
+        """Wall time spent in the HMMs, blobs and classes, summed over the cameras [s]."""
+        return sum(camera.hmm_s for camera in self.cameras)
+
+    def close(self) -> None:
+        """Free every camera's renderer that is its own (not lent by the cell)."""
+        for camera in self.cameras:
+            camera.close()
+
+
+def line_camera_perception(
+    model, data, catalogue, prefixes: tuple[str, ...], cameras: list, **options
+) -> LineCameraPerception:
+    """A camera perception per belt camera of a line (`LineCameraPerception`).
+
+    Args:
+        model: The compiled line, with a camera per robot (`sim.model.line_model`).
+        data: Its data.
+        catalogue: The item catalogue.
+        prefixes: Each camera's robot's name prefix, upstream first ("" for the scene's camera,
+            the first robot's).
+        cameras: Each camera's renderer (`Cell.belt_camera`), in the same order; None entries
+            make their own.
+        **options: `CameraPerception`'s other arguments (belt_speed, period_s, classifier,
+            depth_noise, seed, mix, size, coupled), the same for every camera.
+
+    Returns:
+        The composite perception. The first camera's depth noise is drawn from the stream a
+        single camera's would be; camera k's from its own (the episode's seed and k).
+    """
+    out = []
+    for index, (prefix, camera) in enumerate(zip(prefixes, cameras, strict=True)):
+        perception = CameraPerception(
+            model, data, catalogue, camera=camera, prefix=prefix, **options
+        )
+        if index:
+            perception.rng = np.random.default_rng([int(options.get("seed", 0)), 0x5E4, index])
+        out.append(perception)
+    return LineCameraPerception(out)

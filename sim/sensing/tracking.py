@@ -5,6 +5,16 @@ time of the observation; from then on an item's position advances with the belt 
 real cell with a belt encoder. A detection close to an existing track (same belt point, after
 advancing it) updates that track instead of creating a new one, so an item seen over several
 grid rows or in overlapping extraction windows is tracked once.
+
+A line with a camera per robot reports each detection with the camera that saw it (0 the first,
+upstream). A detection of a downstream camera first looks for a track that only cameras
+upstream of it saw (`Tracker._fuse`): the nearest such track whose position advanced with the
+belt lies within `fusion_gate` of it (`FUSION_GATE_M`, wider than the match radius: the track
+has travelled 1.8-5.4 m since it was seen), whatever the class each camera gave, each track and
+detection paired once, nearest pairs first. The item is then one track, placed where the newer
+camera saw it (`confirm`). A detection no upstream track is near makes a new track: an item the
+cameras upstream did not see (buried under another one an upstream robot picked, or merged with
+a neighbour in their frames) or one an upstream robot's failed pick left on the belt.
 """
 
 from __future__ import annotations
@@ -29,6 +39,13 @@ class Detection:
     y: float
     probs: tuple[float, float, float, float]
     true_id: int | None = None
+    camera: int = 0
+    """The camera of a line that saw it, upstream first (0: the first, or the only one)."""
+
+
+FUSION_GATE_M = 0.10
+"""A downstream camera's detection joins a track only cameras upstream of it saw when it lies
+within this of the track's position advanced with the belt [m] (`Tracker._fuse`)."""
 
 
 @dataclass
@@ -44,6 +61,8 @@ class Track:
     hits: int = 1
     last_seen: float = 0.0
     meta: dict = field(default_factory=dict)
+    camera: int = 0
+    """The most downstream camera that saw it (a line's camera per robot; else 0)."""
 
     def x_at(self, t: float, belt_speed: float) -> float:
         """Belt position [m] at time `t` [s] for a belt moving at `belt_speed` [m/s]."""
@@ -66,11 +85,16 @@ class Tracker:
     Args:
         belt_speed: Belt speed [m/s].
         match_radius: Detections closer than this to a track's current position join it [m].
+        fusion_gate: A downstream camera's detection closer than this to a track that only
+            cameras upstream of it saw is that track's item [m] (`FUSION_GATE_M`).
     """
 
-    def __init__(self, belt_speed: float, match_radius: float = 0.06):
+    def __init__(
+        self, belt_speed: float, match_radius: float = 0.06, fusion_gate: float = FUSION_GATE_M
+    ):
         self.belt_speed = float(belt_speed)
         self.match_radius = float(match_radius)
+        self.fusion_gate = float(fusion_gate)
         self._tracks: dict[int, Track] = {}
         self._next_id = 0
 
@@ -80,7 +104,11 @@ class Tracker:
     def update(self, detections: list[Detection]) -> list[Track]:
         """Merge `detections` into the tracks; returns the tracks created."""
         created = []
-        for det in detections:
+        fused = self._fuse(detections)
+        for index, det in enumerate(detections):
+            if index in fused:
+                confirm(fused[index], det)
+                continue
             track = self._match(det)
             if track is None:
                 track = Track(
@@ -91,6 +119,7 @@ class Tracker:
                     probs=np.asarray(det.probs, dtype=float),
                     true_id=det.true_id,
                     last_seen=det.t,
+                    camera=det.camera,
                 )
                 self._tracks[track.track_id] = track
                 self._next_id += 1
@@ -117,11 +146,37 @@ class Tracker:
                 if det.true_id == track.true_id:
                     return track
                 continue
+            if track.camera != det.camera:  # another camera's track: `_fuse`'s
+                continue
             dx = track.x_at(det.t, self.belt_speed) - det.x
             d = float(np.hypot(dx, track.y - det.y))
             if d < best_d and track.predicted_class == int(np.argmax(det.probs[1:])) + 2:
                 best, best_d = track, d
         return best
+
+    def _fuse(self, detections: list[Detection]) -> dict[int, Track]:
+        """The tracks that detections of downstream cameras are of: for each camera detection
+        (index into `detections`) of a camera after the first, the nearest track that only
+        cameras upstream of it saw, within `fusion_gate` of the track's position advanced with
+        the belt; nearest pairs first, each track and detection at most once, the classes not
+        compared (two cameras may class an item differently)."""
+        pairs = []
+        for index, det in enumerate(detections):
+            if det.camera == 0 or det.true_id is not None:
+                continue
+            for track in self._tracks.values():
+                if track.camera < det.camera and track.true_id is None:
+                    dx = track.x_at(det.t, self.belt_speed) - det.x
+                    d = float(np.hypot(dx, track.y - det.y))
+                    if d < self.fusion_gate:
+                        pairs.append((d, index, track.track_id))
+        fused: dict[int, Track] = {}
+        taken = set()
+        for _, index, track_id in sorted(pairs):
+            if index not in fused and track_id not in taken:
+                fused[index] = self._tracks[track_id]
+                taken.add(track_id)
+        return fused
 
     def tracks(self) -> list[Track]:
         """All tracks, oldest first."""
@@ -145,3 +200,20 @@ class Tracker:
         """Remove and return the tracks whose position at `t` [s] is beyond `x_max` [m]."""
         gone = [k for k, tr in self._tracks.items() if tr.x_at(t, self.belt_speed) > x_max]
         return [self._tracks.pop(k) for k in gone]
+
+
+def confirm(track: Track, det: Detection) -> None:
+    """A downstream camera saw the item of `track` (`Tracker._fuse`): the track is placed where
+    that camera saw it (the belt's travel since and any slip of the item are left behind), its
+    class probabilities are the mean of every report's, and it is that camera's from now on.
+
+    Args:
+        track: The track, updated in place (a new probabilities array).
+        det: The downstream camera's detection.
+    """
+    n = track.hits
+    track.x0, track.y, track.t0 = det.x, det.y, det.t
+    track.probs = (track.probs * n + np.asarray(det.probs, dtype=float)) / (n + 1)
+    track.hits = n + 1
+    track.last_seen = det.t
+    track.camera = det.camera
