@@ -34,6 +34,7 @@ COMMANDS = {
     "train": "Train the learned pick-order policy on sortsim/PickOrder-v0 (seeded).",
     "report": "Means with 95-percent intervals, figures and an HTML page of run or sweep folders.",
     "view": "Show one episode live in MuJoCo's interactive viewer (needs a display).",
+    "frames": "Write the belt camera's frames of one episode as a labelled COCO data set.",
 }
 
 REFUSED = (RefusedInput, NotAvailable)

@@ -7,7 +7,10 @@ hooks and scheduler; nothing here steps the physics.
 
 from __future__ import annotations
 
+import time
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
@@ -19,20 +22,27 @@ from sim.cell.cell import PICK_Z_NOMINAL, Cell
 from sim.cell.depth_noise import ZED_CLASS
 from sim.cell.riding import ItemRiding
 from sim.cell.suction import SuctionConfig
+from sim.episode import step_hooks
 from sim.episode.config import EpisodeConfig
 from sim.episode.cycle_timing import cell_cycle_model
 from sim.episode.pick_control import PRESS_DEPTH_M, PickController
+from sim.episode.scheduler import PeriodicEvent, Scheduler
 from sim.episode.stations import RobotStation
 from sim.errors import InvalidInput
 from sim.flow.config import X_INFEED
 from sim.flow.generator import Flow, generate_flow
 from sim.monitors.energy import ActuatorLog, EnergyMeter
+from sim.monitors.visibility import SCALE, VisibilityWatch, belt_slope
+from sim.render.segmentation import shared_segmentation
 from sim.results.metrics import EpisodeMetrics
 from sim.sensing.perception import (
     CameraPerception,
     TruthPerception,
     line_camera_perception,
 )
+
+if TYPE_CHECKING:
+    from sim.episode.loop import Episode
 
 CHECK_PERIOD_S = 0.02
 """How often items leaving the belt, landing in bins or falling are looked for [s]."""
@@ -277,3 +287,64 @@ def perception(config: EpisodeConfig, cell: Cell, flow: Flow):
         mix=config.flow.flow_kwargs(),
         size=config.camera.size,
     )
+
+
+def add_observations(scheduler: Scheduler, episode: Episode) -> None:
+    """The episode's events every observation period, in this order: the perception's
+    (`step_hooks.observe`), then in camera perception the visibility monitor's
+    (`visibility_monitor`), each registered as `Episode.every` registers a user's.
+
+    Args:
+        scheduler: The episode's scheduler.
+        episode: The episode, its parts made (`Episode.reset`).
+    """
+    period = episode.config.observation_period_s
+    scheduler.add(PeriodicEvent(period, step_hooks.observe))
+    if episode.config.perception == "camera":
+        monitor = visibility_monitor(episode.cell, episode.config.camera.size, episode.metrics)
+        scheduler.add(PeriodicEvent(period, monitor))
+
+
+def belt_cameras(cell: Cell) -> tuple[str, ...]:
+    """The names of the cell's belt cameras, upstream first: the scene's, then any of a
+    robot's own (`<prefix>belt_camera`)."""
+    from sim.cell.camera import CAMERA_NAME
+
+    names = (CAMERA_NAME, *(robot.prefix + CAMERA_NAME for robot in cell.robots))
+    kind = mujoco.mjtObj.mjOBJ_CAMERA
+    found = [n for n in dict.fromkeys(names) if mujoco.mj_name2id(cell.model, kind, n) >= 0]
+    return tuple(found)
+
+
+def visibility_monitor(
+    cell: Cell, size: tuple[int, int], metrics: EpisodeMetrics
+) -> Callable[[Episode], None]:
+    """The visible fraction of each item's top area at every camera observation, booked in
+    `metrics` (`never_visible`; `sim.monitors.visibility`), timed in the episode's `timings`
+    ("visibility").
+
+    Args:
+        cell: The cell (its belt cameras, items).
+        size: The cameras' frame size (width, height) [px].
+        metrics: The episode's counters; `never_visible` counted from now on.
+    """
+    from sim.cell.camera import camera_pose
+
+    renders = []
+    for name in belt_cameras(cell):
+        height = (
+            camera_pose(cell.model, cell.items.current(), name)[1][2] - cell.belt.geometry.top_z
+        )
+        slope = belt_slope(float(height))
+        renders.append(shared_segmentation(cell.model, cell.pool, size, SCALE, slope, name))
+    watch = VisibilityWatch(renders, cell.items)
+    metrics.on_visibility({})
+
+    def book(episode: Episode) -> None:
+        t0 = time.perf_counter()
+        sighting = watch.measure(episode.held())
+        episode.metrics.on_visibility(sighting.fractions, sighting.passed)
+        timings = episode.timings
+        timings["visibility"] = timings.get("visibility", 0.0) + time.perf_counter() - t0
+
+    return book

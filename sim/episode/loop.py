@@ -223,7 +223,7 @@ class Episode:
         for fn in step_hooks.AFTER_STEP:
             self.hooks.add("after_step", fn)
         self.scheduler.add(self.infeed)
-        self.scheduler.add(PeriodicEvent(self.config.observation_period_s, step_hooks.observe))
+        builder.add_observations(self.scheduler, self)  # perception, visibility monitor
         for check in item_checks.CHECKS:
             self.scheduler.add(PeriodicEvent(CHECK_PERIOD_S, check))
         if self.video is not None:

@@ -39,6 +39,10 @@ Sorting quality (what a plant judges a sorter by):
   id; in camera mode a new track is attributed to the nearest true item within the tracker's
   match radius (`sim.sensing.attribution`: the evaluation's bookkeeping, never the robot's
   knowledge). An undetected item can still be picked: the cup may seal on it next to its target.
+- `never_visible` (camera perception): items that passed the camera (their centre reached its
+  line at an observation) but of which less than 30 % of the top area was seen at every camera
+  observation (`sim.monitors.visibility`: covered by other items); None, an empty cell, in truth
+  perception, which renders no camera.
 - `empty_picks`: pick attempts whose cup never sealed, so carried no item (`PickRecord.sealed`).
 - `left_unsure`: tracks the confidence rule (`min_class_confidence`,
   `sim.sensing.confidence`) kept from the decision manager until they went past the robot
@@ -61,7 +65,8 @@ Accounting identities, true of every finished episode (`accounting_failures` che
   sum over classes of recovery_c x entered_c = picked - wrong_bin (the items in their own bin);
 - empty_picks <= failed_picks (an attempt whose cup never sealed carried nothing to a bin: no
   empty pick is a success);
-- every item a track was attributed to entered, so never_detected <= entered.
+- every item a track was attributed to entered, so never_detected <= entered; every item that
+  passed the camera entered, so never_visible <= entered.
 """
 
 from __future__ import annotations
@@ -70,6 +75,7 @@ from dataclasses import dataclass
 
 from perception.codes import ALUMINIUM, PAPER, PLASTIC, THESIS_MATERIALS, Materials
 from sim.monitors.energy import JOULES_PER_KWH
+from sim.monitors.visibility import VISIBLE_SHARE
 
 ITEM_CLASSES = (PAPER, PLASTIC, ALUMINIUM)
 """The thesis's material classes (a catalogue's materials may be others)."""
@@ -143,6 +149,10 @@ class EpisodeMetrics:
         self.entered_ids: set[int] = set()
         self.detected: set[int] = set()  # items some track was attributed to
         self.left_unsure = 0  # tracks the confidence rule kept from the decision manager
+        # camera perception: each item's largest visible fraction of its top area at an
+        # observation, and the items that passed the camera; None: not measured (truth)
+        self.best_visible: dict[int, float] | None = None
+        self.passed_camera: set[int] = set()
         self.binned: dict[int, tuple[int, int]] = {}
         self.missed: set[int] = set()
         self.dropped: set[int] = set()
@@ -162,6 +172,17 @@ class EpisodeMetrics:
     def on_detected(self, item_id: int) -> None:
         """A new track was attributed to the item `item_id` (`sim.sensing.attribution`)."""
         self.detected.add(int(item_id))
+
+    def on_visibility(self, fractions: dict[int, float], passed=()) -> None:
+        """One camera observation (`sim.monitors.visibility.Sighting`): the visible fraction
+        of the top area of each item near the camera, by flow id, and the items that have
+        passed the camera. The first call, even with nothing seen, starts `never_visible`."""
+        if self.best_visible is None:
+            self.best_visible = {}
+        best = self.best_visible
+        for item_id, fraction in fractions.items():
+            best[int(item_id)] = max(float(fraction), best.get(int(item_id), 0.0))
+        self.passed_camera.update(int(i) for i in passed)
 
     def on_left_unsure(self, n_tracks: int = 1) -> None:
         """`n_tracks` tracks left the tracker while the confidence rule kept them back."""
@@ -247,6 +268,15 @@ class EpisodeMetrics:
         return len(left - self.detected)
 
     @property
+    def n_never_visible(self) -> int | None:
+        """Items that passed the camera with less than `VISIBLE_SHARE` of their top area
+        seen at every observation; None when visibility was not measured (truth perception)."""
+        if self.best_visible is None:
+            return None
+        best = self.best_visible
+        return sum(1 for i in self.passed_camera if best.get(i, 0.0) < VISIBLE_SHARE)
+
+    @property
     def n_empty_picks(self) -> int:
         """Pick attempts whose cup never sealed."""
         return sum(1 for p in self.picks if not p.sealed)
@@ -301,6 +331,7 @@ class EpisodeMetrics:
         for c in self.materials.ids:
             row[f"recovery_{self.materials.name_of(c)}"] = self.recovery(c)
         row["never_detected"] = self.n_never_detected
+        row["never_visible"] = self.n_never_visible
         row["empty_picks"] = self.n_empty_picks
         row["left_unsure"] = self.left_unsure
         return row
@@ -343,7 +374,18 @@ class EpisodeMetrics:
         n_in = row["entered"]
         if n_in and abs(row["accuracy"] - row["picked"] / n_in) > 1e-12:
             fails.append("accuracy != picked / entered")
-        return fails + self._quality_failures(row)
+        return fails + self._quality_failures(row) + self._visibility_failures(row)
+
+    def _visibility_failures(self, row: dict[str, object]) -> list[str]:
+        """The identities of `never_visible` that do not hold."""
+        fails = []
+        unknown = self.passed_camera - self.entered_ids
+        if unknown:
+            fails.append(f"passed the camera but never entered: {sorted(unknown)}")
+        never_visible = row["never_visible"]
+        if never_visible is not None and not 0 <= never_visible <= row["entered"]:
+            fails.append(f"never_visible {never_visible} outside 0..{row['entered']}")
+        return fails
 
     def _quality_failures(self, row: dict[str, object]) -> list[str]:
         """The sorting-quality identities of the module docstring that do not hold."""

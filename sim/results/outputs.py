@@ -69,6 +69,7 @@ EPISODE_COLUMNS = (
     "recovery_plastic",
     "recovery_aluminium",
     "never_detected",
+    "never_visible",
     "empty_picks",
     "min_class_confidence",
     "left_unsure",
