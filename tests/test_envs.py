@@ -12,6 +12,7 @@ from gymnasium.utils.env_checker import check_env
 import sim.envs  # noqa: F401  (registers the ids)
 from planner.decision.slot_features import N_FEATURES
 from sim.envs.actions import InvalidAction
+from sim.episode.overlay import overlay_of
 
 SMALL_CELL = {"items": 12, "duration_s": 8.0}
 
@@ -164,6 +165,15 @@ def test_sorting_cell_masks_raise_and_render(monkeypatch):
         env.step(_first_slot(mask))
         later = env.render()
         assert np.abs(later.astype(int) - frame).max(axis=2).mean() > 0.5  # it moved on
+        for _ in range(500):  # until an item lands in a bin
+            *_, terminated, _, _ = env.step(_first_slot(env.action_masks()))
+            if env.episode.bins.landed or terminated:
+                break
+        overlay = overlay_of(env.episode, env.episode.data.time, planner="agent")
+        assert "agent" in overlay.counters[0] and overlay.counters[2].startswith("wrong bin 0")
+        bins = {b.cls: b for b in overlay.bins}
+        assert set(bins) == {2, 3, 4} and bins[2].y < 0 < bins[3].y  # paper's on its own side
+        assert sum(b.count for b in bins.values()) == len(env.episode.bins.landed) > 0
     finally:
         env.close()
 

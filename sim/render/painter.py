@@ -182,8 +182,11 @@ class FramePainter:
         ghost(self.renderer.scene, self._ghosts)
         frame = self.renderer.render().copy()
         if overlay is not None:
+            scene = self.renderer.scene
             pts = np.array([it[1:4] for it in overlay.items], dtype=float).reshape(-1, 3)
-            annotate(frame, project(self.renderer.scene, pts, self.size), overlay)
+            rims = np.array([(b.x, b.y, b.z) for b in overlay.bins], dtype=float).reshape(-1, 3)
+            bin_uv = project(scene, rims, self.size)
+            annotate(frame, project(scene, pts, self.size), overlay, bin_uv)
         return frame
 
     def close(self) -> None:

@@ -1,7 +1,10 @@
 """The video's view of the cell: a free camera over the belt, see-through geoms, projection.
 
-The view looks from above the paper bin's side at the whole belt, from the camera box
-(x = -1.48 m) to the discharge, the robot and all three bins (for a line, to its last robot).
+The view looks from the paper bin's side, a little upstream, 45 degrees down, at the belt from
+the camera box (x = -1.48 m) past the robot (for a line, to its last robot): the robot's base
+(0.9 m above the belt) stands behind its pick zone, which the view sees from below the base's
+level, items and cup in the open; the paper bin is in front of the belt, the plastic and
+aluminium bins' rims show beyond it (their labels mark them).
 The robot's cage and the camera box are drawn see-through (`ghosted_geoms`, `ghost`), and an
 infinite floor is drawn as a large square that looks the same (`finite_floors`). `project`
 turns world points into the pixels of a rendered view, for the labels drawn over a frame.
@@ -12,13 +15,15 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-LOOKAT = (-0.35, 0.0, 0.15)
+LOOKAT = (-0.45, 0.1, 0.0)
 """Point the single cell's view looks at [m]."""
-DISTANCE = 3.3
+DISTANCE = 3.0
 """The single cell's camera distance from `LOOKAT` [m]."""
-AZIMUTH = 135.0
-"""The camera's azimuth [deg]."""
-ELEVATION = -48.0
+AZIMUTH = 80.0
+"""The camera's azimuth [deg] (90: from the paper bin's side, square to the belt). Until the
+view was changed for the robot's base: 135, from downstream, 48 degrees down, where the base
+hid the pick zone."""
+ELEVATION = -45.0
 """The camera's elevation [deg]."""
 GHOSTED_PREFIXES = ("cage_", "camera_box_")
 """Geoms drawn see-through in the video (the robot's cage and the camera's box would hide the
