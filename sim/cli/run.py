@@ -36,7 +36,12 @@ WORLD_NUMBERS = (
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of `sortsim run`: the episode's (`add_episode_arguments`), the video, the folder."""
     add_episode_arguments(parser)
-    parser.add_argument("--video", default=None, help="write an MP4 of the episode")
+    parser.add_argument(
+        "--video",
+        default=None,
+        help="write an MP4 of the episode to this path (.mp4; its size and frame rate: the "
+        "config's [video], 640 x 360 at 10 frames/s by default)",
+    )
     parser.add_argument("--out", type=Path, default=Path("runs/latest"), help="output folder")
 
 
@@ -48,15 +53,26 @@ def add_episode_arguments(parser: argparse.ArgumentParser) -> None:
         help="TOML file, or a run folder's manifest.json to repeat that run; command-line "
         "options override it",
     )
-    parser.add_argument("--seed", type=int, default=None, help="random seed (default 0)")
     parser.add_argument(
-        "--items", type=int, default=None, help="items in the episode (default 100)"
+        "--seed",
+        type=int,
+        default=None,
+        help="the episode's seed, 0..2^63-1: the flow, the world's variation and every random "
+        "draw; the same seed and config give the same CSVs (default 0)",
+    )
+    parser.add_argument(
+        "--items",
+        type=int,
+        default=None,
+        help="items dropped on the belt, 1..20000, at most 30 per metre of belt travel over "
+        "the flow (default 100)",
     )
     parser.add_argument(
         "--speed-factor",
         type=float,
         default=None,
-        help="belt speed factor: 1, 1.2 or 1.5 of 0.185 m/s (default 1)",
+        help="belt speed over x1 = 0.185 m/s: any factor from 0.73 to 1.5 (0.135..0.277 m/s, "
+        "the conveyor's range; the thesis ran 1, 1.2 and 1.5) (default 1)",
     )
     parser.add_argument(
         "--planner",
@@ -69,7 +85,8 @@ def add_episode_arguments(parser: argparse.ArgumentParser) -> None:
         "--perception",
         default=None,
         choices=["camera", "truth"],
-        help="camera: rendered frames through the HMMs; truth: true codes",
+        help="camera (default): rendered camera frames, items classed by --classifier; truth: "
+        "every item past the camera line where it is, its true class certain (no rendering)",
     )
     parser.add_argument(
         "--classifier",
@@ -79,14 +96,18 @@ def add_episode_arguments(parser: argparse.ArgumentParser) -> None:
         "(the thesis's path)",
     )
     parser.add_argument(
-        "--duration", type=float, default=None, help="seconds over which the items arrive (90)"
+        "--duration",
+        type=float,
+        default=None,
+        help="seconds over which the items arrive, 1..36000 (default 90)",
     )
     parser.add_argument(
         "--energy-price",
         type=float,
         default=None,
         metavar="EUR_PER_KWH",
-        help="price of the motors' electrical energy; > 0: every planner nets it (default 0)",
+        help="price of the motors' electrical energy, 0..1e6; > 0: every planner nets it "
+        "(default 0)",
     )
     parser.add_argument(
         "--min-confidence",
@@ -129,7 +150,7 @@ def add_episode_arguments(parser: argparse.ArgumentParser) -> None:
             "--" + name.replace("_", "-"),
             type=float,
             default=None,
-            help=f"override the world preset's {name} (docs/world.md)",
+            help=f"override the world preset's {name} (its range: docs/settings.md; docs/world.md)",
         )
 
 
