@@ -1,0 +1,284 @@
+"""docs/settings.md, generated from the episode config: every key, its default, range, unit and
+meaning.
+
+    python -m sim.experiments.settings_doc            # writes docs/settings.md
+    python -m sim.experiments.settings_doc --check    # exit 1 if the file is not up to date
+
+Nothing is written by hand: the keys are the fields of `sim.episode.config.EpisodeConfig` and
+of its sections (`_SECTIONS`: `[video]`, `[camera]`, ...; the robots' `RobotSpec`), the defaults
+those dataclasses' (the world's numbers: the `varied` and `uniform` presets'), the ranges what
+the config's own validation answers when the key is given a value it refuses (each refusal's
+"allowed" text: the range cannot drift from the checks), the meanings the comments of the
+config module's TOML layout (top-level keys) or the section dataclasses' `Attributes:`
+docstrings, and the units the `[unit]` those texts give, else the key's suffix (`_s`, `_m`,
+`_pa`, ...). `tests/test_settings_doc.py` checks that the committed file is the generated one.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import inspect
+import re
+import sys
+from pathlib import Path
+from typing import Any
+
+from sim.episode import config as episode_config
+from sim.episode.line_robots import RobotSpec
+from sim.errors import InvalidInput
+from sim.flow.world import WorldVariation
+from sim.paths import REPO_ROOT
+
+OUT = REPO_ROOT / "docs" / "settings.md"
+PROBES = (-1e30, "\0?", [-1e30])
+"""Values tried in turn until the validation refuses one (a number far out of every range, a
+string no key takes, a list)."""
+SUFFIX_UNITS = (
+    ("_eur_per_kwh", "EUR/kWh"),
+    ("_deg", "deg"),
+    ("_pa", "Pa"),
+    ("_s", "s"),
+    ("_m", "m"),
+)
+UNIT = re.compile(r"\[(m|s|px|Pa|EUR|deg|m/s|EUR/kWh|J|kg)\]")
+REGENERATE = "python -m sim.experiments.settings_doc"
+UNCOMMENTED = {
+    "seed": "The episode's seed: the flow (times, places, classes, items), the world's "
+    "variation, the depth noise and the planners' random draws; the same seed and config give "
+    "the same CSVs.",
+    "items": "Items dropped on the belt over `duration_s`.",
+}
+"""Meanings of the top-level keys the config's TOML layout gives without a comment."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Setting:
+    """One key of the episode config, as the settings reference lists it."""
+
+    key: str
+    default: str
+    allowed: str
+    unit: str
+    meaning: str
+
+
+def _cell(text: str) -> str:
+    return " ".join(str(text).split()).replace("|", "\\|")
+
+
+def _toml(value: Any) -> str:
+    """A default as a config file writes it."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return f'"{value}"'
+    if isinstance(value, tuple | list):
+        return "[" + ", ".join(_toml(v) for v in value) + "]"
+    if isinstance(value, float):
+        return f"{value:g}"
+    return str(value)
+
+
+def layout_comments() -> dict[str, str]:
+    """{top-level key: its comment} from the config module's TOML layout (the docstring's
+    block before its first table), continuation lines joined."""
+    out: dict[str, str] = {}
+    key = None
+    for line in (episode_config.__doc__ or "").splitlines():
+        stripped = line.strip()
+        if stripped.startswith("["):
+            if key is not None:
+                break
+            continue
+        match = re.match(r"^\s{4}(\w+)\s*=\s*[^#]*#\s?(.*)$", line)
+        if match:
+            key = match.group(1)
+            out[key] = match.group(2).strip()
+        elif key is not None and stripped.startswith("#"):
+            out[key] += " " + stripped.lstrip("#").strip()
+        elif stripped and key is not None and not line.startswith("    "):
+            break
+    return out
+
+
+def attribute_docs(cls: type) -> dict[str, str]:
+    """{attribute: its text} of a class's Google-style `Attributes:` section."""
+    doc = inspect.getdoc(cls) or ""
+    out: dict[str, str] = {}
+    inside, name = False, None
+    for line in doc.splitlines():
+        if line.strip() == "Attributes:":
+            inside = True
+            continue
+        if not inside:
+            continue
+        match = re.match(r"^    (\w+):\s*(.*)$", line)
+        if match:
+            name = match.group(1)
+            out[name] = match.group(2).strip()
+        elif line.startswith("        ") and name:
+            out[name] += " " + line.strip()
+        elif line.strip() and not line.startswith("    "):
+            break
+    return out
+
+
+def refusal(data: dict[str, Any], field: str) -> str:
+    """What the config allows for `field`: the "allowed" text of its refusal of the first of
+    `PROBES` it refuses (`data` builds the config with `{PROBE}` in place of the value)."""
+    for probe in PROBES:
+        try:
+            episode_config.from_dict(_put(data, probe))
+        except InvalidInput as exc:
+            if exc.field.split("[")[0] == field.split("[")[0] or exc.field == field:
+                return exc.allowed
+    return "-"
+
+
+def _put(data: Any, probe: Any) -> Any:
+    if data is ...:
+        return probe
+    if isinstance(data, dict):
+        return {k: _put(v, probe) for k, v in data.items()}
+    if isinstance(data, list):
+        return [_put(v, probe) for v in data]
+    return data
+
+
+def unit_of(key: str, *texts: str) -> str:
+    """The unit a key's texts give in brackets, else its suffix's, else '-'."""
+    for text in texts:
+        match = UNIT.search(text or "")
+        if match:
+            return match.group(1)
+    name = key.split(".")[-1]
+    for suffix, unit in SUFFIX_UNITS:
+        if name.endswith(suffix):
+            return unit
+    return "-"
+
+
+def _scalars() -> list[Setting]:
+    comments = layout_comments()
+    world = attribute_docs(WorldVariation)
+    varied, uniform = WorldVariation(), WorldVariation.uniform()
+    defaults = episode_config.EpisodeConfig.__dataclass_fields__
+    out = []
+    for name in sorted(episode_config._SCALARS, key=list(defaults).index):
+        field = defaults[name]
+        if name in episode_config.WORLD_NUMBERS:
+            a, b = getattr(varied, name), getattr(uniform, name)
+            default = f"the world's: {_toml(a)} (varied), {_toml(b)} (uniform)"
+            meaning = world.get(name, comments.get(name, ""))
+        elif name == "robots":
+            default, meaning = "1", comments.get(name, "")
+        else:
+            default = _toml(field.default)
+            meaning = comments.get(name) or UNCOMMENTED.get(name, "")
+        allowed = refusal({name: ...}, name)
+        out.append(Setting(name, default, allowed, unit_of(name, meaning, allowed), meaning))
+    return out
+
+
+def _section(name: str, cls: type) -> list[Setting]:
+    docs = attribute_docs(cls)
+    out = []
+    for field in dataclasses.fields(cls):
+        key = f"{name}.{field.name}"
+        default = field.default
+        if default is dataclasses.MISSING:
+            default = field.default_factory() if callable(field.default_factory) else None
+        default_text = "the default mix (thesis's)" if default is None else _toml(default)
+        allowed = refusal({name: {field.name: ...}}, key)
+        meaning = docs.get(field.name, "")
+        out.append(Setting(key, default_text, allowed, unit_of(key, meaning, allowed), meaning))
+    return out
+
+
+def _values() -> list[Setting]:
+    doc = " ".join((inspect.getdoc(episode_config.Values) or "").split("Attributes:")[0].split())
+    prices = episode_config.EpisodeConfig().values.given()
+    default = ", ".join(f"{k} {v:g}" for k, v in prices.items())
+    allowed = refusal({"values": {"paper": ...}}, "values.paper")
+    return [Setting("values.<material or item type>", default, allowed, "EUR", doc)]
+
+
+def _robots() -> list[Setting]:
+    docs = attribute_docs(RobotSpec)
+    out = []
+    spec = RobotSpec()
+    for field in dataclasses.fields(RobotSpec):
+        name = field.name
+        default = getattr(spec, name)
+        default_text = {"x_m": "0, 1.8, 3.6, ... (the line's spacing)", "materials": "every"}
+        text = default_text.get(name, _toml(default))
+        allowed = refusal({"robots": [{name: ...}]}, f"robots[0].{name}")
+        if allowed == "-":
+            allowed = refusal({"robots": [{name: ...}]}, f"robots.{name}")
+        meaning = docs.get(name, "")
+        out.append(
+            Setting(f"[[robots]] {name}", text, allowed, unit_of(name, meaning, allowed), meaning)
+        )
+        if name in ("pick_pause_s", "place_pause_s", "idle_sleep"):
+            allowed = refusal({"robot": {name: ...}}, f"robot.{name}")
+            meaning = f"Every robot's default of `[[robots]] {name}` (a table's own key wins)."
+            out.append(Setting(f"robot.{name}", text, allowed, unit_of(name, allowed), meaning))
+    return out
+
+
+def settings() -> list[tuple[str, list[Setting]]]:
+    """The settings reference's tables: (heading, settings) per part of the config."""
+    parts = [("Top-level keys", _scalars()), ("[values]", _values())]
+    for name, cls in episode_config._SECTIONS.items():
+        if name != "values":
+            parts.append((f"[{name}]", _section(name, cls)))
+    parts.append(("[robot] and [[robots]]", _robots()))
+    return parts
+
+
+def markdown() -> str:
+    """docs/settings.md's text."""
+    lines = [
+        "# Episode settings reference",
+        "",
+        f"Generated from `sim/episode/config.py` by `{REGENERATE}` (do not edit by hand; "
+        "`tests/test_settings_doc.py` checks the file is up to date). Every key a config file "
+        "(`sortsim run --config FILE`, a sweep's `[base]` and `[[variants]]`) may hold; "
+        "command-line options override them (`sortsim run --help`). *Allowed* is what the "
+        "config's validation answers when it refuses a value (so it cannot drift from the "
+        "checks); a refused value stops the command with that line before anything runs "
+        "(exit code 2). The layout of a file, with examples, is in `sim/episode/config.py`'s "
+        "docstring; `docs/episode.md` says what the settings change.",
+        "",
+    ]
+    for heading, rows in settings():
+        lines += [f"## {heading}", ""]
+        lines += ["| key | default | allowed | unit | meaning |", "|---|---|---|---|---|"]
+        for s in rows:
+            cells = [f"`{s.key}`", s.default, s.allowed, s.unit, s.meaning]
+            lines.append("| " + " | ".join(_cell(c) for c in cells) + " |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Write docs/settings.md (or, with --check, say whether it is up to date)."""
+    parser = argparse.ArgumentParser(prog="python -m sim.experiments.settings_doc")
+    parser.add_argument("--out", type=Path, default=OUT, help="where to write (docs/settings.md)")
+    parser.add_argument("--check", action="store_true", help="exit 1 if the file differs")
+    args = parser.parse_args(argv)
+    text = markdown()
+    if args.check:
+        current = args.out.read_text(encoding="utf-8") if args.out.is_file() else ""
+        if current != text:
+            print(f"{args.out} is not up to date: run {REGENERATE}", file=sys.stderr)
+            return 1
+        return 0
+    args.out.write_text(text, encoding="utf-8")
+    print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
