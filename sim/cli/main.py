@@ -3,7 +3,9 @@
 Each command module defines `add_arguments(parser)` and `main(args) -> int` and keeps its heavy
 imports inside `main`, so `sortsim --help` stays fast. Exit codes (docs/architecture.md): 0 done,
 2 refused input (one line on stderr naming the field and what is allowed), 1 anything else (a
-deliberate error in one line too; a bug with its traceback), 128 + N when stopped by signal N.
+deliberate error in one line too, and so is a failure of the machine's storage, `STORAGE_ERRORS`:
+a full disk, a read-only file system; a bug with its traceback), 128 + N when stopped by signal
+N.
 
 Before a command runs, MuJoCo's rendering back-end is made safe to import
 (`sim.cell.rendering.prepare_environment`), and SIGTERM and SIGHUP are turned into an orderly
@@ -15,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import errno
 import importlib
 import logging
 import os
@@ -128,7 +131,11 @@ def _say(command: str, text: object) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the console script; returns the process exit code."""
-    args = build_parser().parse_args(argv)
+    try:
+        args = build_parser().parse_args(argv)
+    except KeyboardInterrupt:  # Ctrl-C while the commands are imported
+        print("sortsim: interrupted", file=sys.stderr, flush=True)
+        return 130
     configure_logging(args.verbose, args.quiet)
     from sim.cell.rendering import prepare_environment
 
@@ -142,16 +149,38 @@ def main(argv: list[str] | None = None) -> int:
     except SortsimError as exc:
         _say(args.command, f"error: {exc}")
         return 1
+    except BrokenPipeError:  # the reader of stdout went away (e.g. `| head`)
+        with contextlib.suppress(OSError):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
+    except OSError as exc:
+        if exc.errno not in STORAGE_ERRORS:
+            raise
+        where = f": {exc.filename}" if exc.filename else ""
+        _say(args.command, f"error: {exc.strerror or type(exc).__name__}{where}")
+        return 1
+    except ImportError as exc:  # a module's import cut short by Ctrl-C
+        if not _interrupted(exc):
+            raise
+        _say(args.command, "interrupted")
+        return 130
     except KeyboardInterrupt:
         _say(args.command, "interrupted")
         return 130
     except Stopped as exc:
         _say(args.command, f"stopped by {signal.Signals(exc.signum).name}")
         return 128 + exc.signum
-    except BrokenPipeError:  # the reader of stdout went away (e.g. `| head`)
-        with contextlib.suppress(OSError):
-            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return 1
+
+
+def _interrupted(exc: BaseException) -> bool:
+    """Whether `exc` was caused by a Ctrl-C (a KeyboardInterrupt in its chain of causes)."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
 
 
 if __name__ == "__main__":

@@ -7,15 +7,30 @@ path (creatable, writable, not a folder), and for camera perception or a video t
 back-end, the camera's calibration, the cached stripe HMMs and the video encoder. A refused
 value exits with code 2 and one line naming it, and nothing is written. Temporaries a killed
 run left behind are removed when the next run starts.
+
+The folder is locked while the run uses it (`sim.results.locks.FolderLock`): a second run or
+sweep into it is refused in one line (exit 2) before any work, and a sweep's folder is refused
+too (a run would replace its rows). The three files land together (`write_run`: written to
+temporaries, renamed into place, the manifest last); when they cannot be written (a full disk)
+their texts are kept as JSON elsewhere (`sim.results.outputs.keep_unwritten`), one line says
+where, and the exit code is 1. A video that fails (its disk full, its encoder gone) never costs
+the CSVs: the episode runs on without it (`KeptVideo`), the CSVs are written, one line says the
+video failed, and the exit code is 1.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
+import shutil
+import struct
 import sys
 from pathlib import Path
 
 from planner.decision.registry import PLANNERS
+
+SWEEP_FILE = "sweep.json"
+"""`sim.experiments.sweep_runner.IDENTITY_FILE`: what marks a sweep's folder."""
 
 # `sim.episode.config.WORLD_NUMBERS`, spelled out so the parser imports no numerics
 # (tests/test_world_variation.py checks they agree).
@@ -243,6 +258,11 @@ def preflight(config, out: Path, video: str | Path | None) -> None:
     outputs.check_output_dir(out, "--out")
     for name in ("episodes.csv", "picks.csv"):
         outputs.check_output_file(out / name, "--out")
+    if (out / SWEEP_FILE).exists():
+        from sim.errors import InvalidInput
+
+        allowed = f"a run's folder, not a sweep's (it holds {SWEEP_FILE}: a run would replace "
+        raise InvalidInput("--out", allowed + "the sweep's rows)", str(out))
     if video is not None:
         outputs.check_output_file(video, "--video", (".mp4",), "an MP4 file")
     check_perception(config)
@@ -281,36 +301,256 @@ def check_perception(config) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Run one episode and write its files."""
+    from sim.evaluation.item_features import prepare_camera
     from sim.paths import CACHE_DIR, remove_stale_temporaries
-    from sim.results import outputs
+    from sim.results.locks import FolderLock
 
     config = load_config(args)
     out = Path(args.out)
     preflight(config, out, args.video)
-    video = None if args.video is None else Path(args.video)
-    remove_stale_temporaries(out, CACHE_DIR, *([] if video is None else [video.parent]))
-    from sim.evaluation.item_features import prepare_camera
+    video_path = None if args.video is None else Path(args.video)
+    with FolderLock(out, "--out"):
+        extra = [] if video_path is None else [video_path.parent]
+        remove_stale_temporaries(out, CACHE_DIR, *extra)
+        prepare_camera(config)  # a custom catalogue's item classifier table, recorded once
+        progress = None if args.quiet else Progress()
+        result, video = run_with_video(config, video_path, progress)
+        if progress is not None:
+            progress.done()
+        print(summary(result))
+        written = write_run(out, config, result)
+    if video is not None and video.failure is None:
+        written.append(video_path)
+    print("wrote " + ", ".join(str(p) for p in written))
+    if video is not None and video.failure is not None:
+        from sim.results.outputs import OutputError
 
-    prepare_camera(config)  # a custom catalogue's item classifier table, recorded once
-    from sim.episode.runner import run_episode
+        names = ", ".join(p.name for p in written)
+        failed = f"the video {video_path} failed ({video.failure})"
+        raise OutputError(f"{failed}; {names} are written in {out}")
+    return 0
 
-    progress = None if args.quiet else Progress()
-    result = run_episode(config, video_path=video, progress=progress)
-    if progress is not None:
-        progress.done()
+
+def run_with_video(config, video_path: Path | None, progress):
+    """Run the episode, its video (if any) through `KeptVideo`, so a failing video stops the
+    video only.
+
+    Args:
+        config: The episode's config.
+        video_path: The MP4 to write, or None.
+        progress: The progress callback, or None.
+
+    Returns:
+        (the episode's result, the `KeptVideo` or None).
+    """
+    from sim.episode.runner import config_cell, run_episode
+
+    if video_path is None:
+        return run_episode(config, progress=progress), None
+    from sim.render.video import VideoRecorder
+
+    cell = config_cell(config)
+    v = config.video
+    video = KeptVideo.start(VideoRecorder, cell.model, video_path, v.fps, v.width, v.height)
+    try:
+        result = run_episode(config, cell=cell, progress=progress, recorder=video)
+    finally:
+        video.release_stderr()
+    return result, video
+
+
+def write_run(out: Path, config, result) -> list[Path]:
+    """Write the run's episodes.csv, picks.csv and manifest.json into `out` as one unit (the
+    manifest last, naming the CSVs' digests); what cannot be written is kept elsewhere.
+
+    Args:
+        out: The run's folder.
+        config: The episode's config.
+        result: The episode's result.
+
+    Returns:
+        The files written.
+
+    Raises:
+        OutputError: The files could not be written (one line saying where they are kept).
+    """
+    from sim.results import manifest, outputs
+
     columns = outputs.episode_columns(config.materials) + outputs.line_columns(config.robot_count)
-    outputs.write_episodes(out / "episodes.csv", [result.episode_row], columns)
-    outputs.write_picks(out / "picks.csv", result.pick_rows)
-    from sim.results import manifest
-
+    files = {
+        "episodes.csv": outputs.to_csv_text(columns, [result.episode_row]),
+        "picks.csv": outputs.to_csv_text(outputs.PICK_COLUMNS, result.pick_rows),
+    }
     record = manifest.build("run", config.to_dict(), [config.seed])
     record["catalogue_digest"] = config.item_catalogue.digest  # checked when repeated
-    manifest.write(out, record)
-    print(summary(result))
-    written = [out / "episodes.csv", out / "picks.csv", out / manifest.MANIFEST_FILE]
-    written += [args.video] if args.video else []
-    print("wrote " + ", ".join(str(p) for p in written))
-    return 0
+    record["files"] = manifest.file_digests(files)
+    files[manifest.MANIFEST_FILE] = manifest.text(record)
+    try:
+        return outputs.write_together(out, files)
+    except OSError as exc:
+        reason = exc.strerror or type(exc).__name__
+        kept = outputs.keep_unwritten(out, files, f"{reason}: {exc.filename}")
+        where = (
+            f"they are kept in {kept} (sim.results.outputs.restore_unwritten writes them back)"
+            if kept is not None
+            else "and no other place could keep them"
+        )
+        message = f"could not write the results into {out} ({reason}); {where}"
+        raise outputs.OutputError(message) from None
+
+
+class KeptVideo:
+    """A video recorder whose failure ends the video, not the episode (a `FrameSink`).
+
+    The first failure of the recorder (its encoder cannot write: a full disk; its process
+    failed) is kept in `failure`, the partial MP4 dropped, and no frame asked for after it.
+    At the end the MP4 is checked to be whole (every box inside the file, the `moov` index
+    present): an encoder that stopped writing silently when the disk filled leaves a cut file,
+    which is removed and counted as a failure.
+
+    Args:
+        recorder: The `sim.render.video.VideoRecorder`.
+    """
+
+    def __init__(self, recorder):
+        self.recorder = recorder
+        self.failure: str | None = None
+        self._stderr = None
+
+    @classmethod
+    def start(cls, recorder_class, *args) -> KeptVideo:
+        """A recorder made with `args` whose video process writes its stderr (and its
+        encoder's: ffmpeg's own lines when the disk fills) to an anonymous temporary file
+        instead of the terminal: `release_stderr` shows it after the episode, or, when the
+        video failed, its last line becomes part of the one line that says so.
+
+        Args:
+            recorder_class: `sim.render.video.VideoRecorder`.
+            *args: Its arguments.
+
+        Returns:
+            The kept video.
+        """
+        import os
+        import tempfile
+
+        try:
+            capture = tempfile.TemporaryFile()
+        except OSError:  # no temporary folder: the process's stderr is left as it is
+            return cls(recorder_class(*args))
+        sys.stderr.flush()
+        saved = os.dup(2)
+        os.dup2(capture.fileno(), 2)  # the video process starts now and inherits it
+        try:
+            video = cls(recorder_class(*args))
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+        video._stderr = capture
+        return video
+
+    def release_stderr(self) -> None:
+        """Show what the video process wrote on stderr (its last line joins the failure)."""
+        capture, self._stderr = self._stderr, None
+        if capture is None:
+            return
+        try:
+            capture.seek(0)
+            text = capture.read().decode("utf-8", errors="replace")
+        except OSError:
+            text = ""
+        finally:
+            capture.close()
+        lines = [line.strip() for line in text.splitlines() if line.strip()]
+        if self.failure is not None:
+            if lines:
+                self.failure += f"; the encoder said: {lines[-1][:160]}"
+        elif text:
+            sys.stderr.write(text)
+
+    @property
+    def next_frame_time(self) -> float:
+        """Sim time of the next frame [s] (never, after a failure)."""
+        return math.inf if self.failure else self.recorder.next_frame_time
+
+    @property
+    def stats(self) -> dict:
+        """The recorder's statistics (`VideoRecorder.stats`)."""
+        return getattr(self.recorder, "stats", {})
+
+    def due(self, t: float) -> bool:
+        """Whether a frame is due at sim time `t` (never after a failure)."""
+        return self.failure is None and self.recorder.due(t)
+
+    def capture(self, data, overlay) -> None:
+        """Hand the frame to the recorder; a failure ends the video."""
+        if self.failure is None:
+            self._guard(self.recorder.capture, data, overlay)
+
+    def close(self):
+        """Finish the MP4 and check it is whole; returns its path (None after a failure)."""
+        if self.failure is not None:
+            return None
+        path = self._guard(self.recorder.close)
+        if self.failure is None:
+            problem = mp4_problem(path)
+            if problem is not None:
+                Path(path).unlink(missing_ok=True)
+                self.failure = problem
+                return None
+        return path
+
+    def abort(self) -> None:
+        """Drop the partial video (the episode failed)."""
+        if self.failure is None:
+            self.recorder.abort()
+
+    def _guard(self, fn, *args):
+        from sim.errors import SortsimError
+
+        try:
+            return fn(*args)
+        except (SortsimError, OSError) as exc:
+            self.failure = " ".join(str(exc).split()) or type(exc).__name__
+            if isinstance(exc, OSError):
+                self.recorder.abort()
+            return None
+
+
+def mp4_problem(path: Path) -> str | None:
+    """Why the MP4 at `path` is not whole (None when it is): its top-level boxes must lie
+    inside the file and include the `moov` index, which the encoder writes last.
+
+    Args:
+        path: The MP4.
+
+    Returns:
+        None, or what is wrong in words (with the disk's free space when it is full).
+    """
+    path = Path(path)
+    try:
+        size = path.stat().st_size
+        boxes = []
+        with path.open("rb") as f:
+            at = 0
+            while at + 8 <= size:
+                f.seek(at)
+                length, kind = struct.unpack(">I4s", f.read(8))
+                if length == 1:
+                    length = struct.unpack(">Q", f.read(8))[0]
+                elif length == 0:
+                    length = size - at
+                if length < 8 or at + length > size:
+                    break
+                boxes.append(kind)
+                at += length
+    except OSError as exc:
+        return f"its file cannot be read: {exc.strerror}"
+    if b"moov" in boxes and at == size:
+        return None
+    free = shutil.disk_usage(path.parent).free
+    full = "; its file system is full" if free < 64 * 1024 else ""
+    return f"the MP4 was cut short at {size} bytes{full}"
 
 
 def load_config(args: argparse.Namespace):

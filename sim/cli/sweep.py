@@ -8,6 +8,11 @@ running the same sweep again skips them. A refusal raised while an episode runs,
 worker process, stops the sweep with its one line. At the end
 the thesis's table is printed with our means beside its numbers and the matching figures are
 saved as PNG files in `<out>`.
+
+The folder is locked from its checks to the figures (`sim.results.locks.FolderLock`): a second
+sweep or run into it is refused in one line (exit 2) before any work. A folder whose disk fills
+stops the sweep in one line (exit 1) with every row written before intact; the same command
+resumes it.
 """
 
 from __future__ import annotations
@@ -58,6 +63,17 @@ def main(args: argparse.Namespace) -> int:
     if args.ray is not None:
         sweep.require_ray(args.ray)
     sweep.check_out_dir(config, args.out)
+    check_rendering(config)
+    from sim.results.locks import FolderLock
+
+    with FolderLock(args.out, "--out"):
+        sweep.check_out_dir(config, args.out)  # again, now that no other command can write
+        return _run(args, config)
+
+
+def check_rendering(config) -> None:
+    """Refuse, before any episode, what the sweep's camera episodes could not run without: the
+    rendering back-end, the camera's calibration, the item classifier's training table."""
     if any(spec.config.perception == "camera" for spec in config.episodes):
         from perception.camera.calibration import CameraCalibration
         from sim.cell.camera import DEFAULT_CALIBRATION
@@ -73,7 +89,11 @@ def main(args: argparse.Namespace) -> int:
 
         trained_item_classifier()  # a missing training table refused before any episode
 
+
+def _run(args: argparse.Namespace, config) -> int:
+    """The sweep's work once its folder is locked: manifest, episodes, table and figures."""
     from sim.cli.run import Progress
+    from sim.experiments import sweep_runner as sweep
     from sim.results import manifest
 
     manifest.write(args.out, manifest.build("sweep", sweep_manifest_config(config), seeds(config)))

@@ -14,14 +14,31 @@ and writable, and an `episodes.csv` already there must be this sweep's. The swee
 beside it; an `episodes.csv` of another sweep is refused, never merged. (A folder written before
 `sweep.json` existed is accepted when every row belongs to this grid.) Leftover temporaries of a
 killed sweep are removed when it starts again. A refusal raised in a worker process reaches the
-parent intact (refusals pickle) and stops the sweep with its one line.
+parent intact (refusals pickle) and stops the sweep with its one line. A run's folder (its
+manifest.json of kind "run") is refused too: its row would pass for one of the sweep's.
+
+A row that cannot be written (the folder's disk is full) stops the sweep with one line
+(`OutputError`, exit code 1); the rows written before stay as they were (every write is a
+rewrite through a temporary), and running the same command again resumes.
+
+Local workers (`--workers N`) are born ignoring SIGINT, so a Ctrl-C reaches the parent alone
+(which ends the pool: no worker prints its own interruption; one sent while they are spawned
+waits, blocked, for the parent), and they end with their
+parent, however it ends: Linux's parent-death signal (`prctl(PR_SET_PDEATHSIG)`) kills a worker
+the moment the sweep's process dies, and a watchdog thread (`PARENT_POLL_S`) catches what that
+cannot (another platform, a worker whose parent died before it was set).
 """
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
 import json
 import multiprocessing
 import os
+import signal
+import sys
+import threading
 import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
@@ -40,6 +57,9 @@ PICKS_FILE = "picks.csv"
 """Every pick attempt of the sweep's episodes, each with its episode's key columns."""
 PICK_KEY_COLUMNS = ("variant", "planner", "speed_factor", "n_items", "seed")
 """The columns that name a pick's episode in the sweep's picks.csv."""
+PARENT_POLL_S = 0.5
+"""How often a local worker's watchdog checks that the sweep's process is still there [s]."""
+_PR_SET_PDEATHSIG = 1
 
 
 def row_key(row: dict) -> str:
@@ -100,6 +120,9 @@ def check_out_dir(sweep: SweepConfig, out_dir: Path) -> None:
     outputs.check_output_dir(out, "--out")
     for name in ("episodes.csv", IDENTITY_FILE):
         outputs.check_output_file(out / name, "--out")
+    if _manifest_kind(out) == "run":
+        allowed = "a sweep's folder, not a run's (its manifest.json is a run's)"
+        raise InvalidInput("--out", allowed, str(out))
     keys = _row_keys(out / "episodes.csv")
     if not keys:
         return
@@ -115,6 +138,15 @@ def check_out_dir(sweep: SweepConfig, out_dir: Path) -> None:
             "(the episodes.csv there is of another sweep)"
         )
         raise InvalidInput("--out", allowed, str(out))
+
+
+def _manifest_kind(out: Path) -> str | None:
+    """The `kind` of the manifest.json in `out` ("run", "sweep"; None without a readable one)."""
+    try:
+        data = json.loads((out / "manifest.json").read_bytes().decode("utf-8"))
+    except (OSError, ValueError):
+        return None
+    return data.get("kind") if isinstance(data, dict) else None
 
 
 def _start(sweep: SweepConfig, out: Path) -> None:
@@ -199,10 +231,65 @@ def _local(specs: list[EpisodeSpec], workers: int, on_row: RowCallback) -> None:
     specs = dispatch_order(specs)
     # spawn: a fresh interpreter per worker, no inherited rendering contexts or threads.
     context = multiprocessing.get_context("spawn")
-    with context.Pool(processes=min(workers, len(specs)), maxtasksperchild=None) as pool:
+    with contextlib.ExitStack() as stack:
+        with _sigint_blocked():  # the workers are born with it blocked, then ignore it
+            pool = stack.enter_context(
+                context.Pool(
+                    processes=min(workers, len(specs)),
+                    maxtasksperchild=None,
+                    initializer=_worker_start,
+                    initargs=(os.getpid(),),
+                )
+            )
         by_key = {spec.key: spec for spec in specs}
         for key, (row, picks) in pool.imap_unordered(_keyed, specs, chunksize=1):
             on_row(by_key[key], row, picks)
+
+
+@contextlib.contextmanager
+def _sigint_blocked():
+    """SIGINT blocked and ignored meanwhile, in the main thread: processes spawned now are born
+    ignoring it (a disposition to ignore survives `exec`, and Python keeps it), so a Ctrl-C
+    cannot reach a worker while it starts; one that comes meanwhile stays pending (Linux never
+    drops a blocked signal) and reaches this process once its handler is back."""
+    main = threading.current_thread() is threading.main_thread()
+    if not (main and hasattr(signal, "pthread_sigmask")):
+        yield
+        return
+    with contextlib.suppress(ImportError, AttributeError, OSError):
+        from multiprocessing import resource_tracker
+
+        resource_tracker.ensure_running()  # it unblocks SIGINT when it starts: start it first
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    handler = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, handler)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+
+
+def _worker_start(parent: int) -> None:
+    """A local worker's start: Ctrl-C is the parent's to handle; the worker ends when the
+    sweep's process `parent` is gone (parent-death signal on Linux, else the watchdog)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    if sys.platform.startswith("linux"):
+        with contextlib.suppress(OSError, AttributeError):
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    if os.getppid() != parent:  # the parent died before the signal was set
+        os._exit(1)
+    threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
+
+
+def _watch_parent(parent: int) -> None:
+    """End this worker at once when its parent process is gone (it was re-parented)."""
+    while True:
+        time.sleep(PARENT_POLL_S)
+        if os.getppid() != parent:
+            os._exit(1)
 
 
 def _keyed(spec: EpisodeSpec) -> tuple[str, tuple[dict, list[dict]]]:
@@ -293,8 +380,8 @@ def run_sweep(
         # without its row, which the next start removes (`_start`); never a row without picks.
         key = {c: row.get(c) for c in PICK_KEY_COLUMNS}
         keyed = [{**key, **p, **settings} for p in picks]
-        outputs.append_sweep_picks(picks_path, keyed, pick_columns(sweep))
-        outputs.append_episode(csv_path, row, episode_columns(sweep))
+        _write_or_stop(outputs.append_sweep_picks, picks_path, keyed, pick_columns(sweep))
+        _write_or_stop(outputs.append_episode, csv_path, row, episode_columns(sweep))
         count[0] += 1
         elapsed = time.perf_counter() - start
         eta = eta_text(elapsed, count[0] - done_before, total - count[0])
@@ -312,6 +399,22 @@ def run_sweep(
         else:
             _local(todo, workers, on_row)
     return _sorted_rewrite(sweep, csv_path)
+
+
+def _write_or_stop(write: Callable, path: Path, *args) -> None:
+    """`write(path, *args)`; a failure (a full disk) stops the sweep in one line saying that
+    the rows written before are kept and the sweep resumes (`OutputError`)."""
+    try:
+        write(path, *args)
+    except OSError as exc:
+        reason = exc.strerror or type(exc).__name__
+        done = len(outputs.read_rows(path.parent / "episodes.csv"))
+        message = (
+            f"could not write {path.name} into {path.parent} ({reason}); the {done} episodes "
+            "written before are kept there: free some space and run the same command again "
+            "to resume"
+        )
+        raise outputs.OutputError(message) from None
 
 
 def eta_text(elapsed_s: float, done: int, left: int) -> str:

@@ -4,14 +4,18 @@ In the manner of a trial folder of an experiment tracker: beside `episodes.csv` 
 `picks.csv`), one JSON object with the fully resolved configuration (every key, defaults
 included), the seeds, the package version, the git commit of the source tree when it is a
 checkout (and whether it had uncommitted changes), the MuJoCo, Python and NumPy versions, the
-machine (CPU model, cores, OS) and the command line. It is written atomically before the first
-episode runs, so a folder with results always says how they were made; the CSVs stay
-byte-identical for a seed and config (the manifest's time stamp and machine are not in them).
+machine (CPU model, cores, OS) and the command line. A sweep's is written atomically before its
+first episode runs; a run's lands with its CSVs, last of the three (`text`, written by
+`sim.results.outputs.write_together`), and names each CSV's SHA-256 under `files`
+(`file_digests`), so a folder whose CSVs match its manifest holds one run's files. A folder with
+results always says how they were made; the CSVs stay byte-identical for a seed and config (the
+manifest's time stamp and machine are not in them).
 """
 
 from __future__ import annotations
 
 import datetime
+import hashlib
 import json
 import os
 import platform
@@ -103,7 +107,33 @@ def build(kind: str, config: Any, seeds: list[int], argv: list[str] | None = Non
     }
 
 
+def file_digests(files: dict[str, str | bytes]) -> dict[str, str]:
+    """The SHA-256 (hex) of each file's content, for a manifest's `files`.
+
+    Args:
+        files: {file name: its whole content}.
+
+    Returns:
+        {file name: hex digest}.
+    """
+    out = {}
+    for name, data in files.items():
+        out[name] = hashlib.sha256(data if isinstance(data, bytes) else data.encode()).hexdigest()
+    return out
+
+
+def text(manifest: dict) -> str:
+    """The manifest's JSON text as `write` writes it.
+
+    Args:
+        manifest: The manifest (`build`).
+
+    Returns:
+        The JSON, indented, with a final line end.
+    """
+    return json.dumps(manifest, indent=2, sort_keys=False) + "\n"
+
+
 def write(out_dir: Path, manifest: dict) -> Path:
     """Write `manifest.json` in `out_dir` atomically."""
-    text = json.dumps(manifest, indent=2, sort_keys=False) + "\n"
-    return write_atomic(Path(out_dir) / MANIFEST_FILE, text)
+    return write_atomic(Path(out_dir) / MANIFEST_FILE, text(manifest))

@@ -10,22 +10,45 @@ an empty bin, the recovery of a class no item of which entered) is an empty cell
 
 Outputs are checked before any work (`check_output_dir`, `check_output_file`): a folder that
 cannot be created or written, a file path naming a folder, are refused in one line before the
-episode runs, so no result is lost to an unusable output. The temporaries follow
-`sim.paths.temporary_path`; those of a killed run are removed at the next start
-(`sim.paths.remove_stale_temporaries`).
+episode runs, so no result is lost to an unusable output. Permissions alone do not tell (root
+passes `os.access` on `/proc` and on a read-only or full file system), so the check creates the
+folder if need be, writes, syncs and removes a small probe file in it (`PROBE_BYTES`), and
+removes again the folders it created. The temporaries follow `sim.paths.temporary_path`; those
+of a killed run are removed at the next start (`sim.paths.remove_stale_temporaries`).
+
+A run folder's files are written as one unit (`write_together`): every file's temporary is
+written and synced first, then each is renamed into place in order (the manifest last), so a
+write that fails (a full disk) leaves the folder as it was, and a folder whose manifest is new
+has every file of its run. What could not be written is kept as JSON in a recoverable place
+(`keep_unwritten`: under `sim.paths.CACHE_DIR`, else the system's temporary folder).
 """
 
 from __future__ import annotations
 
+import contextlib
 import csv
+import datetime
 import io
+import json
 import os
+import tempfile
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
 from perception.codes import THESIS_MATERIALS, Materials
-from sim.errors import InvalidInput
-from sim.paths import temporary_path
+from sim.errors import InvalidInput, SortsimError
+from sim.paths import CACHE_DIR, temporary_path
+
+PROBE_BYTES = 4096
+"""Size of the probe file written into an output folder before any work (one page)."""
+UNWRITTEN_DIR = CACHE_DIR / "unwritten"
+"""Where results that could not be written to their folder are kept (`keep_unwritten`)."""
+
+
+class OutputError(SortsimError):
+    """An output that could not be written once the work was done (a full disk, a failed
+    video): one line saying what is kept where, exit code 1."""
+
 
 EPISODE_COLUMNS = (
     "seed",
@@ -191,16 +214,110 @@ def write_atomic(path: Path, data: str | bytes) -> Path:
     data = data if isinstance(data, bytes) else data.encode("utf-8")
     tmp = temporary_path(path)
     try:
-        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)  # umask applies
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
+        _write_synced(tmp, data)
         os.replace(tmp, path)
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
     return path
+
+
+def write_together(folder: Path | str, files: Mapping[str, str | bytes]) -> list[Path]:
+    """Write `files` into `folder` as one unit: every temporary written and synced first, then
+    each renamed into place in the order given (put the manifest last), the folder synced.
+
+    A failure while writing (a full disk) removes every temporary and leaves the folder as it
+    was; renames within one folder need no space, so once the temporaries are written the
+    files land together.
+
+    Args:
+        folder: The folder (created if need be).
+        files: {file name: its whole content}, in the order they are to land.
+
+    Returns:
+        The paths written, in that order.
+
+    Raises:
+        OSError: A temporary could not be written (none of the files was replaced).
+    """
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    staged: list[tuple[Path, Path]] = []
+    try:
+        for name, data in files.items():
+            path = folder / name
+            tmp = temporary_path(path)
+            staged.append((tmp, path))
+            _write_synced(tmp, data if isinstance(data, bytes) else data.encode("utf-8"))
+        for tmp, path in staged:
+            os.replace(tmp, path)
+    except BaseException:
+        for tmp, _ in staged:
+            tmp.unlink(missing_ok=True)
+        raise
+    _sync_folder(folder)
+    return [path for _, path in staged]
+
+
+def _write_synced(path: Path, data: bytes) -> None:
+    """Create `path` (it must not exist) with `data`, synced to the disk."""
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)  # umask applies
+    with os.fdopen(fd, "wb") as f:
+        f.write(data)
+        f.flush()
+        os.fsync(f.fileno())
+
+
+def _sync_folder(folder: Path) -> None:
+    """Sync a folder's entries (the renames) where the platform allows it."""
+    with contextlib.suppress(OSError, AttributeError):
+        fd = os.open(folder, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+
+
+def keep_unwritten(folder: Path | str, files: Mapping[str, str], reason: str) -> Path | None:
+    """Keep results that could not be written to `folder` as one JSON file elsewhere.
+
+    The file holds each output's whole text under `files` (`{"episodes.csv": "...", ...}`), the
+    folder they were meant for and why they are not there; writing each text to its name
+    restores the folder as the command would have left it. Tried under `UNWRITTEN_DIR`, then in
+    the system's temporary folder.
+
+    Args:
+        folder: Where the files were to go.
+        files: {file name: its whole text}.
+        reason: Why they could not be written, in words.
+
+    Returns:
+        The JSON file, or None when neither place could take it.
+    """
+    stamp = datetime.datetime.now(datetime.UTC).strftime("%Y%m%dT%H%M%SZ")
+    record = {"folder": str(Path(os.path.abspath(folder))), "reason": reason, "files": dict(files)}
+    text = json.dumps(record, indent=1) + "\n"
+    for place in (UNWRITTEN_DIR, Path(tempfile.gettempdir()) / "sortsim-unwritten"):
+        path = place / f"{stamp}-{os.getpid()}.json"
+        try:
+            return write_atomic(path, text)
+        except OSError:
+            continue
+    return None
+
+
+def restore_unwritten(record: Path | str, folder: Path | str | None = None) -> list[Path]:
+    """Write the files a `keep_unwritten` record holds into their folder (or `folder`).
+
+    Args:
+        record: The JSON file `keep_unwritten` wrote.
+        folder: Where to write them; the folder they were meant for when None.
+
+    Returns:
+        The files written.
+    """
+    data = json.loads(Path(record).read_text(encoding="utf-8"))
+    return write_together(Path(folder or data["folder"]), data["files"])
 
 
 def _nearest_existing(path: Path) -> Path:
@@ -242,6 +359,48 @@ def _check_folder(folder: Path, field: str, kind: str, text: str) -> None:
         if existing == Path(os.path.abspath(folder)) and kind == "a folder path":
             raise InvalidInput(field, f"a writable folder ({existing} is not writable)", text)
         raise InvalidInput(field, f"{kind} in a writable folder ({existing} is not)", text)
+    failure = probe_folder(folder)
+    if failure is not None:
+        allowed = "a folder where files can be created and written"
+        allowed = allowed if kind == "a folder path" else f"{kind} in {allowed}"
+        raise InvalidInput(field, allowed, f"{text}: {failure}")
+
+
+def probe_folder(folder: Path | str) -> str | None:
+    """Create `folder` if need be, write, sync and remove a probe file in it, and remove the
+    folders created for it again.
+
+    Args:
+        folder: The output folder to try.
+
+    Returns:
+        None when it worked, else why not in words (the OS's reason, e.g. "No space left on
+        device", "Read-only file system").
+    """
+    folder = Path(os.path.abspath(folder))
+    created = []
+    probe = temporary_path(folder / "sortsim-probe")
+    try:
+        missing = folder
+        while not missing.exists() and missing != missing.parent:
+            created.append(missing)
+            missing = missing.parent
+        folder.mkdir(parents=True, exist_ok=True)
+        fd = os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+        try:
+            os.write(fd, b"\0" * PROBE_BYTES)
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+    except OSError as exc:
+        return exc.strerror or type(exc).__name__
+    finally:
+        with contextlib.suppress(OSError):
+            probe.unlink(missing_ok=True)
+        for path in created:  # deepest first; only folders this probe made, if still empty
+            with contextlib.suppress(OSError):
+                path.rmdir()
+    return None
 
 
 def check_output_file(
