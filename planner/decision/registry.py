@@ -9,6 +9,11 @@ user's class implements `planner.decision.interface.DecisionManager`: a `choose(
 context)` returning a `Choice` or None, and a `reset()` called at the start of every episode;
 its `name` attribute, if any, is what episodes.csv records (else the spec). Unknown names, specs
 that do not import and options a manager does not take are refused with one line.
+
+An episode asks its manager through `ask_manager`: a `choose()` that returns
+anything but a `Choice` or None (the item itself, say) ends the episode with one line naming the
+manager's class, `choose()`, what it returned and what is expected (`ChoiceTypeError`, exit code
+1), not an AttributeError deep in the pick.
 """
 
 from __future__ import annotations
@@ -20,7 +25,8 @@ import os
 import sys
 from pathlib import Path
 
-from planner.errors import PlannerInputError
+from planner.decision.interface import Choice
+from planner.errors import PlannerError, PlannerInputError
 
 # Imported only when built, so that the command line's --help stays light.
 _BUILT_IN = {
@@ -157,3 +163,49 @@ def make_planner(spec: str, **params):
         except AttributeError:
             pass  # a read-only name property: the CSV falls back to the class name
     return planner
+
+
+CHOICE_TYPE = f"{Choice.__module__}.{Choice.__qualname__}"
+"""What `choose()` returns (or None), as the error names it."""
+
+
+class ChoiceTypeError(PlannerError, TypeError):
+    """A decision manager's `choose()` returned something else than a `Choice` or None.
+
+    Args:
+        manager: The manager's class name.
+        got: The returned value's type, qualified by its module.
+    """
+
+    def __init__(self, manager: str, got: str):
+        self.manager = manager
+        self.got = got
+        super().__init__(
+            f"{manager}.choose() returned a {got}; it must return a {CHOICE_TYPE} or None"
+        )
+
+    def __reduce__(self):
+        return (type(self), (self.manager, self.got))
+
+
+def ask_manager(planner, items, robot, context) -> Choice | None:
+    """`planner.choose(items, robot, context)`, its return value checked.
+
+    Args:
+        planner: The decision manager.
+        items: The tracked items to choose among.
+        robot: The deciding robot's state.
+        context: The decision context.
+
+    Returns:
+        The manager's `Choice`, or None.
+
+    Raises:
+        ChoiceTypeError: It returned anything else (one line naming its class).
+    """
+    choice = planner.choose(items, robot, context)
+    if choice is None or isinstance(choice, Choice):
+        return choice
+    got = type(choice)
+    module = "" if got.__module__ == "builtins" else f"{got.__module__}."
+    raise ChoiceTypeError(type(planner).__name__, f"{module}{got.__qualname__}")

@@ -25,6 +25,7 @@ import mujoco
 import numpy as np
 
 from planner.decision.interface import Choice, DecisionContext, RobotState, TrackedItem
+from planner.decision.registry import ask_manager
 from sim.cell.cell import Cell
 from sim.cell.held_slots import held_slots
 from sim.cell.riding import PlannedPath
@@ -293,7 +294,7 @@ class Episode:
         """The configured decision manager's choice now (timed for the benchmarks)."""
         t0 = time.perf_counter()
         station = self._station()
-        choice = station.planner.choose(self._candidates, self.robot_state(), station.context)
+        choice = ask_manager(station.planner, self._candidates, self.robot_state(), station.context)
         dt = time.perf_counter() - t0
         self.timings["decision"] += dt
         self.latencies["decision"].append(dt)
