@@ -172,7 +172,7 @@ class PickOrderEnv(gym.Env):
 
     def render(self):
         """The belt from above (`sim.envs.belt_picture`) with `render_mode="rgb_array"`: an RGB
-        array (400, 800, 3) uint8; None without a render mode."""
+        array (520, 800, 3) uint8; None without a render mode."""
         if self.render_mode != "rgb_array":
             return None
         v, t = self.belt.speed, self.t
