@@ -220,9 +220,9 @@ def test_a_sheet_tilted_on_another_item_is_picked_at_its_surface(cell):
 def test_of_two_bottles_side_by_side_the_higher_is_picked_first(cell):
     """Two lying bottles touching side by side, both narrower than the lip, 2.6 mm apart in
     height: the lip coming down on either reaches over the other. The lower one waits (the
-    higher lies against its edge, and the lip would rest on it); the higher one is picked, the lip pressing the lower
-    one less deep than its own item, then the lower one. (Refusing both left them on the
-    belt, each waiting for the other.)"""
+    higher lies against its edge, and the lip would rest on it); the higher one is picked, the
+    lip pressing the lower one less deep than its own item, then the lower one. (Refusing both
+    left them on the belt, each waiting for the other.)"""
     cell.reset(SPEED)
     k = [t.name for t in cell.catalogue.types].index("pet_bottle_0l5")
     radius = [t for t in cell.catalogue.types if t.name == "pet_bottle_0l5"][0].size[0]

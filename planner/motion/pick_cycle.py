@@ -21,6 +21,11 @@ from planner.motion.limits import VACUUM_RELEASE_S, VACUUM_SEAL_S
 from planner.motion.ruckig_trajectory import RuckigTrajectoryGenerator
 from planner.motion.trajectory import Chain, State
 
+MAX_DWELL_S = 3.0
+"""Longest dwell with the cup on the item, or over the bin [s]: the vacuum's 35 ms
+(`planner.motion.limits`) and the longest extra pause an episode allows (2 s,
+`sim.episode.line_robots.MAX_PAUSE_S`), with room."""
+
 
 @dataclass(frozen=True)
 class PickPlaceConfig:
@@ -52,10 +57,12 @@ class PickPlaceConfig:
     lift_with_belt: bool = True
 
     def __post_init__(self):
-        for name in ("approach_height", "lift_height", "seal_time", "release_time"):
+        limits = {"approach_height": (1.0, "m"), "lift_height": (1.0, "m")}
+        limits |= {"seal_time": (MAX_DWELL_S, "s"), "release_time": (MAX_DWELL_S, "s")}
+        for name, (high, unit) in limits.items():
             value = getattr(self, name)
-            if not (np.isfinite(value) and 0.0 <= value <= 1.0):
-                raise PlannerInputError(name, "0 to 1 [m or s]", value)
+            if not (np.isfinite(value) and 0.0 <= value <= high):
+                raise PlannerInputError(name, f"0 to {high:g} {unit}", value)
         if not (np.isfinite(self.touchdown_slow) and 1.0 <= self.touchdown_slow <= 4.0):
             raise PlannerInputError("touchdown_slow", "1 to 4", self.touchdown_slow)
 

@@ -132,6 +132,7 @@ from planner.motion.belt_speeds import SPEED_RANGE_MPS, SPEED_TOLERANCE_MPS, SPE
 from sim.cell.camera import FRAME_SIZE
 from sim.checks import check, is_integer, is_number
 from sim.episode.line_robots import (
+    MAX_PAUSE_S,
     MAX_ROBOTS,
     RobotSpec,
     check_count,
@@ -142,8 +143,15 @@ from sim.episode.line_robots import (
 )
 from sim.errors import InvalidInput, RefusedInput
 from sim.flow.catalogue import DEFAULT_CATALOGUE, Catalogue, load_catalogue
-from sim.flow.config import LINE_MAX_ITEMS_PER_METRE, MAX_ITEMS_PER_METRE, FlowConfig
-from sim.flow.world import WorldVariation
+from sim.flow.config import (
+    LINE_MAX_ITEMS_PER_METRE,
+    MAX_ITEMS_PER_METRE,
+    STRIPE_WIDTH,
+    FlowConfig,
+)
+from sim.flow.generator import EDGE_MARGIN_M
+from sim.flow.world import WORLD_LIMITS, WorldVariation, check_varied
+from sim.model.line_model import MAX_LAST_X_M
 from sim.model.scene_edits import (
     BELT_LENGTH_M,
     BELT_LENGTH_RANGE_M,
@@ -166,6 +174,116 @@ WORLD_NUMBERS = tuple(f.name for f in dataclasses.fields(WorldVariation))
 MAX_ITEMS = 20000
 MAX_ENERGY_PRICE = 1e6
 """Highest energy price accepted [EUR/kWh] (far above any tariff: a stress test's price)."""
+MAX_VALUE_EUR = 1e6
+"""Highest value of an item [EUR]."""
+
+
+@dataclass(frozen=True)
+class Range:
+    """The documented range of one numeric config key: what loading accepts (`allows`) and
+    what its refusal says (`allowed`). `RANGES` holds every numeric key's; the checks below use
+    it, and the tests walk both ends of each and just outside them.
+
+    Attributes:
+        lo: Smallest value [the key's unit].
+        hi: Largest value (excluded when `hi_open`).
+        allowed: The refusal's words (`0.05..5 s`).
+        integer: Only ints (not a float of integer value, not a bool).
+        multiple: An int's step (a multiple of it).
+        hi_open: `hi` itself is out of range: [lo, hi).
+        slack: How far below `lo` and above `hi` a value is still taken, for the rounding of
+            another unit (the belt's speed, checked in m/s) [the key's unit].
+        entries: "": one number; "list": a list of them (probabilities summing to 1);
+            "rows": a list of such lists.
+        checked_by: The module whose check enforces it, when not this one's.
+    """
+
+    lo: float
+    hi: float
+    allowed: str
+    integer: bool = False
+    multiple: int = 1
+    hi_open: bool = False
+    slack: tuple[float, float] = (0.0, 0.0)
+    entries: str = ""
+    checked_by: str = ""
+
+    def allows(self, value: object) -> bool:
+        """Whether `value` is inside the range.
+
+        Args:
+            value: As a config file gives it.
+
+        Returns:
+            True for a number of the right kind (an int when `integer`) within the ends.
+        """
+        if not (is_integer(value) if self.integer else is_number(value)):
+            return False
+        # Ints compared as ints: 2**63 - 1 + 0.0 would round to 2**63.
+        lo = self.lo - self.slack[0] if self.slack[0] else self.lo
+        hi = self.hi + self.slack[1] if self.slack[1] else self.hi
+        if not (lo <= value and (value < hi if self.hi_open else value <= hi)):
+            return False
+        return not self.integer or value % self.multiple == 0
+
+    def check(self, key: str, value: object, where: str | None = None) -> None:
+        """Refuse `value` of `key` in one line unless it is inside the range.
+
+        Args:
+            key: The key as the user names it.
+            value: Its value.
+            where: The file it came from, if any.
+        """
+        check(self.allows(value), key, self.allowed, value, where)
+
+
+def _share(high: float) -> Range:
+    return Range(0.0, high, f"a number in [0, {high:g}]", checked_by="sim.flow.world")
+
+
+_X1 = SPEED_X1_MPS
+_PROBABILITIES = "probabilities, each in [0, 1], summing to 1"
+RANGES: dict[str, Range] = {
+    "seed": Range(0, 2**63 - 1, "0..2^63-1", integer=True),
+    "items": Range(1, MAX_ITEMS, f"1..{MAX_ITEMS}", integer=True),
+    "speed_factor": Range(
+        SPEED_RANGE_MPS[0] / _X1,
+        1.5,
+        f"{SPEED_RANGE_MPS[0] / _X1:.3f}..1.5 (belt {SPEED_RANGE_MPS[0]}..{SPEED_RANGE_MPS[1]} "
+        f"m/s at {_X1} m/s per x1)",
+        slack=(1e-9 / _X1, (SPEED_RANGE_MPS[1] + _SPEED_TOLERANCE_MPS) / _X1 - 1.5),
+    ),
+    "duration_s": Range(1.0, 36000.0, "1..36000 s"),
+    "observation_period_s": Range(0.05, 5.0, "0.05..5 s"),
+    "energy_price_eur_per_kwh": Range(0.0, MAX_ENERGY_PRICE, f"0..{MAX_ENERGY_PRICE:g} EUR/kWh"),
+    "min_class_confidence": Range(0.0, 1.0, "a probability in [0, 1]"),
+    **{name: _share(high) for name, high in WORLD_LIMITS.items()},
+    "robots": Range(
+        1, MAX_ROBOTS, f"1..{MAX_ROBOTS}", integer=True, checked_by="sim.episode.line_robots"
+    ),
+    "robot.pick_pause_s": Range(
+        0.0, MAX_PAUSE_S, f"0..{MAX_PAUSE_S:g} s", checked_by="sim.episode.line_robots"
+    ),
+    "robot.place_pause_s": Range(
+        0.0, MAX_PAUSE_S, f"0..{MAX_PAUSE_S:g} s", checked_by="sim.episode.line_robots"
+    ),
+    "robots[0].x_m": Range(
+        0.0, MAX_LAST_X_M, f"0..{MAX_LAST_X_M:g} m", checked_by="sim.episode.line_robots"
+    ),
+    "values.<material>": Range(0.0, MAX_VALUE_EUR, f"0..{MAX_VALUE_EUR:g} EUR"),
+    "flow.class_priors": Range(0.0, 1.0, _PROBABILITIES, entries="list", checked_by="sim.flow"),
+    "flow.transitions": Range(0.0, 1.0, _PROBABILITIES, entries="rows", checked_by="sim.flow"),
+    "flow.stripe_priors": Range(0.0, 1.0, _PROBABILITIES, entries="list", checked_by="sim.flow"),
+    "qlearning.gamma": Range(0.0, 1.0, "[0, 1)", hi_open=True),
+    "qlearning.iterations": Range(1, 10000, "1..10000", integer=True),
+    "qlearning.batch_rows": Range(1, 1000, "1..1000", integer=True),
+    "video.fps": Range(1.0, 60.0, "1..60"),
+    "video.width": Range(64, 1920, "64..1920, a multiple of 8", integer=True, multiple=8),
+    "video.height": Range(64, 1920, "64..1920, a multiple of 8", integer=True, multiple=8),
+}
+"""Every numeric key of a config file with its documented range (sections' keys dotted; the
+camera's, cup's and belt's follow their sections below). `checked_by` names the module whose
+check enforces a key checked elsewhere."""
 
 
 def belt_speed_mps(speed_factor: float) -> float:
@@ -278,8 +396,7 @@ class Values:
     def __post_init__(self) -> None:
         pairs = tuple((k, v) for k, v in self.eur)
         for name, got in pairs:
-            ok = is_number(got) and 0.0 <= got <= 1e6
-            check(ok, f"values.{name}", "0..1e6 EUR", got, None)
+            RANGES["values.<material>"].check(f"values.{name}", got)
         object.__setattr__(self, "eur", pairs)
 
     @classmethod
@@ -431,15 +548,10 @@ class QLearning:
     objective: str = "value_over_distance"
 
     def __post_init__(self) -> None:
-        where = None
-        g = self.gamma
-        check(is_number(g) and 0.0 <= g < 1.0, "qlearning.gamma", "[0, 1)", g, where)
-        n = self.iterations
-        check(is_integer(n) and 1 <= n <= 10000, "qlearning.iterations", "1..10000", n, where)
-        b = self.batch_rows
-        check(is_integer(b) and 1 <= b <= 1000, "qlearning.batch_rows", "1..1000", b, where)
+        for name in ("gamma", "iterations", "batch_rows"):
+            RANGES[f"qlearning.{name}"].check(f"qlearning.{name}", getattr(self, name))
         o = self.objective
-        check(o in OBJECTIVES, "qlearning.objective", " | ".join(OBJECTIVES), o, where)
+        check(o in OBJECTIVES, "qlearning.objective", " | ".join(OBJECTIVES), o, None)
 
 
 @dataclass(frozen=True)
@@ -457,12 +569,8 @@ class Video:
     height: int = 360
 
     def __post_init__(self) -> None:
-        where = None
-        check(is_number(self.fps) and 1 <= self.fps <= 60, "video.fps", "1..60", self.fps, where)
-        for name in ("width", "height"):
-            v = getattr(self, name)
-            ok = is_integer(v) and 64 <= v <= 1920 and v % 8 == 0
-            check(ok, f"video.{name}", "64..1920, a multiple of 8", v, where)
+        for name in ("fps", "width", "height"):
+            RANGES[f"video.{name}"].check(f"video.{name}", getattr(self, name))
 
 
 CAMERA_ASPECT = (16, 9)
@@ -476,6 +584,23 @@ with the truth's 97.1 % at 352 x 198, 97.6 % at 384 x 216, 98.8 % at 640 x 360 a
 960 x 540 and 1920 x 1080. 1920 x 1080 is a stereo camera's largest video mode."""
 VACUUM_RANGE_PA = (1e3, 101325.0)
 """Vacuum levels accepted [Pa]: 1 kPa (a blower) to a perfect vacuum (1 atm below)."""
+RANGES |= {
+    "camera.width": Range(
+        *CAMERA_WIDTH_RANGE,
+        f"{CAMERA_WIDTH_RANGE[0]}..{CAMERA_WIDTH_RANGE[1]} px, a multiple of {CAMERA_ASPECT[0]}",
+        integer=True,
+        multiple=CAMERA_ASPECT[0],
+    ),
+    "cup.diameter_m": Range(
+        *CUP_DIAMETER_RANGE_M, f"{CUP_DIAMETER_RANGE_M[0]}..{CUP_DIAMETER_RANGE_M[1]} m"
+    ),
+    "cup.vacuum_pa": Range(
+        *VACUUM_RANGE_PA, f"{VACUUM_RANGE_PA[0]:g}..{VACUUM_RANGE_PA[1]:g} Pa (1 atm)"
+    ),
+    "belt.length_m": Range(
+        *BELT_LENGTH_RANGE_M, f"{BELT_LENGTH_RANGE_M[0]}..{BELT_LENGTH_RANGE_M[1]} m"
+    ),
+}
 
 
 @dataclass(frozen=True)
@@ -499,11 +624,9 @@ class Camera:
     per_robot: bool = False
 
     def __post_init__(self) -> None:
-        lo, hi = CAMERA_WIDTH_RANGE
         aw, ah = CAMERA_ASPECT
         w, h = self.width, self.height
-        ok = is_integer(w) and lo <= w <= hi and w % aw == 0
-        check(ok, "camera.width", f"{lo}..{hi} px, a multiple of {aw}", w, None)
+        RANGES["camera.width"].check("camera.width", w)
         allowed = f"width x {ah}/{aw} (the calibration's {aw}:{ah}): {w * ah // aw} px"
         check(is_integer(h) and h * aw == w * ah, "camera.height", allowed, h, None)
         v = self.per_robot
@@ -533,13 +656,8 @@ class Cup:
     vacuum_pa: float = 80e3
 
     def __post_init__(self) -> None:
-        lo, hi = CUP_DIAMETER_RANGE_M
-        d = self.diameter_m
-        check(is_number(d) and lo <= d <= hi, "cup.diameter_m", f"{lo}..{hi} m", d, None)
-        lo, hi = VACUUM_RANGE_PA
-        v = self.vacuum_pa
-        ok = is_number(v) and lo <= v <= hi
-        check(ok, "cup.vacuum_pa", f"{lo:g}..{hi:g} Pa (1 atm)", v, None)
+        for name in ("diameter_m", "vacuum_pa"):
+            RANGES[f"cup.{name}"].check(f"cup.{name}", getattr(self, name))
 
 
 @dataclass(frozen=True)
@@ -557,9 +675,7 @@ class Belt:
     infeed_hold: bool = True
 
     def __post_init__(self) -> None:
-        lo, hi = BELT_LENGTH_RANGE_M
-        n = self.length_m
-        check(is_number(n) and lo <= n <= hi, "belt.length_m", f"{lo}..{hi} m", n, None)
+        RANGES["belt.length_m"].check("belt.length_m", self.length_m)
         v = self.infeed_hold
         check(isinstance(v, bool), "belt.infeed_hold", "true | false", v, None)
 
@@ -633,6 +749,7 @@ class EpisodeConfig:
         c = self.coordination
         check(c in COORDINATIONS, "coordination", " | ".join(COORDINATIONS), c, w)
         catalogue = self._catalogue()
+        _check_catalogue_varied(self.world_variation, catalogue, self.catalogue)
         self.values.check_names(catalogue, w)
         check_robots(self.robots, catalogue.materials, w)
         # Every material's value written out (the catalogue's where not given), so configs
@@ -644,15 +761,8 @@ class EpisodeConfig:
     def _check_settings(self) -> None:
         """The settings that need no catalogue: the episode's numbers and names, the world."""
         w = self.where
-        check(is_integer(self.seed) and 0 <= self.seed < 2**63, "seed", "0..2^63-1", self.seed, w)
-        n = self.items
-        check(is_integer(n) and 1 <= n <= MAX_ITEMS, "items", f"1..{MAX_ITEMS}", n, w)
-        f = self.speed_factor
-        lo, hi = BELT_SPEED_RANGE_MPS
-        ok = is_number(f) and lo - 1e-9 <= belt_speed_mps(f) <= hi + _SPEED_TOLERANCE_MPS
-        x1 = BELT_SPEED_X1_MPS
-        allowed = f"{lo / x1:.3f}..1.5 (belt {lo}..{hi} m/s at {x1} m/s per x1)"
-        check(ok, "speed_factor", allowed, f, w)
+        for key in ("seed", "items", "speed_factor"):
+            RANGES[key].check(key, getattr(self, key), w)
         check(isinstance(self.planner, str), "planner", ALLOWED_PLANNERS, self.planner, w)
         try:
             check_planner(self.planner)
@@ -660,19 +770,12 @@ class EpisodeConfig:
             raise InvalidInput("planner", exc.allowed, self.planner, w) from None
         p = self.perception
         check(p in PERCEPTIONS, "perception", " | ".join(PERCEPTIONS), p, w)
-        d = self.duration_s
-        check(is_number(d) and 1.0 <= d <= 36000.0, "duration_s", "1..36000 s", d, w)
-        t = self.observation_period_s
-        ok = is_number(t) and 0.05 <= t <= 5.0
-        check(ok, "observation_period_s", "0.05..5 s", t, w)
+        for key in ("duration_s", "observation_period_s"):
+            RANGES[key].check(key, getattr(self, key), w)
         r = self.item_riding
         check(r in ITEM_RIDINGS, "item_riding", " | ".join(ITEM_RIDINGS), r, w)
-        e = self.energy_price_eur_per_kwh
-        ok = is_number(e) and 0.0 <= e <= MAX_ENERGY_PRICE
-        check(ok, "energy_price_eur_per_kwh", f"0..{MAX_ENERGY_PRICE:g} EUR/kWh", e, w)
-        c = self.min_class_confidence
-        ok = is_number(c) and 0.0 <= c <= 1.0
-        check(ok, "min_class_confidence", "a probability in [0, 1]", c, w)
+        for key in ("energy_price_eur_per_kwh", "min_class_confidence"):
+            RANGES[key].check(key, getattr(self, key), w)
         k = self.classifier
         check(k in CLASSIFIERS, "classifier", " | ".join(CLASSIFIERS), k, w)
         check(
@@ -854,6 +957,42 @@ class EpisodeConfig:
         return out
 
 
+_VARIED_OK: set[tuple[WorldVariation, str]] = set()
+"""(world, catalogue digest) pairs `_check_catalogue_varied` passed (a sweep repeats them)."""
+
+
+def _check_catalogue_varied(world: WorldVariation, catalogue: Catalogue, path: str) -> None:
+    """Refuse, when the config loads, a catalogue whose items the world's variation takes out of
+    the catalogue's limits (`sim.flow.world.check_varied`) or out of the belt's outer stripes
+    (the flow generator's rule: the item's narrowest lateral extent and the edge margin within a
+    stripe), naming the key, the item and the catalogue's file.
+
+    Args:
+        world: The episode's world variation.
+        catalogue: The episode's catalogue.
+        path: The config's `catalogue` key ("": the built-in one).
+    """
+    if (world, catalogue.digest) in _VARIED_OK:
+        return
+    file = path or str(DEFAULT_CATALOGUE)
+    try:
+        check_varied(world, catalogue)
+    except InvalidInput as exc:
+        where = f"{file}, {exc.where}"
+        raise InvalidInput(f"catalogue: {exc.field}", exc.allowed, exc.got, where) from None
+    j = world.size_jitter
+    for t in catalogue.types:
+        big = t.scaled((1.0 + j,) * 3)
+        yaw = 0.0 if big.half_width <= big.half_length else 1.5708  # the generator's last try
+        if float(big.half_extents(yaw)[1]) + EDGE_MARGIN_M >= STRIPE_WIDTH:
+            allowed = (
+                f"an item {2 * (STRIPE_WIDTH - EDGE_MARGIN_M):g} m wide at most, so it fits the "
+                f"belt's outer stripe (narrowest side, once varied by size_jitter {j:g})"
+            )
+            raise InvalidInput("catalogue: size", allowed, t.size, f"{file}, item {t.name!r}")
+    _VARIED_OK.add((world, catalogue.digest))
+
+
 def _is_table(value: Any) -> bool:
     """Whether `value` is a section's dataclass (written as a TOML table)."""
     return dataclasses.is_dataclass(value) and not isinstance(value, type)
@@ -1033,7 +1172,10 @@ def load(path: Path | None = None, **overrides: Any) -> EpisodeConfig:
         path: A TOML file or a run's manifest.json (`read_config_file`); None: the defaults.
         **overrides: Top-level keys to set (the command line's options); None leaves a key
             as the file has it. `robots = N` gives N robots at the default spacing keeping
-            the file's pauses (`EpisodeConfig.replace`); `catalogue` is read here.
+            the file's pauses (`EpisodeConfig.replace`); the others take the file's keys'
+            place before anything is validated, so what depends on several keys (the
+            materials' values on the catalogue, the catalogue's items on the world's variation)
+            is checked with the options applied; `catalogue` is read here.
 
     Returns:
         The validated config (`where` None once options changed it).
@@ -1043,8 +1185,18 @@ def load(path: Path | None = None, **overrides: Any) -> EpisodeConfig:
     """
     data = read_config_file(path) if path is not None else {}
     where = str(path) if path is not None else None
-    config = from_dict(data, where)
     changes = {k: v for k, v in overrides.items() if v is not None}
     unknown = set(changes) - _SCALARS
     check(not unknown, "override", ", ".join(sorted(_SCALARS)), sorted(unknown), None)
-    return config.replace(where=None, **changes) if changes else config
+    if not changes:
+        return from_dict(data, where)
+    robots = changes.pop("robots", None)  # a count keeps the file's robots' pauses: replace
+    try:
+        config = from_dict({**data, **changes}, where)
+    except InvalidInput as exc:
+        if exc.field in changes:  # the option's value: not the file's
+            raise InvalidInput(exc.field, exc.allowed, exc.got, None) from None
+        raise
+    if robots is not None:
+        config = config.replace(robots=robots)
+    return config.replace(where=None)

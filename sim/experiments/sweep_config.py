@@ -305,7 +305,10 @@ def _grid_point(
                 ("seed", seed),
             )
         )
-        raise InvalidInput(exc.field, exc.allowed, exc.got, f"{where} at ({coords})") from None
+        at = f"{where} at ({coords})"
+        if exc.where and exc.where != where:  # another file's key (the catalogue's): name both
+            at = f"{exc.where}, for {at}"
+        raise InvalidInput(exc.field, exc.allowed, exc.got, at) from None
 
 
 LATER_KEYS = {

@@ -34,6 +34,19 @@ SHEET_HALF_THICKNESS_M = 0.0025
 """Boxes at most this thick (half-size) are sheets: paper, cardboard [m]."""
 FAMILIES = ("box", "cylinder_standing", "cylinder_lying", "capsule_lying")
 """Shape-and-pose families: one geom of each per item-pool slot."""
+HALF_SIZE_RANGE_M = (0.001, 0.5)
+"""An item's half-sizes (a cylinder's radius and half-height, ...) [m]: from 1 mm (a 2 mm sheet,
+as thin as its contacts stay well conditioned at the 1 ms step) to 0.5 m."""
+MASS_RANGE_KG = (1e-4, 3.0)
+"""An item's mass [kg]: from 0.1 g (with the smallest size, an inertia of ~1e-10 kg m^2, far
+above MuJoCo's mjMINVAL of 1e-15, under which a body is refused) to the robot's rated 3 kg
+payload. The default cup holds 226 N (60 mm at 80 kPa): a 1 kg item is picked, a 3 kg one
+seals and is lost to the pick's accelerations (it rides on, missed)."""
+FRICTION_RANGES = ((0.05, 2.0), (0.0, 0.05), (0.0, 0.01))
+"""MuJoCo's (sliding, torsional [m], rolling [m]) friction of an item on the belt. Sliding: 0
+carries nothing (the items slide off the belt's end), and past about 3 the contact solver
+throws items off the belt (1e9 throws every one); 0.05 and 2 carry and pick as 0.55 does (20
+items, `tests/test_config_ranges.py`). Torsional and rolling: up to a contact patch's size."""
 
 
 @dataclass(frozen=True)
@@ -83,13 +96,21 @@ class ItemType:
             raise InvalidInput("shape", "/".join(SHAPE_POSES), self.shape, where)
         if self.pose not in SHAPE_POSES[self.shape]:
             raise InvalidInput("pose", "/".join(SHAPE_POSES[self.shape]), self.pose, where)
-        if len(self.size) != SIZE_LEN[self.shape] or not all(0 < s < 0.5 for s in self.size):
-            allowed = f"{SIZE_LEN[self.shape]} half-sizes in (0, 0.5) m for a {self.shape}"
+        lo, hi = HALF_SIZE_RANGE_M
+        if len(self.size) != SIZE_LEN[self.shape] or not all(lo <= s <= hi for s in self.size):
+            allowed = f"{SIZE_LEN[self.shape]} half-sizes in {lo:g}..{hi:g} m for a {self.shape}"
             raise InvalidInput("size", allowed, self.size, where)
-        if not 0 < self.mass <= 3.0:
-            raise InvalidInput("mass", "(0, 3] kg (the robot's payload)", self.mass, where)
-        if len(self.friction) != 3 or not all(f >= 0 for f in self.friction):
-            raise InvalidInput("friction", "3 non-negative numbers", self.friction, where)
+        lo, hi = MASS_RANGE_KG
+        if not lo <= self.mass <= hi:
+            allowed = f"{lo:g}..{hi:g} kg (MuJoCo's least mass and inertia; the robot's payload)"
+            raise InvalidInput("mass", allowed, self.mass, where)
+        ranges = FRICTION_RANGES
+        ok = len(self.friction) == 3
+        if not ok or not all(a <= f <= b for f, (a, b) in zip(self.friction, ranges, strict=True)):
+            allowed = "sliding {:g}..{:g} (a belt carries it), torsional {:g}..{:g} m, rolling "
+            allowed += "{:g}..{:g} m"
+            allowed = allowed.format(*(x for r in ranges for x in r))
+            raise InvalidInput("friction", allowed, self.friction, where)
         if not self.weight > 0:
             raise InvalidInput("weight", "> 0", self.weight, where)
         probs = self.colour_probs

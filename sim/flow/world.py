@@ -29,6 +29,20 @@ LABEL_COLOURS = ("white", "blue", "red", "green")
 """Colours a printed label may have (opaque inks; never the item's own nominal colour)."""
 UNIFORM_GAP_M = 0.005
 """The uniform world's clearance between items [m]."""
+WORLD_LIMITS = {
+    "size_jitter": MAX_SIZE_JITTER,
+    "crushed_share": 1.0,
+    "crumpled_share": 1.0,
+    "folded_share": 1.0,
+    "hue_jitter_deg": 30.0,
+    "colour_jitter": 0.5,
+    "label_share": 1.0,
+    "min_gap_m": 0.05,
+    "overlap_share": 1.0,
+    "overlap_depth_m": MAX_OVERLAP_DEPTH_M,
+}
+"""Each setting's largest value (every one's smallest is 0); crumpled_share + folded_share
+<= 1 besides."""
 
 
 def _share(field: str, value: object, high: float = 1.0) -> float:
@@ -71,19 +85,7 @@ class WorldVariation:
     overlap_depth_m: float = 0.02
 
     def __post_init__(self):
-        checks = {
-            "size_jitter": MAX_SIZE_JITTER,
-            "crushed_share": 1.0,
-            "crumpled_share": 1.0,
-            "folded_share": 1.0,
-            "hue_jitter_deg": 30.0,
-            "colour_jitter": 0.5,
-            "label_share": 1.0,
-            "min_gap_m": 0.05,
-            "overlap_share": 1.0,
-            "overlap_depth_m": MAX_OVERLAP_DEPTH_M,
-        }
-        for name, high in checks.items():
+        for name, high in WORLD_LIMITS.items():
             object.__setattr__(self, name, _share(name, getattr(self, name), high))
         if self.crumpled_share + self.folded_share > 1.0 + 1e-12:
             allowed = "crumpled_share + folded_share <= 1"
@@ -104,6 +106,33 @@ class WorldVariation:
             overlap_share=0.0,
             overlap_depth_m=0.0,
         )
+
+
+def check_varied(world: WorldVariation, catalogue: Catalogue) -> None:
+    """Refuse a catalogue whose items leave its limits once `world` varies their sizes (and
+    with them their masses): the largest and the smallest item of each type (every size factor
+    at 1 + j, every one at 1 - j) must be items the catalogue would take.
+
+    Args:
+        world: The variation's settings.
+        catalogue: The item catalogue.
+
+    Raises:
+        InvalidInput: One line naming the key (`size`, `mass`) and the item (`where`), what the
+            limit is once varied, and the catalogue's own (nominal) value.
+    """
+    j = world.size_jitter
+    if j == 0.0:
+        return
+    for item_type in catalogue.types:
+        for factor in (1.0 - j, 1.0 + j):
+            try:
+                item_type.scaled((factor,) * 3)
+            except InvalidInput as exc:
+                varied = f" once varied by size_jitter {j:g} (x{1 - j:g}..{1 + j:g})"
+                nominal = getattr(item_type, exc.field, exc.got)
+                where = f"item {item_type.name!r}"
+                raise InvalidInput(exc.field, exc.allowed + varied, nominal, where) from None
 
 
 @dataclass(frozen=True, eq=False)
