@@ -304,6 +304,7 @@ def main(args: argparse.Namespace) -> int:
     from sim.evaluation.item_features import prepare_camera
     from sim.paths import CACHE_DIR, remove_stale_temporaries
     from sim.results.locks import FolderLock
+    from sim.results.outputs import OutputError
 
     config = load_config(args)
     out = Path(args.out)
@@ -318,13 +319,17 @@ def main(args: argparse.Namespace) -> int:
         if progress is not None:
             progress.done()
         print(summary(result))
-        written = write_run(out, config, result)
+        try:
+            written = write_run(out, config, result)
+        except OutputError as exc:  # the one line names the video's failure too
+            if video is None or video.failure is None:
+                raise
+            too = f"the video {video_path} failed too ({video.failure})"
+            raise OutputError(f"{exc}; {too}") from None
     if video is not None and video.failure is None:
         written.append(video_path)
     print("wrote " + ", ".join(str(p) for p in written))
     if video is not None and video.failure is not None:
-        from sim.results.outputs import OutputError
-
         names = ", ".join(p.name for p in written)
         failed = f"the video {video_path} failed ({video.failure})"
         raise OutputError(f"{failed}; {names} are written in {out}")
