@@ -370,11 +370,7 @@ class Episode:
 
     def _fire_due(self) -> None:
         """Every event due now, in order, each seeing the items where they are now."""
-        due = self.scheduler.due(self.data.time)
-        if due:
-            self.cell.items.current()
-            for event in due:
-                event.fire(self)
+        self.scheduler.fire_due(self, self.data.time, self.cell.items.current)
 
     def _idle_steps(self) -> int:
         """Physics steps until the next event or decision while every robot idles."""

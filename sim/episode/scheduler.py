@@ -122,15 +122,36 @@ class Scheduler:
 
     def __init__(self):
         self.events: list[Event] = []
+        self._earliest = -math.inf  # no event is due before this [s]; -inf: not known
 
     def add(self, event: Event) -> Event:
         """Register `event` (fired after the ones registered before it); returns it."""
         self.events.append(event)
+        self._earliest = -math.inf
         return event
 
     def due(self, t: float) -> list[Event]:
         """The events due at sim time `t` [s], in order (all judged before any fires)."""
+        if not is_due(t, self._earliest):  # none can be: skip asking each (every step)
+            return []
         return [event for event in self.events if event.due(t)]
+
+    def fire_due(self, episode: Episode, t: float, prepare: Callable[[], object]) -> None:
+        """Fire every event due at sim time `t` [s], in order, after `prepare()` (once, when
+        any is due); then note when the next one is due.
+
+        Args:
+            episode: Handed to each event.
+            t: Sim time now [s].
+            prepare: Called before the first event fires (the items brought up to date).
+        """
+        due = self.due(t)
+        if due:
+            prepare()
+            for event in due:
+                event.fire(episode)
+        if due or self._earliest == -math.inf:
+            self._earliest = self.next_time(t)
 
     def next_time(self, t: float) -> float:
         """The earliest time an event is due next [s] (inf: none)."""
