@@ -93,6 +93,9 @@ TOML layout (every key optional; defaults are the headline episode)::
     infeed_hold = true          # an item that would drop into one already on the belt is held
                                 # back (sim/episode/infeed.py); false: every result to the bit
                                 # as before it
+    [hmm]                       # camera perception's stripe HMMs
+    coupled = false             # true: each stripe's transitions use its neighbour stripes'
+                                # states at t-1 (thesis 1.3); false: five independent HMMs
 
 The robots one by one, instead of `robots = N` (sim/episode/line_robots.py, docs/line.md;
 `--robots N` and a sweep's `robots = N` give N robots at the default spacing, robot k keeping
@@ -681,6 +684,24 @@ class Belt:
 
 
 @dataclass(frozen=True)
+class Hmm:
+    """The stripe HMMs of camera perception (`sim.sensing.perception`).
+
+    Attributes:
+        coupled: Each stripe's transitions depend on its neighbour stripes' states at t-1
+            (thesis 1.3; `perception.hmm.stripes`): the models are trained coupled and the
+            online filter mixes each stripe's transitions by its neighbours' filtered
+            posteriors of the row before. False: the five stripes' HMMs independent.
+    """
+
+    coupled: bool = False
+
+    def __post_init__(self) -> None:
+        v = self.coupled
+        check(isinstance(v, bool), "hmm.coupled", "true | false", v, None)
+
+
+@dataclass(frozen=True)
 class EpisodeConfig:
     """One episode of the sorting cell (or line); validated on construction.
 
@@ -734,6 +755,7 @@ class EpisodeConfig:
     camera: Camera = field(default_factory=Camera)
     cup: Cup = field(default_factory=Cup)
     belt: Belt = field(default_factory=Belt)
+    hmm: Hmm = field(default_factory=Hmm)
     catalogue_file: CatalogueFile | None = field(default=None, repr=False)
     where: str | None = field(default=None, compare=False, repr=False)
 
@@ -1033,6 +1055,7 @@ _SECTIONS = {
     "camera": Camera,
     "cup": Cup,
     "belt": Belt,
+    "hmm": Hmm,
 }
 _SCALARS = {f.name for f in dataclasses.fields(EpisodeConfig)} - set(_SECTIONS)
 _SCALARS -= {"where", "catalogue_file"}  # not keys: what the file names, read

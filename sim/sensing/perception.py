@@ -140,11 +140,12 @@ class TruthPerception:
         """Nothing to free."""
 
 
-def hmm_cache_path(catalogue=None, mix: dict | None = None) -> Path:
+def hmm_cache_path(catalogue=None, mix: dict | None = None, coupled: bool = False) -> Path:
     """Cache file of the trained stripe HMMs, named after what the training depends on (the
     catalogue's content, the flow's class mix, the flow generator, the recordings and the
-    training code), so a change to any of them trains afresh instead of reusing stale models.
-    The default catalogue and mix keep the name they always had."""
+    training code, the stripes' coupling), so a change to any of them trains afresh instead of
+    reusing stale models. The default catalogue and mix, uncoupled, keep the name they always
+    had."""
     digest = hashlib.sha1()
     for rel in _HMM_INPUTS:
         digest.update((REPO_ROOT / rel).read_bytes())
@@ -152,6 +153,8 @@ def hmm_cache_path(catalogue=None, mix: dict | None = None) -> Path:
         digest.update(catalogue.digest.encode())
     if mix:
         digest.update(repr(sorted(mix.items())).encode())
+    if coupled:
+        digest.update(b"coupled")
     return HMM_CACHE_DIR / f"stripe_hmms-{digest.hexdigest()[:12]}.npz"
 
 
@@ -161,18 +164,21 @@ def _is_default(catalogue) -> bool:
     return catalogue.digest == load_catalogue().digest
 
 
-def stripe_models(catalogue, mix: dict | None = None):
-    """(stripe HMMs, cells per item): trained once per catalogue and class mix, cached in
+def stripe_models(catalogue, mix: dict | None = None, coupled: bool = False):
+    """(stripe HMMs, cells per item): trained once per catalogue, class mix and coupling (the
+    config's `[hmm] coupled`: each stripe's transitions per neighbour class at t-1), cached in
     runs/cache (written atomically)."""
     from perception.hmm.storage import save_models
+    from perception.hmm.training import TrainConfig
     from sim.sensing.stripe_hmms import trained_models
 
-    path = hmm_cache_path(catalogue, mix)
+    path = hmm_cache_path(catalogue, mix, coupled)
+    train = TrainConfig(coupled=bool(coupled))
     if path.exists():
-        return trained_models(catalogue, cache=path)
+        return trained_models(catalogue, train, cache=path)
     if not (catalogue.materials.is_thesis and _is_default(catalogue)) or mix:
         log.info("training the stripe HMMs for this catalogue and class mix (once; cached)")
-    models, sizes = trained_models(catalogue, cache=None, mix=mix)
+    models, sizes = trained_models(catalogue, train, cache=None, mix=mix)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.stem}.{os.getpid()}.npz")
     save_models(tmp, models, sizes)
@@ -199,6 +205,7 @@ class CameraPerception:
         mix: dict | None = None,
         size: tuple[int, int] = CAMERA_SIZE,
         prefix: str = "",
+        coupled: bool = False,
     ):
         from perception.camera.grid import BeltGrid
         from sim.cell.camera import (
@@ -236,7 +243,9 @@ class CameraPerception:
         if camera is None:
             camera = BeltCamera(model, *size, name=name, samples=PERCEPTION_SAMPLES)
         self.camera = camera
-        models, self.cells_per_item = stripe_models(catalogue, mix)
+        # `coupled` (the config's `[hmm] coupled`): the online filter mixes each stripe's
+        # transitions by its neighbours' posteriors at t-1 (`perception.hmm.stripes`).
+        models, self.cells_per_item = stripe_models(catalogue, mix, coupled)
         self.hmm = OnlineStripeHmms(models)
         stripes, n_states = models.pi.shape
         self.classes = np.full((WINDOW_ROWS, stripes), VOID, dtype=np.int64)
