@@ -8,6 +8,7 @@ is observed, P(q_t | o_1..t-1); its accuracy is scored on all cells and on the o
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -17,6 +18,7 @@ from perception.errors import PerceptionInputError
 from perception.hmm.metrics import table_4_1
 from perception.hmm.online import OnlineConfig, OnlineStripeHmms
 from perception.hmm.stripes import StripeHmms, infer
+from perception.hmm.training import TrainConfig, train
 
 DECODERS = ("posterior", "filtered")
 
@@ -89,3 +91,38 @@ def _score(classes_grids, decoded, predicted, posts, loglik_per_row) -> Evaluati
         decoded=decoded,
         posteriors=posts,
     )
+
+
+def train_and_score(
+    train_classes,
+    train_codes,
+    extra_codes,
+    test_classes,
+    test_codes,
+    options: TrainConfig | None = None,
+    decode: str = "posterior",
+) -> dict[tuple[bool, str], tuple[StripeHmms, Evaluation]]:
+    """Train the stripe HMMs independent and coupled, each counted (thesis 3.2.2) and
+    re-estimated (3.2.3), and score each on held-out grids (table 4.1).
+
+    Args:
+        train_classes: (rows, S) true class grids of the labelled training recordings.
+        train_codes: Their (rows, S) code grids.
+        extra_codes: Code grids that join the re-estimation unlabelled.
+        test_classes: Held-out true class grids.
+        test_codes: Their code grids.
+        options: How to train (`TrainConfig`; its `coupled` is set here, both ways).
+        decode: `posterior` or `filtered` decoding.
+
+    Returns:
+        {(coupled, "counted" | "re-estimated"): (models, their `Evaluation`)}.
+    """
+    options = TrainConfig() if options is None else options
+    results = {}
+    for coupled in (False, True):
+        config = dataclasses.replace(options, coupled=coupled)
+        initial, trained = train(train_classes, train_codes, extra_codes, config)
+        for stage, models in (("counted", initial), ("re-estimated", trained)):
+            scores = evaluate(models, test_classes, test_codes, decode)
+            results[coupled, stage] = (models, scores)
+    return results

@@ -178,10 +178,10 @@ def main(args: argparse.Namespace) -> int:  # noqa: PLR0915
     """Train, evaluate on held-out seeds, print table 4.1 and the comparisons."""
     import time
 
-    from perception.hmm.evaluation import evaluate
+    from perception.hmm.evaluation import train_and_score
     from perception.hmm.metrics import format_table
     from perception.hmm.storage import save_models
-    from perception.hmm.training import TrainConfig, train
+    from perception.hmm.training import TrainConfig
     from sim.flow.catalogue import load_catalogue
 
     t0 = time.perf_counter()
@@ -207,31 +207,18 @@ def main(args: argparse.Namespace) -> int:  # noqa: PLR0915
     extra_recs = _recordings(extra_seeds, catalogue, args.perception)
     test_recs = _recordings(test_seeds, catalogue, args.perception)
     refused = sum(r.refused_rows for r in train_recs + extra_recs + test_recs)
-    results = {}
-    for coupled in (False, True):
-        config = TrainConfig(
-            smoothing=args.smoothing,
-            coupled=coupled,
-            max_iter=args.iterations,
-            tol=args.tol,
-            anchor=args.anchor,
-        )
-        initial, trained = train(
-            [r.classes for r in train_recs],
-            [r.codes for r in train_recs],
-            [r.codes for r in extra_recs],
-            config,
-        )
-        for stage, models in (("counted", initial), ("re-estimated", trained)):
-            results[coupled, stage] = (
-                models,
-                evaluate(
-                    models,
-                    [r.classes for r in test_recs],
-                    [r.codes for r in test_recs],
-                    args.decode,
-                ),
-            )
+    options = TrainConfig(
+        smoothing=args.smoothing, max_iter=args.iterations, tol=args.tol, anchor=args.anchor
+    )
+    results = train_and_score(
+        [r.classes for r in train_recs],
+        [r.codes for r in train_recs],
+        [r.codes for r in extra_recs],
+        [r.classes for r in test_recs],
+        [r.codes for r in test_recs],
+        options,
+        args.decode,
+    )
     shown_coupled = args.coupling == "on"
     models, ev = results[shown_coupled, "re-estimated"]
     rows = sum(r.classes.shape[0] for r in test_recs)
