@@ -37,6 +37,7 @@ COMMANDS = {
     "train": "Train the learned pick-order policy on sortsim/PickOrder-v0 (seeded).",
     "report": "Means with 95-percent intervals, figures and an HTML page of run or sweep folders.",
     "view": "Show one episode live in MuJoCo's interactive viewer (needs a display).",
+    "reproduce": "The thesis's chapter 4, every table and figure, from sweeps of the current code.",
     "frames": "Write the belt camera's frames of one episode as a labelled COCO data set.",
 }
 

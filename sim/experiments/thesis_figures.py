@@ -1,8 +1,12 @@
 """Matplotlib figures in the style of the thesis's figures 4.4-4.6 (and a 4.2 curve plot).
 
-Figures 4.4, 4.5 and 4.6 plot accuracy, time and profit against the dataset size for the
-proximity picker and Q-learning, one panel per belt speed. Ours are solid lines with markers
-(mean over seeds, bars at min..max), the thesis's dashed.
+Figures 4.4, 4.5 and 4.6 plot accuracy, time and profit against the dataset size for every
+decision manager of the sweep, one panel per belt speed. Ours are solid lines with markers
+(mean over seeds, bars at min..max), the thesis's dashed. The legend names each line for what
+it is: `qlearning` the thesis's algorithm as written, run here; `rollout` ours (a sweep folder
+written before the rename holds the rollout under the name `qlearning`: `docs/results.md`).
+`sortsim reproduce` draws the chapter's figures from several sweeps
+(`sim.experiments.reproduce_figures`).
 """
 
 from __future__ import annotations
@@ -20,7 +24,21 @@ _METRICS = (
     ("4.5", "time", "sim_s", "Time [s]"),
     ("4.6", "profit", "profit_eur", "Profit [EUR]"),
 )
-_COLOURS = {"proximity": "tab:orange", "qlearning": "tab:blue"}
+_COLOURS = {"proximity": "tab:orange", "qlearning": "tab:blue", "rollout": "tab:green"}
+LABELS = {
+    "qlearning": "qlearning: the thesis's algorithm as written (here)",
+    "rollout": "rollout: ours (here)",
+    "proximity": "proximity (here)",
+}
+"""Legend of our lines by planner (another planner: its name and "(here)")."""
+THESIS_LABELS = {"qlearning": "thesis: its Q-learning", "proximity": "thesis: proximity"}
+"""Legend of the thesis's dashed lines."""
+
+
+def _planners(rows: list[dict]) -> list[str]:
+    """The sweep's planners, the thesis's two first."""
+    names = {r["planner"] for r in rows}
+    return sorted(names, key=lambda p: (p not in ("proximity", "qlearning"), p))
 
 
 def _series(rows: list[dict], planner: str, factor: float, column: str):
@@ -39,7 +57,7 @@ def _comparison(rows: list[dict], out_dir: Path, tables: dict) -> list[Path]:
     for fig_id, metric, column, label in _METRICS:
         fig, axes = plt.subplots(1, len(factors), figsize=(5.5 * len(factors), 4), squeeze=False)
         for ax, factor, letter in zip(axes[0], factors, "abcdef", strict=False):
-            for planner in ("proximity", "qlearning"):
+            for planner in _planners(rows):
                 xs, groups = _series(rows, planner, factor, column)
                 if xs:
                     m = [sum(g) / len(g) for g in groups]
@@ -51,11 +69,11 @@ def _comparison(rows: list[dict], out_dir: Path, tables: dict) -> list[Path]:
                         yerr=[lo, hi],
                         marker="o",
                         capsize=3,
-                        color=_COLOURS[planner],
-                        label=f"{planner} (ours)",
+                        color=_COLOURS.get(planner),
+                        label=LABELS.get(planner, f"{planner} (here)"),
                     )
                 t = thesis.get(factor)
-                if t is not None:
+                if t is not None and planner in THESIS_LABELS:
                     ax.plot(
                         t["items"],
                         t[f"{metric}_{planner}"],
@@ -63,14 +81,14 @@ def _comparison(rows: list[dict], out_dir: Path, tables: dict) -> list[Path]:
                         marker="x",
                         color=_COLOURS[planner],
                         alpha=0.6,
-                        label=f"{planner} (thesis)",
+                        label=THESIS_LABELS[planner],
                     )
             ax.set_title(f"({letter}) speed x{factor:g}")
             ax.set_xlabel("items in the dataset")
             ax.set_ylabel(label)
             ax.grid(alpha=0.3)
             ax.legend(fontsize=8)
-        fig.suptitle(f"Figure {fig_id}: {metric}, proximity picker vs Q-learning")
+        fig.suptitle(f"Figure {fig_id}: {metric} of the decision managers against the thesis's")
         fig.tight_layout()
         path = out_dir / f"figure_{fig_id.replace('.', '_')}_{metric}.png"
         fig.savefig(path, dpi=110)
@@ -81,20 +99,22 @@ def _comparison(rows: list[dict], out_dir: Path, tables: dict) -> list[Path]:
 
 def _accuracy_curves(rows: list[dict], out_dir: Path, t: dict) -> list[Path]:
     fig, ax = plt.subplots(figsize=(6, 4))
+    styles = ("-o", "-s", "-^", "-v")
     for i, factor in enumerate(t["speed_factors"]):
-        xs, groups = _series(rows, "qlearning", factor, "accuracy")
         colour = f"C{i}"
-        if xs:
-            ax.plot(
-                xs, [sum(g) / len(g) for g in groups], "-o", color=colour, label=f"x{factor:g} ours"
-            )
+        for planner, style in zip(_planners(rows), styles, strict=False):
+            xs, groups = _series(rows, planner, factor, "accuracy")
+            if xs:
+                means = [sum(g) / len(g) for g in groups]
+                label = f"x{factor:g} {LABELS.get(planner, planner + ' (here)')}"
+                ax.plot(xs, means, style, color=colour, label=label)
         ax.plot(
             t["items"],
             t["accuracy"][i],
             "--x",
             color=colour,
             alpha=0.6,
-            label=f"x{factor:g} thesis",
+            label=f"x{factor:g} thesis: its Q-learning",
         )
     ax.set_xlabel("items per ~90 s")
     ax.set_ylabel("pick and place accuracy (SP/SI)")

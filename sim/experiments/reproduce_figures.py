@@ -1,0 +1,271 @@
+"""The figures of `sortsim reproduce`: the thesis's 4.2 and 4.4-4.9 from the current code.
+
+Figures 4.4-4.9 are one PNG each of four panels: the robot's physical cycle (top) and the
+thesis's pauses (bottom), belt x1 (left) and x1.2 (right); against the dataset's size, one
+solid line per decision manager (mean over the seeds, bars from the least to the most) and,
+for accuracy, time and profit, the thesis's two dashed (its proximity picker and its
+Q-learning). Legends say which line is which: `qlearning` the thesis's algorithm as written,
+`rollout` ours. Figure 4.2 compares the three objectives of the Q-learning reward.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+from sim.experiments.reproduce_tables import PLANNERS, Block  # noqa: E402
+from sim.experiments.thesis_report import thesis_tables  # noqa: E402
+
+if TYPE_CHECKING:
+    from sim.experiments.reproduce import Run
+
+COLOURS = {"qlearning": "tab:blue", "rollout": "tab:green", "proximity": "tab:orange"}
+LEGEND = {
+    "qlearning": "qlearning: the thesis's algorithm as written (here)",
+    "rollout": "rollout: ours (here)",
+    "proximity": "proximity (here)",
+}
+THESIS_LEGEND = {"qlearning": "thesis: its Q-learning", "proximity": "thesis: proximity"}
+SWEEPS = (
+    ("physical cycle", "reproduce_4_5", "4.5"),
+    ("physical cycle", "reproduce_4_6", "4.6"),
+    ("the thesis's pauses", "reproduce_4_5_paused", "4.5"),
+    ("the thesis's pauses", "reproduce_4_6_paused", "4.6"),
+)
+
+
+def _per_class(material: str) -> Callable[[dict], float | None]:
+    def value(row: dict) -> float | None:
+        entered = float(row.get(f"entered_{material}") or 0)
+        return float(row[f"picked_{material}"]) / entered if entered else None
+
+    return value
+
+
+def _column(name: str) -> Callable[[dict], float | None]:
+    return lambda row: float(row[name])
+
+
+def _series(rows: list[dict], planner: str, value: Callable[[dict], float | None]):
+    by: dict[int, list[float]] = defaultdict(list)
+    for row in rows:
+        if row["planner"] == planner:
+            v = value(row)
+            if v is not None:
+                by[int(row["n_items"])].append(v)
+    xs = sorted(by)
+    return xs, [by[x] for x in xs]
+
+
+def _panels(
+    run: Run,
+    name: str,
+    title: str,
+    ylabel: str,
+    value: Callable[[dict], float | None],
+    thesis_metric: str | None,
+) -> Block:
+    """A 2 x 2 figure (regime x belt speed) of `value` against the dataset's size."""
+    tables = thesis_tables()
+    fig, axes = plt.subplots(2, 2, figsize=(11, 8), sharex=True)
+    for ax, (regime, sweep, table), letter in zip(axes.flat, SWEEPS, "abcd", strict=True):
+        rows = run.rows(sweep)
+        for planner in PLANNERS:
+            xs, groups = _series(rows, planner, value)
+            if xs:
+                m = [sum(g) / len(g) for g in groups]
+                lo = [a - min(g) for a, g in zip(m, groups, strict=True)]
+                hi = [max(g) - a for a, g in zip(m, groups, strict=True)]
+                ax.errorbar(
+                    xs,
+                    m,
+                    yerr=[lo, hi],
+                    marker="o",
+                    capsize=3,
+                    color=COLOURS[planner],
+                    label=LEGEND[planner],
+                )
+        t = tables[table]
+        if thesis_metric is not None:
+            for planner, label in THESIS_LEGEND.items():
+                ax.plot(
+                    t["items"],
+                    t[f"{thesis_metric}_{planner}"],
+                    "--",
+                    marker="x",
+                    color=COLOURS[planner],
+                    alpha=0.6,
+                    label=label,
+                )
+        ax.set_title(f"({letter}) belt x{t['speed_factor']:g}, {regime}")
+        ax.set_xlabel("items in the dataset")
+        ax.set_ylabel(ylabel)
+        ax.grid(alpha=0.3)
+    for ax in axes.flat:  # the legend once, on the first panel that has lines
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=7)
+            break
+    seeds = run.seeds_text(*(s for _, s, _ in SWEEPS))
+    fig.suptitle(
+        f"{title}\n{run.command}{' --quick' if run.quick else ''}: {seeds}, truth perception",
+        fontsize=10,
+    )
+    fig.tight_layout()
+    path = run.figures / f"{name}.png"
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    what = seeds + ", truth perception; top: physical cycle, bottom: the thesis's pauses"
+    text = "\n".join([run.label(name, what), "", run.figure(path, title)])
+    return Block(text, (path,))
+
+
+def figure_4_4(run: Run) -> Block:
+    """Figure 4.4: accuracy SP/SI against the dataset's size."""
+    return _panels(
+        run,
+        "figure_4_4",
+        "Figure 4.4: accuracy (SP/SI)",
+        "accuracy (SP/SI)",
+        _column("accuracy"),
+        "accuracy",
+    )
+
+
+def figure_4_5(run: Run) -> Block:
+    """Figure 4.5: time (simulated, until the last item left the belt)."""
+    return _panels(run, "figure_4_5", "Figure 4.5: time", "time [s]", _column("sim_s"), "time")
+
+
+def figure_4_6(run: Run) -> Block:
+    """Figure 4.6: profit."""
+    return _panels(
+        run, "figure_4_6", "Figure 4.6: profit", "profit [EUR]", _column("profit_eur"), "profit"
+    )
+
+
+def figure_4_7(run: Run) -> Block:
+    """Figure 4.7: accuracy of class 2 (paper), picked over entered."""
+    return _panels(
+        run,
+        "figure_4_7",
+        "Figure 4.7: accuracy of class 2 (paper)",
+        "paper picked / entered",
+        _per_class("paper"),
+        None,
+    )
+
+
+def figure_4_8(run: Run) -> Block:
+    """Figure 4.8: accuracy of class 3 (plastic)."""
+    return _panels(
+        run,
+        "figure_4_8",
+        "Figure 4.8: accuracy of class 3 (plastic)",
+        "plastic picked / entered",
+        _per_class("plastic"),
+        None,
+    )
+
+
+def figure_4_9(run: Run) -> Block:
+    """Figure 4.9: accuracy of class 4 (aluminium)."""
+    return _panels(
+        run,
+        "figure_4_9",
+        "Figure 4.9: accuracy of class 4 (aluminium)",
+        "aluminium picked / entered",
+        _per_class("aluminium"),
+        None,
+    )
+
+
+OBJECTIVES = (
+    ("v/d", "v_over_d", "v/d (eq. 3.3, the thesis's choice)"),
+    ("d=1", "d_1", "d = 1 (values only)"),
+    ("v=1", "v_1", "v = 1 (distance only)"),
+)
+
+
+def objective_numbers(run: Run) -> dict[str, dict[str, tuple[float, float]]]:
+    """{setting: {objective: (accuracy, profit [EUR])}}: the planner level at x1 and x1.2
+    (118-item belts in 45 s on the kinematic belt, `planner.decision.evaluation`), and episodes
+    (`experiments/reproduce_objectives.toml`, the thesis's pauses)."""
+    from planner.decision.evaluation import objective_variants
+    from sim.episode.decision_view import cell_context
+
+    belts = range(3 if run.quick else 10)
+    out = {}
+    for factor in (1.0, 1.2):
+        variants = objective_variants(cell_context, belts, factor, planner="qlearning")
+        out[f"planner level, x{factor:g} ({len(belts)} belts)"] = variants
+    rows = run.rows("reproduce_objectives")
+    episodes = {}
+    for key, variant, _ in OBJECTIVES:
+        mine = [r for r in rows if r.get("variant") == variant]
+        if mine:
+            acc = sum(float(r["accuracy"]) for r in mine) / len(mine)
+            episodes[key] = (acc, sum(float(r["profit_eur"]) for r in mine) / len(mine))
+    out["episodes, x1, pauses"] = episodes
+    return out
+
+
+def figure_4_2(run: Run) -> Block:
+    """Figure 4.2: accuracy and profit of the three objectives, planner level and episodes."""
+    numbers = objective_numbers(run)
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+    settings = list(numbers)
+    width = 0.25
+    for k, (key, _, label) in enumerate(OBJECTIVES):
+        for ax, i in zip(axes, (0, 1), strict=True):
+            xs = [s + (k - 1) * width for s in range(len(settings))]
+            ys = [numbers[s].get(key, (0.0, 0.0))[i] for s in settings]
+            ax.bar(xs, ys, width, label=label, color=f"C{k}")
+    for ax, ylabel in zip(
+        axes, ("accuracy (share of items picked)", "profit [EUR] per flow"), strict=True
+    ):
+        ax.set_xticks(range(len(settings)))
+        ax.set_xticklabels([s.replace(", ", "\n", 1) for s in settings], fontsize=8)
+        ax.set_ylabel(ylabel)
+        ax.grid(alpha=0.3, axis="y")
+    axes[0].legend(fontsize=8)
+    seeds = run.seeds_text("reproduce_objectives")
+    fig.suptitle(
+        f"Figure 4.2: the three objectives, qlearning\n{run.command}"
+        f"{' --quick' if run.quick else ''}: episodes {seeds}",
+        fontsize=10,
+    )
+    fig.tight_layout()
+    path = run.figures / "figure_4_2.png"
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    lines = [
+        "| setting | " + " | ".join(label for _, _, label in OBJECTIVES) + " |",
+        "|---|---|---|---|",
+    ]
+    for s in settings:
+        cells = [
+            "-" if key not in numbers[s] else f"{numbers[s][key][0]:.3f} / {numbers[s][key][1]:.2f}"
+            for key, _, _ in OBJECTIVES
+        ]
+        lines.append(f"| {s} | " + " | ".join(cells) + " |")
+    what = (
+        f"the kinematic belt (planner level: 118 items in 45 s) and episodes ({seeds}, 118 "
+        "items over 90 s at x1, the thesis's pauses)"
+    )
+    text = [
+        run.label("figure_4_2", what),
+        "",
+        "Cells: accuracy (share of the items picked) / profit [EUR] per flow, qlearning. The "
+        "thesis (4.1.3): v = 1 the most accurate, d = 1 the most profitable, v/d between.",
+        "",
+        *lines,
+        "",
+        run.figure(path, "Figure 4.2: accuracy and profit of the three objectives"),
+    ]
+    return Block("\n".join(text), (path,))
