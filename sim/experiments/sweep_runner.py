@@ -409,10 +409,11 @@ def _write_or_stop(write: Callable, path: Path, *args) -> None:
     except OSError as exc:
         reason = exc.strerror or type(exc).__name__
         done = len(outputs.read_rows(path.parent / "episodes.csv"))
+        kept = f"the {done} episodes written before are"
+        kept = "the episode written before is" if done == 1 else kept
         message = (
-            f"could not write {path.name} into {path.parent} ({reason}); the {done} episodes "
-            "written before are kept there: free some space and run the same command again "
-            "to resume"
+            f"could not write {path.name} into {path.parent} ({reason}); {kept} kept there: "
+            "free some space and run the same command again to resume"
         )
         raise outputs.OutputError(message) from None
 
