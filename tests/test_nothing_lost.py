@@ -70,7 +70,7 @@ def _one_line(stderr: str) -> str:
     return lines[0]
 
 
-def _wait_for(condition, proc: subprocess.Popen, timeout: float = 120.0) -> None:
+def _wait_for(condition, proc: subprocess.Popen, timeout: float = 300.0) -> None:
     end = time.monotonic() + timeout
     while not condition():
         assert proc.poll() is None, f"ended early: {proc.stderr.read()}"
@@ -218,7 +218,7 @@ def test_a_sweep_whose_disk_fills_stops_in_one_line_and_resumes(tmp_path):
         proc = _start("sweep", "--config", config, "--out", out, "--workers", "1", "--quiet")
         _wait_for(lambda: len(outputs.read_rows(out / "episodes.csv")) >= 1, proc)
         filler = _fill(disk, 0)
-        proc.wait(timeout=120)
+        proc.wait(timeout=300)
         assert proc.returncode == 1
         line = _one_line(proc.stderr.read())
         assert "No space left on device" in line and "run the same command again" in line
