@@ -42,6 +42,10 @@ COMMANDS = {
 }
 
 REFUSED = (RefusedInput, NotAvailable)
+STORAGE_ERRORS = frozenset(
+    {errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EIO, errno.EFBIG, errno.ENOMEM}
+)
+"""OS errors of the storage (not of the code): said in one line, exit code 1."""
 
 
 class _OneLineParser(argparse.ArgumentParser):
