@@ -367,3 +367,21 @@ def test_the_workers_of_a_killed_sweep_end_at_once(long_sweep):
         time.sleep(0.02)
     assert not any(_alive(w) for w in workers)
     assert time.monotonic() - start < 2.0  # not after their 30 s episodes
+
+
+def test_a_storage_error_anywhere_ends_in_one_line(monkeypatch, capfd):
+    import errno
+
+    from sim.cli import cycle
+    from sim.cli import main as cli
+
+    def full(args):
+        raise OSError(errno.ENOSPC, "No space left on device", "/mnt/full/x.json")
+
+    monkeypatch.setattr(cycle, "main", full)
+    assert cli.main(["cycle"]) == 1
+    err = capfd.readouterr().err
+    assert err == "sortsim cycle: error: No space left on device: /mnt/full/x.json\n"
+    monkeypatch.setattr(cycle, "main", lambda args: open("/nonexistent/dir/x"))  # a bug's
+    with pytest.raises(FileNotFoundError):  # an error of the code keeps its traceback
+        cli.main(["cycle"])
