@@ -111,3 +111,10 @@ def test_a_choice_or_none_passes_and_the_error_pickles():
         ask_manager(Gives({"item_id": 1}), [], None, None)
     again = pickle.loads(pickle.dumps(raised.value))
     assert str(again) == str(raised.value) == f"Gives.choose() returned a dict; {EXPECTED}"
+
+
+def test_the_expected_type_is_named_as_the_class_is():
+    from planner.decision.interface import Choice
+    from planner.decision.registry import CHOICE_TYPE
+
+    assert CHOICE_TYPE == f"{Choice.__module__}.{Choice.__qualname__}"

@@ -25,7 +25,6 @@ import os
 import sys
 from pathlib import Path
 
-from planner.decision.interface import Choice
 from planner.errors import PlannerError, PlannerInputError
 
 # Imported only when built, so that the command line's --help stays light.
@@ -165,7 +164,7 @@ def make_planner(spec: str, **params):
     return planner
 
 
-CHOICE_TYPE = f"{Choice.__module__}.{Choice.__qualname__}"
+CHOICE_TYPE = "planner.decision.interface.Choice"
 """What `choose()` returns (or None), as the error names it."""
 
 
@@ -188,7 +187,7 @@ class ChoiceTypeError(PlannerError, TypeError):
         return (type(self), (self.manager, self.got))
 
 
-def ask_manager(planner, items, robot, context) -> Choice | None:
+def ask_manager(planner, items, robot, context):
     """`planner.choose(items, robot, context)`, its return value checked.
 
     Args:
@@ -204,6 +203,8 @@ def ask_manager(planner, items, robot, context) -> Choice | None:
         ChoiceTypeError: It returned anything else (one line naming its class).
     """
     choice = planner.choose(items, robot, context)
+    from planner.decision.interface import Choice  # numpy: not at the CLI's start-up
+
     if choice is None or isinstance(choice, Choice):
         return choice
     got = type(choice)
