@@ -5,7 +5,10 @@ footprints say where the items are, far finer than a 0.16 m cell. On-line, the c
 two jobs: item pixels (belt coordinates) of a sliding window of rows are rasterised and cut
 into 8-connected regions; items lie as little as 5 mm apart, so a region may hold several
 touching items, and with `split` settings each region is cut into items by the footprint's
-shape and the pixels' heights (`perception.items.split`). Each blob's class probabilities are
+shape and the pixels' heights (`perception.items.split`). On a busy belt touching items chain
+into regions longer than the window, never complete: with the window's reported pixels kept,
+a growing region is cut too and its items that ended two rows back are reported at once (their
+pixels left out from then on). Each blob's class probabilities are
 the HMM posteriors of the cells it covers, weighted by how many of its pixels each cell holds.
 Segmenting by decoded class instead splits an item whose cells decode to different materials
 into two phantom items of two classes.
@@ -54,6 +57,7 @@ def item_blobs(
     pixel_height: list[list[np.ndarray]] | None = None,
     split: SplitSettings | None = None,
     complete_row: int | None = None,
+    reported: list[list[np.ndarray]] | None = None,
 ) -> list[Blob]:
     """Blobs of the item pixels of a window of rows.
 
@@ -71,6 +75,12 @@ def item_blobs(
             all their pieces at once, and only they are split (in a sliding window whose rows
             move up one per observation: the regions the newest row did not add to, each
             complete once).
+        reported: With `complete_row` and `split`: [row][stripe] boolean arrays, one flag per
+            pixel, of the pixels already reported (left out here); the pixels of the pieces
+            returned now are flagged in place. A region still growing (holding pixels of a
+            row after `complete_row`) is then split as well, and its pieces that end before
+            `complete_row` are returned at once: on a busy belt touching items chain into a
+            region longer than the window, which would never be complete.
 
     Returns:
         The blobs, in no particular order.
@@ -88,6 +98,51 @@ def item_blobs(
     y = np.concatenate([p[3] for p in parts])
     row = np.concatenate([np.full(len(p[2]), p[0]) for p in parts])
     stripe = np.concatenate([np.full(len(p[2]), p[1]) for p in parts])
+    early = reported is not None and split is not None and complete_row is not None
+    done = None
+    if early:
+        done = np.concatenate([np.asarray(reported[p[0]][p[1]], bool) for p in parts])
+    label_of_pixel, count = _regions(b, y, raster_m, done)
+    newest = np.zeros(count + 1, dtype=np.int64)
+    np.maximum.at(newest, label_of_pixel, row)
+    wanted = np.arange(1, count + 1)
+    growing = np.zeros(0, dtype=np.int64)
+    if complete_row is not None:
+        if early:
+            oldest = np.full(count + 1, row.max() + 1, dtype=np.int64)
+            np.minimum.at(oldest, label_of_pixel, row)
+            growing = wanted[(newest[1:] > complete_row) & (oldest[1:] < complete_row)]
+            # A leftover of a region whose pieces were reported may end before complete_row.
+            wanted = wanted[newest[1:] <= complete_row]
+        else:
+            wanted = wanted[newest[1:] == complete_row]
+    sizes = np.bincount(label_of_pixel, minlength=count + 1)
+    wanted = wanted[sizes[wanted] >= min_pixels]
+    growing = growing[sizes[growing] >= min_pixels]
+    height = None
+    if split is not None and pixel_height is not None:
+        height = np.concatenate([np.asarray(pixel_height[p[0]][p[1]], float) for p in parts])
+    pieces = []
+    for label in wanted:
+        pieces += _pieces(np.flatnonzero(label_of_pixel == label), b, y, height, split)
+    for label in growing:
+        cut = _pieces(np.flatnonzero(label_of_pixel == label), b, y, height, split)
+        pieces += [mine for mine in cut if row[mine].max() < complete_row]
+    blobs = []
+    for mine in pieces:
+        if early:
+            done[mine] = True
+        if len(mine) >= min_pixels:
+            blobs.append(_blob(mine, b, y, row, stripe, posteriors))
+    if early:
+        _flag(reported, parts, done)
+    return blobs
+
+
+def _regions(
+    b: np.ndarray, y: np.ndarray, raster_m: float, done: np.ndarray | None
+) -> tuple[np.ndarray, int]:
+    """(label 1..count of each pixel, 0 for the pixels `done`; count): 8-connected regions."""
     # The raster is fixed on the belt (not on the window's pixels), so a region keeps its
     # cells and its connections from one observation to the next: once complete, a region
     # never grows again (a new row lies a row's length past its pixels).
@@ -96,34 +151,37 @@ def item_blobs(
     ib -= ib.min()
     iy -= iy.min()
     occupied = np.zeros((ib.max() + 1, iy.max() + 1), dtype=bool)
-    occupied[ib, iy] = True
+    live = slice(None) if done is None else ~done
+    occupied[ib[live], iy[live]] = True
     labels, count = ndimage.label(occupied, structure=np.ones((3, 3)))
     label_of_pixel = labels[ib, iy]
-    newest = np.zeros(count + 1, dtype=np.int64)
-    np.maximum.at(newest, label_of_pixel, row)
-    wanted = np.arange(1, count + 1)
-    if complete_row is not None:
-        wanted = wanted[newest[1:] == complete_row]
-    wanted = wanted[np.bincount(label_of_pixel, minlength=count + 1)[wanted] >= min_pixels]
-    height = None
-    if split is not None and pixel_height is not None:
-        height = np.concatenate([np.asarray(pixel_height[p[0]][p[1]], float) for p in parts])
-    blobs = []
-    for label in wanted:
-        region = np.flatnonzero(label_of_pixel == label)
-        if split is None:
-            pieces = [region]
-        else:
-            piece, n = split_region(
-                b[region], y[region], None if height is None else height[region], split
-            )
-            order = np.argsort(piece, kind="stable")
-            pieces = np.split(region[order], np.cumsum(np.bincount(piece, minlength=n))[:-1])
-        for mine in pieces:
-            if len(mine) < min_pixels:
-                continue
-            blobs.append(_blob(mine, b, y, row, stripe, posteriors))
-    return blobs
+    if done is not None:
+        label_of_pixel[done] = 0
+    return label_of_pixel, count
+
+
+def _pieces(
+    region: np.ndarray,
+    b: np.ndarray,
+    y: np.ndarray,
+    height: np.ndarray | None,
+    split: SplitSettings | None,
+) -> list[np.ndarray]:
+    """The pixels (indices) of each item of one region, cut apart with `split`."""
+    if split is None:
+        return [region]
+    piece, n = split_region(b[region], y[region], None if height is None else height[region], split)
+    order = np.argsort(piece, kind="stable")
+    return np.split(region[order], np.cumsum(np.bincount(piece, minlength=n))[:-1])
+
+
+def _flag(reported: list[list[np.ndarray]], parts: list, done: np.ndarray) -> None:
+    """Writes the window-ordered flags `done` back into `reported`'s [row][stripe] arrays."""
+    start = 0
+    for r, j, cell_b, _ in parts:
+        stop = start + len(cell_b)
+        reported[r][j][:] = done[start:stop]
+        start = stop
 
 
 def _blob(

@@ -2,7 +2,7 @@
 
 Items on the belt lie as little as 5 mm apart, and an item's footprint pixels, binned on a
 raster, can touch a neighbour's. One connected region of item pixels is cut into items on a
-fine raster (`SplitSettings.raster_m`, finer than the gap between items) in three steps:
+fine raster (`SplitSettings.raster_m`, finer than the gap between items) in four steps:
 
 1. Walls from depth: a raster cell with a neighbour more than `step_m` higher is the foot of a
    step in height, where a lower item meets a taller one (a can beside a tray, a bottle beside
@@ -17,6 +17,14 @@ fine raster (`SplitSettings.raster_m`, finer than the gap between items) in thre
    whole. Parts whose peak half-width is under `min_core_m` (slivers) are not items.
 3. Each item is its part at the level it parted at; every other pixel of the region (walls,
    rims) goes to the nearest one.
+4. Cuts at concave notches (with `concave_ratio`): every item's footprint is convex (a
+   rectangle, a disc or a stadium), so a piece whose outline has two deep notches (convexity
+   defects of at least `concave_depth_m`) joined by a chord inside it no longer than
+   `concave_ratio` times their summed depths is two items touching along that chord, and is
+   cut there (again in each part, up to `MAX_CUTS` cuts). This parts what the neck test
+   cannot: a small item pressed against a larger one's side over most of its own width (a
+   can against a carton), or two items of one height side by side, offset (on busy belts
+   the commonest merges, measured in `sim.evaluation.segmentation_density`).
 
 (`scipy.ndimage.watershed_ift` and `cv2.watershed` flood by the differences between
 neighbouring values, a gradient image's, not by the distance transform's levels, so the levels
@@ -26,6 +34,7 @@ metres.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import cv2
@@ -38,6 +47,8 @@ _KERNEL = np.ones((3, 3), np.uint8)
 _EIGHT = np.ones((3, 3), dtype=bool)
 LEVELS_CELLS = (1, 2, 3, 4, 5, 6, 7, 8, 10, 12, 14, 17, 20, 24, 28, 33, 39, 46)
 """Thresholds of the distance transform [raster cells] at which the core is labelled."""
+MAX_CUTS = 8
+"""Most cuts at concave notches made in one piece of the distance transform's split."""
 
 
 @dataclass(frozen=True)
@@ -54,6 +65,9 @@ class SplitSettings:
         min_core_m: A part whose peak half-width (walls left out) is under this is no item [m].
         height_median_cells: Side of the median filter over the cells' heights before walls
             are found (1: none; 3 or 5).
+        concave_ratio: A piece is cut along a chord between two concave notches of its
+            outline no longer than this times their summed depths (0: no such cuts).
+        concave_depth_m: Shallowest notch of the outline a cut may start from [m].
     """
 
     raster_m: float = 0.003
@@ -61,6 +75,8 @@ class SplitSettings:
     neck_ratio: float = 0.6
     min_core_m: float = 0.012
     height_median_cells: int = 5
+    concave_ratio: float = 0.0
+    concave_depth_m: float = 0.012
 
     def __post_init__(self) -> None:
         if not 0.0005 <= self.raster_m <= 0.02:
@@ -73,6 +89,10 @@ class SplitSettings:
             raise PerceptionInputError("min_core_m", ">= 0 m", self.min_core_m)
         if self.height_median_cells not in (1, 3, 5):
             raise PerceptionInputError("height_median_cells", "1, 3 or 5", self.height_median_cells)
+        if not self.concave_ratio >= 0.0:
+            raise PerceptionInputError("concave_ratio", ">= 0", self.concave_ratio)
+        if not self.concave_depth_m > 0.0:
+            raise PerceptionInputError("concave_depth_m", "> 0 m", self.concave_depth_m)
 
 
 def split_region(
@@ -120,17 +140,115 @@ def split_region(
     dist = cv2.distanceTransform(core.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     markers = _item_markers(dist, settings.neck_ratio, settings.min_core_m / pitch)
     if markers.max() <= 1:
-        return np.zeros(b.size, dtype=np.int64), 1
-    # Every cell goes to the nearest marker: the distance to the zero cells of `outside`
-    # labels each cell with the marker (a connected group of zero cells) it is nearest to.
+        cell_piece = occupied.astype(np.int64)
+    else:
+        cell_piece = np.where(occupied, _nearest_marker(markers), 0)
+    if settings.concave_ratio > 0:
+        cell_piece = _cut_concave(cell_piece, settings)
+    piece = cell_piece[ib, iy] - 1
+    return piece, int(cell_piece.max())
+
+
+def _nearest_marker(markers: np.ndarray, touching: bool = False) -> np.ndarray:
+    """Every cell labelled with its nearest marker's label."""
+    # The distance to the zero cells of `outside` labels each cell with the marker (a
+    # connected group of zero cells) it is nearest to.
     outside = (markers == 0).astype(np.uint8)
+    kind = cv2.DIST_LABEL_PIXEL if touching else cv2.DIST_LABEL_CCOMP
     _, nearest = cv2.distanceTransformWithLabels(
-        outside, cv2.DIST_L2, cv2.DIST_MASK_5, labelType=cv2.DIST_LABEL_CCOMP
+        outside, cv2.DIST_L2, cv2.DIST_MASK_5, labelType=kind
     )
     marker_of = np.zeros(int(nearest.max()) + 1, dtype=np.int64)
     marker_of[nearest[markers > 0]] = markers[markers > 0]
-    piece = marker_of[nearest[ib, iy]] - 1
-    return piece, int(markers.max())
+    return marker_of[nearest]
+
+
+def _cut_concave(cell_piece: np.ndarray, settings: SplitSettings) -> np.ndarray:
+    """The pieces (cell labels 1..n, 0 outside) cut further at their concave notches."""
+    out = np.zeros_like(cell_piece)
+    count = 0
+    min_cells = math.pi * (settings.min_core_m / settings.raster_m) ** 2
+    min_depth = settings.concave_depth_m / settings.raster_m
+    for label in range(1, int(cell_piece.max()) + 1):
+        todo = [(cell_piece == label).astype(np.uint8)]
+        if not todo[0].any():
+            continue
+        cuts = 0
+        while todo:
+            mask = todo.pop()
+            parts = None
+            if cuts < MAX_CUTS:
+                parts = _cut_once(mask, settings.concave_ratio, min_depth, min_cells)
+            if parts is None:
+                count += 1
+                out[mask > 0] = count
+            else:
+                cuts += 1
+                todo += parts
+    return out
+
+
+def _cut_once(
+    mask: np.ndarray, max_ratio: float, min_depth: float, min_cells: float
+) -> list[np.ndarray] | None:
+    """`mask` (uint8) cut in two along the best chord between two concave notches, or None.
+
+    The notches are the convexity defects of the mask's outline at least `min_depth` deep
+    [cells]; a chord between two of them is a cut when it lies inside the mask and its length
+    is at most `max_ratio` times the sum of their depths; the shortest such cut relative to
+    its notches is made, when both sides keep at least `min_cells` cells.
+    """
+    contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    if not contours:
+        return None
+    outline = max(contours, key=len)
+    if len(outline) < 8:
+        return None
+    hull = cv2.convexHull(outline, returnPoints=False)
+    try:
+        defects = cv2.convexityDefects(outline, hull)
+    except cv2.error:  # an outline that crosses itself (a one-cell bridge): left whole
+        return None
+    if defects is None:
+        return None
+    defects = defects.reshape(-1, 4)
+    defects = defects[defects[:, 3] >= min_depth * 256]  # depths in 1/256 cell
+    if len(defects) < 2:
+        return None
+    points = outline[defects[:, 2], 0].astype(np.float64)  # (column, row)
+    depth = defects[:, 3] / 256.0
+    i, j = np.triu_indices(len(points), 1)
+    length = np.hypot(*(points[i] - points[j]).T)
+    ratio = length / (depth[i] + depth[j])
+    steps = np.linspace(0.0, 1.0, 24)[:, None]
+    for k in np.argsort(ratio, kind="stable"):
+        if ratio[k] > max_ratio:
+            return None
+        p, q = points[i[k]], points[j[k]]
+        chord = np.rint(p * (1.0 - steps) + q * steps).astype(np.int64)
+        if mask[chord[:, 1], chord[:, 0]].mean() < 0.8:
+            continue
+        parts = _cut_along(mask, p, q, min_cells)
+        if parts is not None:
+            return parts
+    return None
+
+
+def _cut_along(
+    mask: np.ndarray, p: np.ndarray, q: np.ndarray, min_cells: float
+) -> list[np.ndarray] | None:
+    """The parts of `mask` the chord p-q (column, row) cuts it into, each cell of the chord
+    and of a crumb given to the nearest part; None unless two parts hold `min_cells`."""
+    cut = mask.copy()
+    cv2.line(cut, (int(p[0]), int(p[1])), (int(q[0]), int(q[1])), 0, 1, cv2.LINE_8)
+    n, labels = cv2.connectedComponents(cut, connectivity=4)
+    sizes = np.bincount(labels.ravel(), minlength=n)
+    sizes[0] = 0
+    big = np.flatnonzero(sizes >= min_cells)
+    if len(big) < 2:
+        return None
+    near = _nearest_marker(np.where(np.isin(labels, big), labels, 0), touching=True)
+    return [((mask > 0) & (near == k)).astype(np.uint8) for k in big]
 
 
 def _item_markers(dist: np.ndarray, neck_ratio: float, min_core_cells: float) -> np.ndarray:

@@ -59,6 +59,7 @@ class TruePoses:
         yaw: Heading of the body x axis [rad].
         type_index: Catalogue type.
         on_belt: Resting on the belt (not thrown off, not held).
+        z: Height of the centre [m] (None in recordings made before it was kept).
     """
 
     item_id: np.ndarray
@@ -67,6 +68,7 @@ class TruePoses:
     yaw: np.ndarray
     type_index: np.ndarray
     on_belt: np.ndarray
+    z: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -90,13 +92,18 @@ class RecordedRow:
 
 @dataclass(frozen=True, eq=False)
 class Recording:
-    """The camera perception's rows of one flow (`record`)."""
+    """The camera perception's rows of one flow (`record`).
+
+    `types` holds the (scaled) type of every item of the flow by flow index when the flow is
+    not the default one of `N_ITEMS` items in `DURATION_S` (`flow_item_types`).
+    """
 
     speed_factor: float
     seed: int
     speed: float
     rows: list[RecordedRow]
     cpu_s: float
+    types: tuple[ItemType, ...] | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -169,12 +176,14 @@ def found_items(recording: Recording, split: SplitSettings | None) -> list[Found
     window_b = [empty] * WINDOW_ROWS
     window_y = [empty] * WINDOW_ROWS
     window_h = [empty] * WINDOW_ROWS
+    window_done = [[np.zeros(0, bool)] * stripes] * WINDOW_ROWS
     posteriors = np.full((WINDOW_ROWS, stripes, N_STATES), 1.0 / N_STATES)
     found = []
     for k, row in enumerate(rows):
         window_b = window_b[1:] + [row.pixel_b]
         window_y = window_y[1:] + [row.pixel_y]
         window_h = window_h[1:] + [row.pixel_height]
+        window_done = window_done[1:] + [[np.zeros(len(b), bool) for b in row.pixel_b]]
         blobs = item_blobs(
             window_b,
             window_y,
@@ -182,6 +191,7 @@ def found_items(recording: Recording, split: SplitSettings | None) -> list[Found
             pixel_height=window_h,
             split=split,
             complete_row=COMPLETE_ROW,
+            reported=window_done,
         )
         if not blobs:
             continue
@@ -196,6 +206,8 @@ def found_items(recording: Recording, split: SplitSettings | None) -> list[Found
 
 def flow_item_types(recording: Recording, catalogue: Catalogue) -> tuple[ItemType, ...]:
     """The (scaled) type of every item of the recording's flow, as dropped on the belt."""
+    if recording.types is not None:
+        return recording.types
     config = FlowConfig(
         n_items=N_ITEMS, duration_s=DURATION_S, speed_factor=recording.speed_factor,
         seed=recording.seed,
@@ -264,7 +276,10 @@ def from_plain(plain: dict) -> Recording:
     """A recording from its `dataclasses.asdict` form (what the cache stores: plain types, so
     the files do not depend on how this module was run)."""
     rows = [RecordedRow(**{**row, "truth": TruePoses(**row["truth"])}) for row in plain["rows"]]
-    return Recording(**{**plain, "rows": rows})
+    types = plain.get("types")
+    if types is not None:
+        types = tuple(ItemType(**t) for t in types)
+    return Recording(**{**plain, "rows": rows, "types": types})
 
 
 LABEL_WIDTH = 24
