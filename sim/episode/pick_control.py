@@ -58,9 +58,10 @@ LIES_ON_DZ_M = 1e-3
 other [m]."""
 TOUCH_GAP_M = 0.005
 """A neighbour whose outline comes this close to the item's lies against its edge [m]: lifting
-the item would catch it if it is higher (a flat sheet's corner under a lying bottle's flank,
-their outlines 0.03 mm apart, flung the bottle into the held sheet's way), so such a pick waits
-until the neighbour is gone. Items the flow drops lie at least 5 mm apart unless they shift."""
+the item would catch it if it is higher and round and lying (`PickController.overhangs`: a flat
+sheet's corner under a lying bottle's flank, their outlines 0.03 mm apart, flung the bottle into
+the held sheet's way), so such a pick waits until the neighbour is gone. Items the flow drops
+lie at least 5 mm apart unless they shift."""
 DEFAULT_TOP_Z = 0.02
 """Assumed top of an item when no item is found near the detection [m]."""
 NEAR_M = 0.08
@@ -296,6 +297,16 @@ class PickController:
             if overlap
         ]
 
+    def overhangs(self, slot: int) -> bool:
+        """Whether the item in `slot` is round and lying (a capsule or cylinder whose axis is
+        more than 45 degrees from vertical): its flank curves out over the belt, so an item
+        touching its outline lies partly under it (a box or a standing can has upright sides)."""
+        kind = int(self.cell.model.geom_type[self.cell.pool.geom_id(slot)])
+        if kind not in (int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_CYLINDER)):
+            return False
+        _, mat = self.cell.items.geom_pose(slot)
+        return abs(float(mat[8])) < math.cos(math.pi / 4)
+
     def top_of(self, slot: int) -> float:
         """Highest point [m] of the item in `slot` as it lies now (a can may have toppled)."""
         model = self.cell.model
@@ -352,7 +363,8 @@ class PickController:
         # of those touching it edge to edge (within `TOUCH_GAP_M`).
         overlaps = self._overlapping(target, neighbours) if target is not None else []
         touching = self._overlapping(target, neighbours, TOUCH_GAP_M) if target is not None else []
-        if any(dz > LIES_ON_DZ_M for _, dz in touching):
+        on_edge = [s for s, dz in touching if dz > LIES_ON_DZ_M and self.overhangs(s)]
+        if on_edge or any(dz > LIES_ON_DZ_M for _, dz in overlaps):
             self.neighbour_refusals += 1
             reason = (
                 "a higher item lies on it or against its edge (lifting it would fling that one)"
