@@ -18,7 +18,7 @@ NAMES = (
     ["table_4_1", "table_4_2", "table_4_3", "table_4_3_paused", "table_4_4"]
     + ["table_4_5", "table_4_6", "table_4_5_paused", "table_4_6_paused"]
     + ["table_4_5_camera", "table_4_6_camera", "finding_13"]
-    + ["figure_4_1", "figure_4_2"]
+    + ["figure_4_1", "figure_4_2", "figure_4_3"]
     + [f"figure_4_{k}" for k in range(4, 10)]
 )
 

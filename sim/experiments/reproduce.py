@@ -249,6 +249,13 @@ def pieces() -> dict[str, Piece]:
             "the kinematic belt (planner level)",
         ),
         Piece(
+            "figure_4_3",
+            "Figure 4.3: the pick order and path of each objective on one busy belt",
+            (),
+            figs.figure_4_3,
+            "the kinematic belt (planner level)",
+        ),
+        Piece(
             "table_4_2", "Table 4.2: pick-and-place accuracy", ("reproduce_4_2",), tables.table_4_2
         ),
         Piece(
@@ -346,13 +353,25 @@ def pieces() -> dict[str, Piece]:
 def list_text(quick: bool = False) -> str:
     """`--list`: every piece with what it runs (episodes per sweep at the chosen seeds)."""
     run = Run(DEFAULT_OUT, quick=quick)
-    lines = []
+    lines, sweeps = [], {}
     for piece in pieces().values():
-        parts = [f"{s} ({len(run.sweep(s).episodes)} episodes)" for s in piece.sweeps]
+        for name in piece.sweeps:
+            sweeps.setdefault(name, run.sweep(name))
+        parts = [f"{s} ({len(sweeps[s].episodes)} episodes)" for s in piece.sweeps]
         if piece.extra:
             parts.append(piece.extra)
         lines.append(f"{piece.name:<18} {piece.title}")
         lines.append(f"{'':<18} from: {'; '.join(parts)}")
+    configs = [spec.config for sweep in sweeps.values() for spec in sweep.episodes]
+    hours = {
+        kind: sum(c.duration_s for c in configs if c.perception == kind) / 3600
+        for kind in ("truth", "camera")
+    }
+    lines.append(
+        f"\n{len(sweeps)} sweeps, {len(configs)} episodes ({'--quick' if quick else 'the thesis'}"
+        f"'s seeds): flows of {hours['truth']:.1f} h in truth perception and "
+        f"{hours['camera']:.1f} h through the camera, simulated"
+    )
     return "\n".join(lines)
 
 

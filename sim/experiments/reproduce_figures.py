@@ -269,3 +269,67 @@ def figure_4_2(run: Run) -> Block:
         run.figure(path, "Figure 4.2: accuracy and profit of the three objectives"),
     ]
     return Block("\n".join(text), (path,))
+
+
+FIGURE_4_3_BELT = 3
+"""Seed of the busy belt (`planner.decision.evaluation.short_belt`) figure 4.3 plans on."""
+
+
+def figure_4_3(run: Run) -> Block:
+    """Figure 4.3: the pick-and-place paths of the three objectives on one busy belt."""
+    from planner.decision.evaluation import short_belt
+    from planner.decision.interface import THESIS_VALUES
+    from planner.decision.kinematic_belt import THESIS_SPEED_X1, simulate
+    from planner.decision.registry import make_planner
+    from sim.episode.decision_view import cell_context
+
+    belt = short_belt(FIGURE_4_3_BELT)
+    context = cell_context(belt.speed, THESIS_VALUES)
+    colours = {2: "tab:brown", 3: "tab:blue", 4: "tab:grey"}
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4.6), sharey=True)
+    rows = []
+    for ax, (key, _, label) in zip(axes, OBJECTIVES, strict=True):
+        result = simulate(make_planner("qlearning", objective=key), belt, context)
+        items = {it.item_id: it for it in belt.items}
+        path = [(0.0, 0.0)]
+        for k, pick in enumerate(result.picks, start=1):
+            item = items[pick.item_id]
+            x, y = item.x0 + belt.speed * pick.meet, item.y
+            bx, by, _ = context.bin_of(pick.bin_class)
+            ax.scatter([x], [y], s=120, color=colours.get(pick.true_class, "k"), zorder=3)
+            ax.annotate(str(k), (x, y), ha="center", va="center", fontsize=7, color="w", zorder=4)
+            path += [(x, y), (bx, by)]
+        for cls in sorted({it.true_class for it in belt.items}):
+            bx, by, _ = context.bin_of(cls)
+            ax.scatter([bx], [by], marker="s", s=90, color=colours.get(cls, "k"), edgecolors="k")
+        xs, ys = zip(*path, strict=True)
+        ax.plot(xs, ys, "-", color="k", alpha=0.35, lw=1)
+        ax.set_title(
+            f"{label}\n{len(result.picks)} of {len(belt.items)} picked, {result.profit:.2f} EUR",
+            fontsize=9,
+        )
+        ax.set_xlabel("x along the belt where the cup meets the item [m]")
+        ax.grid(alpha=0.3)
+        ax.set_aspect("equal", adjustable="datalim")
+        rows.append(f"| {label} | {len(result.picks)} of {len(belt.items)} | {result.profit:.2f} |")
+    axes[0].set_ylabel("y across the belt [m]")
+    fig.suptitle(
+        f"Figure 4.3: qlearning's pick order (numbers) and path to each item's bin "
+        f"(squares) on busy belt {FIGURE_4_3_BELT} (kinematic belt, x"
+        f"{belt.speed / THESIS_SPEED_X1:.2g})",
+        fontsize=10,
+    )
+    fig.tight_layout()
+    path = run.figures / "figure_4_3.png"
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    text = [
+        run.label("figure_4_3", f"busy belt {FIGURE_4_3_BELT} of the planner-level benchmark"),
+        "",
+        "| objective | picked | profit [EUR] |",
+        "|---|---|---|",
+        *rows,
+        "",
+        run.figure(path, "Figure 4.3: the paths of the three objectives"),
+    ]
+    return Block("\n".join(text), (path,))
