@@ -26,9 +26,10 @@ NAMES = (
 def test_list_names_every_table_and_figure(capsys):
     assert main(["reproduce", "--list"]) == 0
     text = capsys.readouterr().out
-    listed = re.findall(r"^(\w+)\s", text, flags=re.M)
+    listed = re.findall(r"^((?:table|figure|finding)_\w+)\s", text, flags=re.M)
     assert sorted(listed) == sorted(NAMES)
     assert "reproduce_4_5_camera (150 episodes)" in text  # the thesis's 5 seeds
+    assert "11 sweeps, 1242 episodes" in text
     assert main(["reproduce", "--list", "--quick"]) == 0
     assert "reproduce_4_5_camera (30 episodes)" in capsys.readouterr().out
 
