@@ -346,3 +346,29 @@ def test_a_chain_of_touching_items_longer_than_the_window_is_found_item_by_item(
     assert len(found) == 20
     np.testing.assert_allclose(found, centres, atol=0.003)
     assert len(run(keep_reported=False)) < 20
+
+
+def test_pieces_of_one_convex_item_are_joined_again_and_touching_items_are_not():
+    """The rejoining step on a cut raster: a lying bottle's stadium cut across its body into two
+    pieces (as the distance transform cut a bottle whose end met a neighbour) is one piece
+    again; the pot pressed against it (a notch 12 mm deep or more between them) and a can of
+    another height beside it stay apart."""
+    from perception.items.split import _rejoin
+    from sim.sensing.perception import ITEM_SPLIT
+
+    cells = np.zeros((120, 90), np.int64)
+    rows, cols = np.mgrid[:120, :90]
+    over = np.maximum(np.abs(rows - 50) - 35, 0)
+    bottle = over**2 + (cols - 30) ** 2 <= 15**2  # 3 mm cells: 300 x 90 mm
+    cells[bottle & (rows < 40)] = 1
+    cells[bottle & (rows >= 40)] = 2
+    pot = ((rows - 50) ** 2 + (cols - 55) ** 2 <= 12**2) & ~bottle
+    cells[pot] = 3
+    can = ((rows - 105) ** 2 + (cols - 30) ** 2 <= 11**2) & ~bottle
+    cells[can] = 4
+    top = np.where(bottle, 0.07, 0.0) + np.where(pot, 0.06, 0.0) + np.where(can, 0.125, 0.0)
+
+    joined = _rejoin(cells, top.astype(np.float32), ITEM_SPLIT)
+    assert joined.max() == 3
+    assert len(np.unique(joined[bottle])) == 1
+    assert len({joined[bottle][0], joined[pot][0], joined[can][0]}) == 3

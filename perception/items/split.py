@@ -2,7 +2,7 @@
 
 Items on the belt lie as little as 5 mm apart, and an item's footprint pixels, binned on a
 raster, can touch a neighbour's. One connected region of item pixels is cut into items on a
-fine raster (`SplitSettings.raster_m`, finer than the gap between items) in four steps:
+fine raster (`SplitSettings.raster_m`, finer than the gap between items) in five steps:
 
 1. Walls from depth: a raster cell with a neighbour more than `step_m` higher is the foot of a
    step in height, where a lower item meets a taller one (a can beside a tray, a bottle beside
@@ -25,6 +25,10 @@ fine raster (`SplitSettings.raster_m`, finer than the gap between items) in four
    cannot: a small item pressed against a larger one's side over most of its own width (a
    can against a carton), or two items of one height side by side, offset (on busy belts
    the commonest merges, measured in `sim.evaluation.segmentation_density`).
+5. Rejoining (with `rejoin`): by the same token two touching pieces whose union is convex
+   (no notch of `concave_depth_m`) and of one height (their median heights within `step_m`)
+   are one item the distance transform cut across (a lying bottle whose end met a
+   neighbour), and are joined again.
 
 (`scipy.ndimage.watershed_ift` and `cv2.watershed` flood by the differences between
 neighbouring values, a gradient image's, not by the distance transform's levels, so the levels
@@ -68,6 +72,7 @@ class SplitSettings:
         concave_ratio: A piece is cut along a chord between two concave notches of its
             outline no longer than this times their summed depths (0: no such cuts).
         concave_depth_m: Shallowest notch of the outline a cut may start from [m].
+        rejoin: Join two touching pieces again when their union is convex and of one height.
     """
 
     raster_m: float = 0.003
@@ -77,6 +82,7 @@ class SplitSettings:
     height_median_cells: int = 5
     concave_ratio: float = 0.0
     concave_depth_m: float = 0.012
+    rejoin: bool = False
 
     def __post_init__(self) -> None:
         if not 0.0005 <= self.raster_m <= 0.02:
@@ -145,6 +151,9 @@ def split_region(
         cell_piece = np.where(occupied, _nearest_marker(markers), 0)
     if settings.concave_ratio > 0:
         cell_piece = _cut_concave(cell_piece, settings)
+    if settings.rejoin and cell_piece.max() > 1:
+        heights = top if height is not None else None
+        cell_piece = _rejoin(cell_piece, heights, settings)
     piece = cell_piece[ib, iy] - 1
     return piece, int(cell_piece.max())
 
@@ -186,6 +195,50 @@ def _cut_concave(cell_piece: np.ndarray, settings: SplitSettings) -> np.ndarray:
                 cuts += 1
                 todo += parts
     return out
+
+
+def _deepest_notch(mask: np.ndarray) -> float:
+    """Depth of the deepest concave notch of `mask`'s outline [cells] (0: convex)."""
+    contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    if len(contours) != 1:
+        return math.inf
+    outline = contours[0]
+    if len(outline) < 8:
+        return 0.0
+    hull = cv2.convexHull(outline, returnPoints=False)
+    try:
+        defects = cv2.convexityDefects(outline, hull)
+    except cv2.error:
+        return math.inf
+    return 0.0 if defects is None else float(defects.reshape(-1, 4)[:, 3].max()) / 256.0
+
+
+def _rejoin(cell_piece: np.ndarray, top: np.ndarray | None, settings: SplitSettings):
+    """Pieces joined again, two at a time, while two that touch make a convex whole (no notch
+    of `concave_depth_m`) of one height (medians within `step_m`): one item the distance
+    transform cut across (a long bottle whose end met a neighbour)."""
+    min_depth = settings.concave_depth_m / settings.raster_m
+    pieces = cell_piece.copy()
+    while True:
+        grown = cv2.dilate(pieces.astype(np.float32), _KERNEL).astype(np.int64)
+        touching = (pieces > 0) & (grown != pieces) & (grown > 0)
+        pairs = sorted(
+            {(int(a), int(b)) for a, b in zip(pieces[touching], grown[touching], strict=True)}
+        )
+        for a, b in pairs:
+            union = ((pieces == a) | (pieces == b)).astype(np.uint8)
+            if top is not None:
+                ha = float(np.median(top[pieces == a]))
+                hb = float(np.median(top[pieces == b]))
+                if abs(ha - hb) > settings.step_m:
+                    continue
+            if _deepest_notch(union) < min_depth:
+                pieces[pieces == max(a, b)] = min(a, b)
+                break
+        else:
+            break
+    _, pieces = np.unique(pieces, return_inverse=True)
+    return pieces.reshape(cell_piece.shape)
 
 
 def _cut_once(

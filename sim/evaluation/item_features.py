@@ -120,14 +120,20 @@ def record(
 
 
 def load_or_record(
-    cache: Path, speed_factor: float, seed: int, catalogue=None, mix: dict | None = None
+    cache: Path,
+    speed_factor: float,
+    seed: int,
+    catalogue=None,
+    mix: dict | None = None,
+    n_items: int = 100,
 ) -> dict:
     """One flow's labelled items, from `cache` when there, else recorded and stored."""
-    path = cache / f"items-x{speed_factor:g}-seed{seed}.npz"
+    more = "" if n_items == 100 else f"-{n_items}items"
+    path = cache / f"items-x{speed_factor:g}-seed{seed}{more}.npz"
     if path.exists():
         with np.load(path) as f:
             return {k: f[k] for k in f.files}
-    out = record(speed_factor, seed, catalogue=catalogue, mix=mix)
+    out = record(speed_factor, seed, n_items, catalogue=catalogue, mix=mix)
     cache.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.npz")
     np.savez_compressed(tmp, **out)
@@ -135,9 +141,21 @@ def load_or_record(
     return out
 
 
-def gather(cache: Path, seeds, speed_factors, catalogue=None, mix: dict | None = None) -> dict:
-    """The labelled items of every (seed, speed factor), concatenated."""
-    parts = [load_or_record(cache, f, s, catalogue, mix) for s in seeds for f in speed_factors]
+def gather(
+    cache: Path,
+    seeds,
+    speed_factors,
+    catalogue=None,
+    mix: dict | None = None,
+    items: tuple[int, ...] = (100,),
+) -> dict:
+    """The labelled items of every (seed, speed factor, items per flow), concatenated."""
+    parts = [
+        load_or_record(cache, f, s, catalogue, mix, n)
+        for s in seeds
+        for f in speed_factors
+        for n in items
+    ]
     keys = [k for k in parts[0] if k != "cpu_s" and all(k in p for p in parts)]
     return {k: np.concatenate([p[k] for p in parts]) for k in keys}
 
@@ -210,10 +228,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--cache", type=Path, default=DEFAULT_CACHE)
     parser.add_argument("--out", type=Path, default=TRAINING_TABLE)
     parser.add_argument("--table", type=Path, default=TRAINING_TABLE, help="training table")
+    parser.add_argument(
+        "--items", type=int, nargs="+", default=[100], help="items of a 90 s flow (each count)"
+    )
     args = parser.parse_args(argv)
+    items = tuple(args.items)
     if args.action == "record":
         seeds = args.seeds or list(TRAIN_SEEDS)
-        table = gather(args.cache, seeds, args.speed_factors)
+        table = gather(args.cache, seeds, args.speed_factors, items=items)
         keep = table["class_id"] > 0
         out = {k: v[keep] for k, v in table.items()}
         tmp = args.out.with_name(f".{args.out.stem}.tmp.npz")
@@ -229,11 +251,12 @@ def main(argv: list[str] | None = None) -> int:
         print(f"seeds: held-out seeds only (these trained the classifier: {sorted(overlap)})")
         return 2
     classifier = ItemClassifier(train["features"], train["class_id"], seed=FIT_SEED)
-    table = gather(args.cache, seeds, args.speed_factors)
+    table = gather(args.cache, seeds, args.speed_factors, items=items)
     trained = sorted(np.unique(train["seed"]).tolist())
     n_train = len(train["class_id"])
     print(
-        f"held-out seeds {seeds} at x{args.speed_factors}; trained on seeds {trained} ({n_train})"
+        f"held-out seeds {seeds} at x{args.speed_factors}, {list(items)} items in 90 s; trained "
+        f"on seeds {trained} ({n_train})"
     )
     print("\n".join(accuracy_table(table, classifier)))
     return 0

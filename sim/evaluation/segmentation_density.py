@@ -8,9 +8,14 @@ recorded with the items' true poses; the rows are then cut into items and scored
 `sim.evaluation.segmentation_eval` does (`score_recording`), for the shipped split or any other
 setting.
 
-A missed item is `buried` when at every observation it was wholly past the camera line, less
-than `BURIED_SHARE` of its footprint was uncovered by the items lying higher (footprints seen
-from straight above: the camera's slant is left out), else `visible`.
+A missed item is `buried` when less than `VISIBLE_SHARE` (30 %) of its top area was seen at
+every observation (the episode's visibility monitor, `sim.monitors.visibility`: a segmentation
+render of the belt camera), else `visible`.
+
+Three segmentations side by side (`METHODS`): the 8-connected regions (no split), the split of
+before busy belts (walls and necks, regions reported only once complete in the window) and the
+shipped one (`ITEM_SPLIT` with its cuts at concave notches; a growing region's items reported
+as they end).
 
 Run: `python -m sim.evaluation.segmentation_density --seeds 20 21 22 --cache runs/seg_density`
 (6, 12, 18 and 24 items per metre at x1 and x1.5, 60 s flows).
@@ -19,10 +24,9 @@ Run: `python -m sim.evaluation.segmentation_density --seeds 20 21 22 --cache run
 from __future__ import annotations
 
 import argparse
-import math
 import pickle
 import time
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from pathlib import Path
 
 import numpy as np
@@ -40,21 +44,23 @@ from sim.evaluation.segmentation_eval import (
     score_recording,
     true_items,
 )
-from sim.flow.catalogue import Catalogue, ItemType, load_catalogue
+from sim.flow.catalogue import load_catalogue
 from sim.flow.config import BELT_HALF_WIDTH, X_CAMERA
-from sim.flow.footprint_polygons import contains, to_body
 from sim.flow.ground_truth import yaw_from_xmat
+from sim.monitors.visibility import VISIBLE_SHARE
 from sim.sensing.perception import ITEM_SPLIT, ON_BELT_TOL_M
 
 DENSITIES = (6.0, 12.0, 18.0, 24.0)
 """Items per metre of belt of the table's flows."""
 SPEED_FACTORS = (1.0, 1.5)
 DURATION_S = 60.0
-BURIED_SHARE = 0.3
-"""A missed item with less than this share of its footprint uncovered at every observation is
-buried."""
-_SAMPLE_M = 0.004
-"""Pitch of the points an item's footprint is sampled on for its uncovered share [m]."""
+METHODS = (
+    ("8-connected", None, False),
+    ("walls+necks (before)", replace(ITEM_SPLIT, concave_ratio=0.0), False),
+    ("shipped", ITEM_SPLIT, True),
+)
+"""The segmentations of the table: (name, split settings, a growing region's items reported
+as they end)."""
 
 
 class _NeverPick:
@@ -143,8 +149,9 @@ def record(
         episode.run()
         types = episode.flow.item_types(cell.catalogue)
         speed = episode.speed
+        visible = dict(episode.metrics.best_visible or {})
     return Recording(
-        float(speed_factor), int(seed), speed, rows, time.process_time() - start, types
+        float(speed_factor), int(seed), speed, rows, time.process_time() - start, types, visible
     )
 
 
@@ -167,56 +174,14 @@ def load_or_record(
     return recording
 
 
-def _footprint_points(item_type: ItemType) -> tuple[np.ndarray, np.ndarray]:
-    """Body-frame points [m] sampling an item's footprint on a `_SAMPLE_M` grid."""
-    r = math.hypot(item_type.half_length, item_type.half_width)
-    g = np.arange(-r, r + _SAMPLE_M, _SAMPLE_M)
-    lx, ly = (a.ravel() for a in np.meshgrid(g, g))
-    inside = contains(item_type, lx, ly)
-    return lx[inside], ly[inside]
-
-
-def uncovered_shares(recording: Recording, catalogue: Catalogue) -> dict[int, float]:
-    """Per true item, the largest share of its footprint that no higher item covered, over the
-    observations at which it lay wholly past the camera line on the belt."""
-    types = recording.types
-    points = {}
-    best: dict[int, float] = {}
-    for row in recording.rows:
-        truth = row.truth
-        if truth.z is None:
-            continue
-        for n in np.flatnonzero(truth.on_belt):
-            item_id = int(truth.item_id[n])
-            item_type = types[item_id]
-            if truth.x[n] - math.hypot(item_type.half_length, item_type.half_width) <= X_CAMERA:
-                continue
-            if item_id not in points:
-                points[item_id] = _footprint_points(item_type)
-            lx, ly = points[item_id]
-            c, s = math.cos(truth.yaw[n]), math.sin(truth.yaw[n])
-            px, py = truth.x[n] + c * lx - s * ly, truth.y[n] + s * lx + c * ly
-            covered = np.zeros(px.size, bool)
-            for m in np.flatnonzero(truth.on_belt & (truth.z > truth.z[n])):
-                other = types[int(truth.item_id[m])]
-                reach = math.hypot(item_type.half_length, item_type.half_width) + math.hypot(
-                    other.half_length, other.half_width
-                )
-                if math.hypot(truth.x[m] - truth.x[n], truth.y[m] - truth.y[n]) > reach:
-                    continue
-                ox, oy = to_body(px, py, truth.x[m], truth.y[m], truth.yaw[m])
-                covered |= contains(other, ox, oy)
-            share = 1.0 - covered.mean() if px.size else 1.0
-            best[item_id] = max(best.get(item_id, 0.0), float(share))
-    return best
-
-
-def buried_missed(recording: Recording, score: SegmentScore, catalogue: Catalogue) -> int:
-    """How many of the score's missed items were buried (`BURIED_SHARE`)."""
+def buried_missed(recording: Recording, score: SegmentScore) -> int | None:
+    """How many of the score's missed items were buried (`VISIBLE_SHARE`); None when the
+    recording holds no visible fractions."""
+    if recording.visible is None:
+        return None
     ids = true_items(recording, recording.types)
-    shares = uncovered_shares(recording, catalogue)
     missed = ids[score.kinds == SEGMENT_KINDS.index("missed")]
-    return int(sum(1 for i in missed if shares.get(int(i), 1.0) < BURIED_SHARE))
+    return int(sum(1 for i in missed if recording.visible.get(int(i), 0.0) < VISIBLE_SHARE))
 
 
 LABEL = 28
@@ -231,15 +196,17 @@ def header() -> str:
     )
 
 
-def line(label: str, score: SegmentScore, buried: int) -> str:
+def line(label: str, score: SegmentScore, buried: int | None) -> str:
     """One line of the table: shares of the true items [%], the missed items buried and
-    visible (counts), the centroid error of the detected items [mm]."""
+    visible (counts; "-" unknown), the centroid error of the detected items [mm]."""
     shares = "".join(f"{100 * score.share(k):11.1f}" for k in SEGMENT_KINDS)
     p95 = float(np.percentile(score.errors_mm, 95)) if score.errors_mm.size else float("nan")
-    visible = score.count("missed") - buried
+    if buried is None:
+        split_missed = f"{'-':>8}{'-':>8}"
+    else:
+        split_missed = f"{buried:8d}{score.count('missed') - buried:8d}"
     return (
-        f"{label:<{LABEL}}{score.n_true:6d}{shares}{buried:8d}{visible:8d}"
-        f"{score.median_mm:10.1f}{p95:8.1f}"
+        f"{label:<{LABEL}}{score.n_true:6d}{shares}{split_missed}{score.median_mm:10.1f}{p95:8.1f}"
     )
 
 
@@ -247,7 +214,7 @@ def table(
     seeds: list[int],
     densities: tuple[float, ...] = DENSITIES,
     speed_factors: tuple[float, ...] = SPEED_FACTORS,
-    methods: tuple[tuple[str, SplitSettings | None], ...] = (("split", ITEM_SPLIT),),
+    methods: tuple[tuple[str, SplitSettings | None, bool], ...] = METHODS,
     cache: Path | None = None,
     duration_s: float = DURATION_S,
     out=print,
@@ -259,15 +226,18 @@ def table(
     pooled = {}
     for factor in speed_factors:
         for density in densities:
-            scores: dict[str, list] = {name: [] for name, _ in methods}
-            buried = dict.fromkeys(scores, 0)
+            scores: dict[str, list] = {name: [] for name, _, _ in methods}
+            buried: dict[str, int | None] = dict.fromkeys(scores, 0)
             for seed in seeds:
                 recording = load_or_record(cache, density, factor, seed, duration_s)
-                for name, split in methods:
-                    score = score_recording(recording, split, catalogue)
+                for name, split, early in methods:
+                    score = score_recording(recording, split, catalogue, early)
                     scores[name].append(score)
-                    buried[name] += buried_missed(recording, score, catalogue)
-            for name, _ in methods:
+                    more = buried_missed(recording, score)
+                    buried[name] = (
+                        None if more is None or buried[name] is None else (buried[name] + more)
+                    )
+            for name, _, _ in methods:
                 score = pooled_segments(scores[name])
                 pooled[(factor, density, name)] = score
                 out(line(f"x{factor:g} {density:g}/m {name}", score, buried[name]))
@@ -284,12 +254,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--speed-factors", type=float, nargs="+", default=list(SPEED_FACTORS))
     parser.add_argument("--duration", type=float, default=DURATION_S)
     parser.add_argument("--cache", type=Path, default=None, help="directory of recordings")
-    parser.add_argument("--whole", action="store_true", help="8-connected regions as well")
+    parser.add_argument("--shipped-only", action="store_true", help="the shipped split alone")
     args = parser.parse_args(argv)
-    methods: tuple = (("split", ITEM_SPLIT),)
-    if args.whole:
-        methods = (("8-connected", None), *methods)
-    print(f"split: {ITEM_SPLIT}; seeds {args.seeds}; {args.duration:g} s flows")
+    methods = METHODS[-1:] if args.shipped_only else METHODS
+    print(f"shipped split: {ITEM_SPLIT}; seeds {args.seeds}; {args.duration:g} s flows")
     table(
         args.seeds,
         tuple(args.densities),

@@ -95,7 +95,9 @@ class Recording:
     """The camera perception's rows of one flow (`record`).
 
     `types` holds the (scaled) type of every item of the flow by flow index when the flow is
-    not the default one of `N_ITEMS` items in `DURATION_S` (`flow_item_types`).
+    not the default one of `N_ITEMS` items in `DURATION_S` (`flow_item_types`); `visible` the
+    largest visible fraction of each item's top area over the observations, by flow index,
+    when the recording was made in an episode (`sim.monitors.visibility`).
     """
 
     speed_factor: float
@@ -104,6 +106,7 @@ class Recording:
     rows: list[RecordedRow]
     cpu_s: float
     types: tuple[ItemType, ...] | None = None
+    visible: dict[int, float] | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -168,8 +171,12 @@ def record(
     )
 
 
-def found_items(recording: Recording, split: SplitSettings | None) -> list[FoundItem]:
-    """The items the perception reports from the recorded rows, with or without the split."""
+def found_items(
+    recording: Recording, split: SplitSettings | None, early: bool = True
+) -> list[FoundItem]:
+    """The items the perception reports from the recorded rows, with or without the split;
+    `early` False: only the regions complete in the window (`item_blobs` without its
+    reported pixels, as before busy belts)."""
     rows = recording.rows
     stripes = len(rows[0].pixel_b) if rows else 0
     empty = [np.zeros(0)] * stripes
@@ -191,7 +198,7 @@ def found_items(recording: Recording, split: SplitSettings | None) -> list[Found
             pixel_height=window_h,
             split=split,
             complete_row=COMPLETE_ROW,
-            reported=window_done,
+            reported=window_done if early else None,
         )
         if not blobs:
             continue
@@ -228,13 +235,14 @@ def true_items(recording: Recording, types: tuple[ItemType, ...]) -> np.ndarray:
 
 
 def score_recording(
-    recording: Recording, split: SplitSettings | None, catalogue: Catalogue
+    recording: Recording, split: SplitSettings | None, catalogue: Catalogue, early: bool = True
 ) -> SegmentScore:
-    """Detected / split / merged / missed of every true item of the recording."""
+    """Detected / split / merged / missed of every true item of the recording (`early`: as
+    `found_items`)."""
     types = flow_item_types(recording, catalogue)
     ids = true_items(recording, types)
     column = {int(i): c for c, i in enumerate(ids)}
-    found = found_items(recording, split)
+    found = found_items(recording, split, early)
     overlap = np.zeros((len(found), len(ids)))
     distance = np.full((len(found), len(ids)), np.inf)
     for f, item in enumerate(found):
@@ -279,7 +287,10 @@ def from_plain(plain: dict) -> Recording:
     types = plain.get("types")
     if types is not None:
         types = tuple(ItemType(**t) for t in types)
-    return Recording(**{**plain, "rows": rows, "types": types})
+    visible = plain.get("visible")
+    if visible is not None:
+        visible = {int(k): float(v) for k, v in visible.items()}
+    return Recording(**{**plain, "rows": rows, "types": types, "visible": visible})
 
 
 LABEL_WIDTH = 24
