@@ -10,7 +10,7 @@ A line with a camera per robot reports each detection with the camera that saw i
 upstream). A detection of a downstream camera first looks for a track that only cameras
 upstream of it saw (`Tracker._fuse`): the nearest such track whose position advanced with the
 belt lies within `fusion_gate` of it (`FUSION_GATE_M`, wider than the match radius: the track
-has travelled 1.8-5.4 m since it was seen), whatever the class each camera gave, each track and
+has travelled 1.8-6 m since it was seen), whatever the class each camera gave, each track and
 detection paired once, nearest pairs first. The item is then one track, placed where the newer
 camera saw it (`confirm`). A detection no upstream track is near makes a new track: an item the
 cameras upstream did not see (buried under another one an upstream robot picked, or merged with
