@@ -50,3 +50,22 @@ def test_pooled_scores_add_up():
     both = pooled_segments([one, none])
     assert both.n_true == 3 and both.count("detected") == 1 and both.count("missed") == 2
     assert both.median_mm == 3.0
+
+
+def test_the_density_tables_flows_and_its_buried_items(monkeypatch):
+    """`sim.evaluation.segmentation_density`: a flow's items from its density (x1: 0.185 m/s,
+    60 s), and a missed item counted buried only when the visibility monitor saw under 30 % of
+    its top; a recording without visible fractions says nothing."""
+    import sim.evaluation.segmentation_density as density
+    from perception.items.scoring import SegmentScore
+    from sim.evaluation.segmentation_eval import Recording
+
+    assert density.n_items(12.0, 1.0) == 133 and density.n_items(6.0, 1.5, 90.0) == 150
+    kinds = np.array([SEGMENT_KINDS.index(k) for k in ("detected", "missed", "missed")])
+    score = SegmentScore(kinds, np.array([1.0]), 1, 0)
+    monkeypatch.setattr(density, "true_items", lambda recording, types: np.array([3, 7, 8]))
+    recording = Recording(1.0, 0, 0.185, [], 0.0, types=(), visible={7: 0.9, 8: 0.1})
+    assert density.buried_missed(recording, score) == 1
+    assert density.buried_missed(Recording(1.0, 0, 0.185, [], 0.0, types=()), score) is None
+    assert density.line("x1 12/m shipped", score, 1).split()[-4:-2] == ["1", "1"]
+    assert density.line("x1 12/m shipped", score, None).split()[-4:-2] == ["-", "-"]
