@@ -29,10 +29,12 @@ test-all: $(STAMP)
 bench: $(STAMP)
 	$(VENV)/bin/sortsim bench
 
-# 200 random episodes, each checked: counts add up, no MuJoCo warning, finite state, nothing
-# thrown off the belt (benchmarks/soak.py; --episodes, --workers, --seed).
+# 200 random single-cell episodes and 200 random lines (2-4 robots, 100-400 items), each
+# checked: counts add up, no MuJoCo warning, finite state, nothing thrown off the belt
+# (benchmarks/soak.py; --episodes, --workers, --seed, --lines).
 soak: $(STAMP)
 	$(PY) benchmarks/soak.py
+	$(PY) benchmarks/soak.py --lines
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .

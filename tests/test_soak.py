@@ -12,6 +12,7 @@ import pytest
 from perception.codes import ALUMINIUM, PAPER, PLASTIC
 from sim.experiments.soak import (
     LINE_DENSITY_PER_M,
+    LINE_ITEMS,
     PLANNERS,
     RIDINGS,
     SPEED_FACTORS,
@@ -88,6 +89,9 @@ def test_the_line_draw_spans_robots_coordinations_and_dense_belts():
     densities = [c.items / (c.duration_s * c.belt_speed_mps) for c in configs]
     assert max(densities) <= LINE_DENSITY_PER_M[1] + 1e-6
     assert sum(d > MAX_ITEMS_PER_METRE for d in densities) >= 30  # beyond one robot's belts
+    items = [c.items for c in configs]
+    assert LINE_ITEMS[0] - 2 <= min(items) and max(items) <= LINE_ITEMS[1] + 2  # rounding
+    assert max(items) >= 300 and min(items) <= 200
     assert all(c.line_cell for c in configs)
 
 

@@ -38,6 +38,9 @@ DENSITY_PER_M = (2.0, MAX_ITEMS_PER_METRE)
 """Range of the items per metre of belt drawn (the flow refuses more than 12)."""
 LINE_DENSITY_PER_M = (MAX_ITEMS_PER_METRE, LINE_MAX_ITEMS_PER_METRE)
 """Range of the items per metre a line's soak draws: the belts one robot cannot clear."""
+LINE_ITEMS = (100, 400)
+"""Range of a line's flow [items]; its duration follows from the density drawn (about 12 s to
+3 min)."""
 
 
 def draw_configs(
@@ -45,14 +48,21 @@ def draw_configs(
 ) -> list[EpisodeConfig]:
     """`n` random truth-perception episode configs (reproducible from `seed`), their flows
     lasting `duration_s` (low, high) [s]. With `lines`, sorting lines: 2-4 robots, either
-    coordination, belts up to a line's `LINE_DENSITY_PER_M`."""
+    coordination, flows of `LINE_ITEMS` items on belts of `LINE_DENSITY_PER_M` items per metre
+    (`duration_s` unused)."""
     rng = np.random.default_rng(seed)
     configs = []
     for _ in range(n):
         speed = float(rng.choice(SPEED_FACTORS))
-        duration = float(np.round(rng.uniform(*duration_s), 1))
         low, high = LINE_DENSITY_PER_M if lines else DENSITY_PER_M
-        density = rng.uniform(low, high)
+        if lines:  # the items first (a line's flows), their duration from the density
+            density = rng.uniform(low, high)
+            wanted = int(rng.integers(LINE_ITEMS[0], LINE_ITEMS[1] + 1))
+            metres_wanted = wanted / density
+            duration = float(np.round(metres_wanted / episode_config.belt_speed_mps(speed), 1))
+        else:
+            duration = float(np.round(rng.uniform(*duration_s), 1))
+            density = rng.uniform(low, high)
         metres = duration * episode_config.belt_speed_mps(speed)
         most = int(high * metres + 1e-6)
         items = int(min(max(5, round(density * metres)), most))
