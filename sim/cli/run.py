@@ -207,6 +207,24 @@ def _by_class(row: dict, what: str) -> str:
     return ", ".join(parts)
 
 
+def _detection_lines(r: dict) -> list[str]:
+    """Never detected (and never visible, in camera perception) as shares of the items that
+    entered, beside the belt's density: detection falls as the belt fills."""
+    entered = max(1, r["entered"])
+    density = r.get("items_per_m")
+    belt = f"; belt {density:.1f} items per metre" if density is not None else ""
+    lines = [
+        f"never detected         {r['never_detected']:>6}   "
+        f"({100 * r['never_detected'] / entered:.1f} % of entered{belt})"
+    ]
+    if r.get("never_visible") is not None:
+        lines.append(
+            f"never visible          {r['never_visible']:>6}   "
+            f"({100 * r['never_visible'] / entered:.1f} %: under 30 % of the top ever in view)"
+        )
+    return lines
+
+
 def summary(result) -> str:
     """The one-screen summary of an episode."""
     r, c = result.episode_row, result.config
@@ -230,7 +248,7 @@ def summary(result) -> str:
         f"mean cycle             {r['mean_cycle_s']:>9.3f} s",
         "purity per bin         " + _by_class(r, "purity"),
         "recovery per class     " + _by_class(r, "recovery"),
-        f"never detected         {r['never_detected']:>6}",
+        *_detection_lines(r),
         f"empty picks            {r['empty_picks']:>6}   (the cup never sealed)",
         f"left unsure            {r['left_unsure']:>6}   "
         f"(class probability below {c.min_class_confidence:g})",

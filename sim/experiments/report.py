@@ -40,7 +40,7 @@ from pathlib import Path
 
 from planner.decision.registry import is_user_spec, user_class
 from sim.errors import InvalidInput
-from sim.results import outputs
+from sim.results import detection_table, outputs
 
 GROUP_KEYS = ("variant", "perception", "speed_factor", "n_items", "planner")
 METRICS = (
@@ -677,6 +677,9 @@ def sections(rows: list[dict], baseline: str | None = None) -> tuple[list[Sectio
     if quality:
         text = "Counts per episode and each bin's purity (its own material's share), means."
         out.append(Section("Sorting quality", text, quality))
+    detection = detection_table.detection_markdown(rows, labels)
+    if detection:
+        out.append(Section(detection_table.HEADING, detection_table.TEXT, detection))
     comparisons, notes = paired_comparisons(rows, baseline, labels)
     if comparisons or notes:
         body = paired_markdown(comparisons, labels)

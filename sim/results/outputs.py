@@ -96,6 +96,7 @@ EPISODE_COLUMNS = (
     "empty_picks",
     "min_class_confidence",
     "left_unsure",
+    "items_per_m",
 )
 PICK_COLUMNS = (
     "t_start_s",
@@ -173,6 +174,7 @@ _DECIMALS = {
     "energy_cost_eur": 6,
     "net_profit_eur": 4,
     "min_class_confidence": 4,
+    "items_per_m": 3,
 }
 _DECIMAL_GROUPS = {"purity": 4, "recovery": 4}
 _DECIMAL_SUFFIXES = {"picks_per_min": 3, "utilisation": 4, "energy_elec_j": 2}
