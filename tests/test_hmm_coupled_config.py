@@ -71,3 +71,23 @@ def test_coupled_stripes_change_the_online_posteriors(catalogue):
     gap = np.abs(filtered["independent"] - filtered["coupled"])
     assert gap.max() > 1e-2  # the neighbours' states at t-1 move the middle stripe's belief
     assert np.allclose(filtered["coupled"].sum(axis=2), 1.0)
+
+
+@pytest.mark.parametrize("coupled", [False, True])
+def test_an_episodes_camera_perception_filters_with_the_configs_coupling(coupled):
+    from sim.episode import builder
+    from sim.episode.runner import config_cell
+
+    episode_config = config.from_dict(
+        {"perception": "camera", "items": 5, "duration_s": 5.0, "hmm": {"coupled": coupled}}
+    )
+    cell = config_cell(episode_config)
+    flow = builder.episode_flow(episode_config, cell)
+    perception = builder.perception(episode_config, cell, flow)
+    try:
+        neighbours = perception.hmm.base.A.shape[1]
+        assert neighbours == (4 if coupled else 1)  # transitions per neighbour class at t-1
+    finally:
+        close = getattr(perception, "close", None)
+        if close:
+            close()

@@ -273,6 +273,7 @@ def perception(config: EpisodeConfig, cell: Cell, flow: Flow):
             seed=config.seed,
             mix=config.flow.flow_kwargs(),
             size=config.camera.size,
+            coupled=config.hmm.coupled,
         )
     return CameraPerception(
         cell.model,
@@ -286,6 +287,7 @@ def perception(config: EpisodeConfig, cell: Cell, flow: Flow):
         seed=config.seed,
         mix=config.flow.flow_kwargs(),
         size=config.camera.size,
+        coupled=config.hmm.coupled,
     )
 
 
