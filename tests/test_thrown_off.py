@@ -294,3 +294,42 @@ def test_a_held_bottle_rises_straight_up_from_beside_its_neighbour(cell):
     assert throws == []
     # Untouched: the belt's speed. Stopping x during the lift, the bottle's end hit it (0.38 m/s).
     assert peak[can] < fast + 0.01, peak
+
+
+def test_an_item_touching_another_robots_target_waits(cell):
+    """Two items side by side, edge to edge: while another robot's pick aims at one
+    (`aimed_by_others`, a line's controllers see each other's), the other is not picked (the
+    first lift would drag it from under the cup); once that pick is over it is."""
+    cell.reset(SPEED)
+    board = _spawn(cell, 0, "cardboard_flat", -0.30, -0.20)  # half 0.125 x 0.09 m
+    beside = _spawn(cell, 1, "cardboard_flat", -0.30, -0.20 + 2 * 0.09 + 0.002)
+    far = _spawn(cell, 2, "cardboard_flat", -0.30, 0.15)
+    mujoco.mj_step(cell.model, cell.data, nstep=150)  # settle
+    robot = PickController(cell, SPEED)
+    x, y = (float(v) for v in cell.data.xpos[cell.pool.body_ids[board], :2])
+    robot.aimed_by_others = lambda: [beside]
+    hit = robot.plan(x, y, PAPER)
+    assert not hit.feasible and "another robot" in hit.reason
+    robot.aimed_by_others = lambda: [far]
+    assert robot.plan(x, y, PAPER).feasible
+
+
+def test_a_lines_controllers_see_what_the_others_aim_at():
+    from sim.episode import builder
+    from sim.episode import config as episode_config
+    from sim.episode.runner import config_cell
+
+    config = episode_config.from_dict({"perception": "truth", "robots": 2, "items": 5})
+    line = config_cell(config)
+    line.reset(SPEED)
+    slot = _spawn(line, 0, "cardboard_flat", -0.30, -0.10)
+    mujoco.mj_step(line.model, line.data, nstep=150)
+    controllers = builder.pick_controllers(config, line, builder.episode_flow(config, line))
+    first, second = controllers
+    assert list(first.aimed_by_others()) == [] == list(second.aimed_by_others())
+    x, y = (float(v) for v in line.data.xpos[line.pool.body_ids[slot], :2])
+    hit = first.plan(x, y, PAPER)
+    assert hit.feasible, hit.reason
+    first.start(hit, 0)
+    assert first.aimed_slot == slot and list(second.aimed_by_others()) == [slot]
+    assert list(first.aimed_by_others()) == []

@@ -169,14 +169,14 @@ def item_riding(config: EpisodeConfig, cell: Cell, radius: float) -> ItemRiding:
 
 def pick_controllers(config: EpisodeConfig, cell: Cell, flow: Flow) -> list[PickController]:
     """One pick controller per robot of the cell, upstream first, with its robot's pauses and
-    the config's cup.
+    the config's cup; on a line each sees what the others' picks aim at (`aimed_by_others`).
 
     Args:
         config: The episode's configuration.
         cell: The cell.
         flow: The episode's flow (its items, scaled, set how high the robots lift).
     """
-    return [
+    controllers = [
         PickController(
             cell,
             config.belt_speed_mps,
@@ -189,6 +189,20 @@ def pick_controllers(config: EpisodeConfig, cell: Cell, flow: Flow) -> list[Pick
         )
         for k, spec in enumerate(config.robots)
     ]
+    for k, controller in enumerate(controllers):
+        others = [c for j, c in enumerate(controllers) if j != k]
+        if others:  # an item touching another robot's target waits (`PickController.plan`)
+            controller.aimed_by_others = _aimed_by(others)
+    return controllers
+
+
+def _aimed_by(controllers: list[PickController]):
+    """A function giving the slots the picks under way of `controllers` aim at."""
+
+    def aimed() -> list[int]:
+        return [c.aimed_slot for c in controllers if c.aimed_slot is not None]
+
+    return aimed
 
 
 def robot_stations(

@@ -17,7 +17,7 @@ A seal that does not form leaves the cup to lift straight up, empty.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, replace
 
 import mujoco
@@ -179,6 +179,12 @@ class PickController:
         self._pick: _PickInProgress | None = None
         self._request: tuple[float, float, int] | None = None
         self._planned: tuple | None = None  # (chain, playback) of the last feasible plan
+        self._planned_slot: int | None = None  # the slot `plan` aimed at last
+        self.aimed_slot: int | None = None
+        """Pool slot of the item the pick under way aims at (None: idle)."""
+        self.aimed_by_others: Callable[[], Iterable[int]] = tuple
+        """The slots the other robots' picks under way aim at (a line sets it:
+        `sim.episode.builder.pick_controllers`); an item touching one of them waits."""
         self.started: list[StartedPick] = []  # every pick started, as planned
 
     def slot_near(self, x: float, y: float) -> int | None:
@@ -341,7 +347,7 @@ class PickController:
         or another item lies on this one.
         """
         self._request = (float(x), float(y), int(bin_class))
-        target = self.slot_near(x, y)
+        target = self._planned_slot = self.slot_near(x, y)
         top, yaw = self.item_shape(target)
         # Turn axis 4 on the way so the item's long axis ends along the bins' long side (x).
         # An item looks the same turned by pi: of the turns that align it, take the one that
@@ -369,6 +375,13 @@ class PickController:
             reason = (
                 "a higher item lies on it or against its edge (lifting it would fling that one)"
             )
+            return Intercept(False, reason, float("nan"), np.full(3, np.nan))
+        aimed = set(self.aimed_by_others())
+        if aimed and any(slot in aimed for slot, _ in touching):
+            # Two cups over items that touch: whichever lifts first drags the other's target
+            # from under its cup (or flings it). This one waits; the other robot's pick goes on.
+            self.neighbour_refusals += 1
+            reason = "another robot is picking an item touching it"
             return Intercept(False, reason, float("nan"), np.full(3, np.nan))
         obstacles = [o for _, o in neighbours]
         under = {slot for slot, dz in overlaps if dz < -LIES_ON_DZ_M}
@@ -478,6 +491,7 @@ class PickController:
             )
         )
         self.sleep.busy()
+        self.aimed_slot, self._planned_slot = self._planned_slot, None
         self._pick = _PickInProgress(
             chain=plan.chain,
             target=int(target),
@@ -545,6 +559,7 @@ class PickController:
         if cup.held_slot is not None:  # finish the release (normally already done)
             return None
         self._pick = None
+        self.aimed_slot = None
         self.sleep.idle()
         sealed = [e for e in pick.events if e.kind == "sealed"]
         item_id = sealed[0].item_id if sealed else -1
