@@ -146,8 +146,9 @@ def test_colours_jittered_within_bounds_transparent_kept_labels_on_round_items(
 
 
 def test_varied_flow_on_the_belt_touching_and_overlapping_only_flat_items(catalogue):
-    """Footprints stay on the belt; two items overlap only where the later one lies partly over
-    a flat item dropped before it, by at most the overlap depth, and is dropped onto it."""
+    """Footprints stay on the belt; two items overlap only where the later one, a box or a sheet
+    lying down, lies partly over a flat item dropped before it, by at most the overlap depth,
+    and is dropped onto it; no round or standing item is dropped onto another."""
     world = WorldVariation(overlap_share=0.5)
     config = FlowConfig(n_items=600, duration_s=300.0, seed=2, world=world)
     flow = generate_flow(config, catalogue)
@@ -165,12 +166,16 @@ def test_varied_flow_on_the_belt_touching_and_overlapping_only_flat_items(catalo
         hit = np.flatnonzero((lo < 0) & (hi > 0))
         for j in hit:  # j dropped first (not later than i), flat, on the belt; i lands on it
             assert types[j].is_flat and flow.z_drop[j] == 0.0 and flow.z_drop[i] > 0.0, (i, j)
+            # i has flat sides and lies down: a round item over an edge rolls off it
+            assert types[i].shape == "box" and types[i].pose != "standing", (i, types[i].name)
             deep = shift_intervals(shapes[i], shapes[j : j + 1], -world.overlap_depth_m - 1e-6)
             assert not (deep[0][0] < 0 < deep[1][0]), (i, j)
             overlaps += 1
         lo, hi = shift_intervals(shapes[i], shapes[:i], clearance=UNIFORM_GAP_M)
         touching += int(np.any((lo < 0) & (hi > 0)))
     assert overlaps > 10 and touching > overlaps  # some lie over, more lie close
+    raised = [types[i] for i in np.flatnonzero(flow.z_drop > 0.0)]
+    assert raised and all(t.shape == "box" and t.pose != "standing" for t in raised)
 
 
 def test_bad_settings_are_refused_by_name():

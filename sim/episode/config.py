@@ -44,7 +44,7 @@ TOML layout (every key optional; defaults are the headline episode)::
     colour_jitter = 0.12        # colour: saturation and value +- (relative)
     label_share = 0.6           # round containers with a printed label in a second colour
     min_gap_m = 0.0             # least gap between items [m] (uniform: 0.005)
-    overlap_share = 0.1         # items allowed to lie partly over a flat neighbour
+    overlap_share = 0.1         # flat-sided items allowed to lie partly over a flat neighbour
     overlap_depth_m = 0.02      # how far over it [m]
     robots = 1                  # IRB 360s in series over the belt, 1..4 (a sorting line) at
                                 # the default spacing, or a [[robots]] table per robot (below,
