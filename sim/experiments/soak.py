@@ -110,8 +110,10 @@ class SoakResult:
     def line(self) -> str:
         """One line of the soak's log."""
         c, r = self.config, self.row
+        line = f"{c.robot_count} {c.coordination[:5]}  " if c.robot_count > 1 else ""
         head = (
-            f"seed {c.seed:>10}  {c.items:>3} items {c.duration_s:4.1f} s x{c.speed_factor:<3g} "
+            f"{line}seed {c.seed:>10}  {c.items:>3} items {c.duration_s:4.1f} s "
+            f"x{c.speed_factor:<3g} "
             f"{c.planner:<9} {c.item_riding:<7}  picked {r['picked']:>3}/{r['entered']:<3} "
             f"missed {r['missed']:>2} dropped {r['dropped']:>2} failed {r['failed_picks']:>2}  "
             f"thrown {r['thrown_off']}  warnings {r['mujoco_warnings']}  "
