@@ -7,7 +7,7 @@ Every episode is checked for the accounting identities, MuJoCo warnings, a finit
 items thrown off the belt (`sim.experiments.soak.soak_episode`). One line per episode, then a
 summary; the exit status is 1 if any episode failed a check.
 
-    python benchmarks/soak.py [--episodes 200] [--workers 2] [--seed 0] [--lines]
+    python benchmarks/soak.py [--episodes 200] [--workers 2] [--seed 0] [--lines] [--shard K/N]
 """
 
 from __future__ import annotations
@@ -43,16 +43,28 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--lines", action="store_true", help="sorting lines of 2-4 robots on dense belts"
     )
+    parser.add_argument(
+        "--shard",
+        default="0/1",
+        help="K/N: only the episodes whose index is K modulo N (several machines or processes "
+        "share one draw; 0/1: all)",
+    )
     args = parser.parse_args(argv)
+    try:
+        shard, shards = (int(v) for v in args.shard.split("/"))
+        assert 0 <= shard < shards
+    except (ValueError, AssertionError):
+        parser.error(f"--shard: K/N with 0 <= K < N (got {args.shard!r})")
     configs = draw_configs(args.episodes, args.seed, lines=args.lines)
+    jobs = [(i, c) for i, c in enumerate(configs) if i % shards == shard]
     print(
-        f"soak: {len(configs)} random episodes (draw seed {args.seed}), {args.workers} worker(s)",
+        f"soak: {len(jobs)} random episodes (draw seed {args.seed}, shard {shard}/{shards}), "
+        f"{args.workers} worker(s)",
         flush=True,
     )
     wall0 = time.perf_counter()
     results: dict[int, SoakResult] = {}
     crashed: dict[int, str] = {}
-    jobs = list(enumerate(configs))
     context = multiprocessing.get_context("spawn")
     with context.Pool(max(1, args.workers)) as pool:
         for done, (index, result) in enumerate(pool.imap_unordered(_run, jobs), start=1):

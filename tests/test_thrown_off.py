@@ -16,14 +16,14 @@ import mujoco
 import numpy as np
 import pytest
 
-from perception.codes import PAPER, PLASTIC
+from perception.codes import ALUMINIUM, PAPER, PLASTIC
 from planner.motion.clearance import footprint_distances, outline_points, path_conflicts
 from planner.motion.intercept import intercept_item
 from planner.motion.trajectory import State
 from sim.cell.cell import Cell
 from sim.cell.held_slots import held_slots
 from sim.cell.suction import SuctionConfig, SuctionCup
-from sim.episode.pick_control import PRESS_DEPTH_M, TOUCH_GAP_M, PickController
+from sim.episode.pick_control import PRESS_DEPTH_M, SHEET_TOP_M, TOUCH_GAP_M, PickController
 from sim.monitors.thrown import THROW_SPEED_MPS, ThrowWatch, rail_outer_y
 
 SPEED = 0.185
@@ -333,3 +333,24 @@ def test_a_lines_controllers_see_what_the_others_aim_at():
     first.start(hit, 0)
     assert first.aimed_slot == slot and list(second.aimed_by_others()) == [slot]
     assert list(first.aimed_by_others()) == []
+
+
+@pytest.mark.parametrize("gap_mm, refused", [(0.5, True), (4.0, True), (12.0, False)])
+def test_a_sheet_a_higher_item_touches_edge_to_edge_waits(cell, gap_mm, refused):
+    """An A4 sheet (2 mm) with a foil tray's rim within `TOUCH_GAP_M` of its edge: the rim may
+    rest on the sheet's edge (a line's soak: lifting the sheet flipped the tray off the belt),
+    so the sheet waits and the tray, higher, is picked; farther away the sheet is picked."""
+    cell.reset(SPEED)
+    sheet = _spawn(cell, 0, "paper_sheet_a4", -0.30, -0.20)  # half 0.1485 x 0.105 m
+    tray = _spawn(cell, 1, "foil_tray", -0.30, -0.20 + 0.105 + 0.075 + gap_mm * 1e-3)
+    mujoco.mj_step(cell.model, cell.data, nstep=150)  # settle
+    robot = PickController(cell, SPEED)
+    assert robot.top_of(sheet) - robot.belt_top_z <= SHEET_TOP_M < robot.top_of(tray)
+    x, y = (float(v) for v in cell.data.xpos[cell.pool.body_ids[sheet], :2])
+    hit = robot.plan(x, y, PAPER)
+    if refused:
+        assert not hit.feasible and "against its edge" in hit.reason
+        tx, ty = (float(v) for v in cell.data.xpos[cell.pool.body_ids[tray], :2])
+        assert robot.plan(tx, ty, ALUMINIUM).feasible
+    else:
+        assert hit.feasible, hit.reason

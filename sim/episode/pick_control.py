@@ -60,8 +60,14 @@ TOUCH_GAP_M = 0.005
 """A neighbour whose outline comes this close to the item's lies against its edge [m]: lifting
 the item would catch it if it is higher and round and lying (`PickController.overhangs`: a flat
 sheet's corner under a lying bottle's flank, their outlines 0.03 mm apart, flung the bottle into
-the held sheet's way), so such a pick waits until the neighbour is gone. Items the flow drops
-lie at least 5 mm apart unless they shift."""
+the held sheet's way), or higher and the item a sheet (`SHEET_TOP_M`), so such a pick waits
+until the neighbour is gone. Items the flow drops lie at least 5 mm apart unless they shift."""
+SHEET_TOP_M = 0.006
+"""An item whose top is at most this high over the belt is a sheet [m] (paper, a folded sheet:
+2-4 mm): a higher neighbour within `TOUCH_GAP_M` of its outline may rest its rim on the sheet's
+edge, their outlines apart by a fraction of a millimetre or touching (a foil tray's rim on an
+A4 sheet's edge went up with the sheet and off the belt at 1.7 m/s, a line's soak, draw seed
+0), so the sheet waits for it too, as for a round item lying against an edge."""
 DEFAULT_TOP_Z = 0.02
 """Assumed top of an item when no item is found near the detection [m]."""
 NEAR_M = 0.08
@@ -176,6 +182,7 @@ class PickController:
         self.raises = 0  # approaches planned again over a neighbour
         self.neighbour_refusals = 0  # picks refused: a neighbour in the cup's way down
         self.clear_z = clear_height(cell.catalogue, rail_top_z(cell.model), items)
+        self.belt_top_z = float(cell.pool.belt.geometry.top_z)
         self._pick: _PickInProgress | None = None
         self._request: tuple[float, float, int] | None = None
         self._planned: tuple | None = None  # (chain, playback) of the last feasible plan
@@ -369,7 +376,8 @@ class PickController:
         # of those touching it edge to edge (within `TOUCH_GAP_M`).
         overlaps = self._overlapping(target, neighbours) if target is not None else []
         touching = self._overlapping(target, neighbours, TOUCH_GAP_M) if target is not None else []
-        on_edge = [s for s, dz in touching if dz > LIES_ON_DZ_M and self.overhangs(s)]
+        sheet = target is not None and self.top_of(target) - self.belt_top_z <= SHEET_TOP_M
+        on_edge = [s for s, dz in touching if dz > LIES_ON_DZ_M and (sheet or self.overhangs(s))]
         if on_edge or any(dz > LIES_ON_DZ_M for _, dz in overlaps):
             self.neighbour_refusals += 1
             reason = (
