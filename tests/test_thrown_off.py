@@ -23,7 +23,13 @@ from planner.motion.trajectory import State
 from sim.cell.cell import Cell
 from sim.cell.held_slots import held_slots
 from sim.cell.suction import SuctionConfig, SuctionCup
-from sim.episode.pick_control import PRESS_DEPTH_M, SHEET_TOP_M, TOUCH_GAP_M, PickController
+from sim.episode.pick_control import (
+    ON_SHEET_PRESS_M,
+    PRESS_DEPTH_M,
+    SHEET_TOP_M,
+    TOUCH_GAP_M,
+    PickController,
+)
 from sim.monitors.thrown import THROW_SPEED_MPS, ThrowWatch, rail_outer_y
 
 SPEED = 0.185
@@ -354,3 +360,25 @@ def test_a_sheet_a_higher_item_touches_edge_to_edge_waits(cell, gap_mm, refused)
         assert robot.plan(tx, ty, ALUMINIUM).feasible
     else:
         assert hit.feasible, hit.reason
+
+
+def test_a_scrap_over_a_sheets_edge_is_pressed_lightly_and_the_sheet_rides_on(cell):
+    """A paper scrap lying partly on an A4 sheet's edge: the cup aims `ON_SHEET_PRESS_M` under
+    the scrap's surface (not `PRESS_DEPTH_M`), seals, bins it, and the sheet rides on."""
+    cell.reset(SPEED)
+    sheet = _spawn(cell, 0, "paper_sheet_a4", -0.30, -0.20)  # half 0.1485 x 0.105 m
+    k = [t.name for t in cell.catalogue.types].index("paper_scrap")
+    scrap = cell.pool.spawn(
+        cell.data, 1, k, -0.30 - 0.16, -0.20, 0.0, (1, 1, 1, 1), SPEED, z_drop=0.002
+    )
+    mujoco.mj_step(cell.model, cell.data, nstep=200)
+    robot = PickController(cell, SPEED)
+    assert robot.lying_under(scrap, robot.neighbours(exclude=scrap)) == [sheet]
+    x, y = (float(v) for v in cell.data.xpos[cell.pool.body_ids[scrap], :2])
+    hit = robot.plan(x, y, PAPER)
+    assert hit.feasible, hit.reason
+    meets = robot.lip_meets(scrap, x, y, robot.top_of(scrap))
+    assert hit.pick_xyz[2] == pytest.approx(meets - ON_SHEET_PRESS_M, abs=2e-3)
+    outcome, peak, throws = _play(robot, hit, [sheet])
+    assert outcome.sealed and outcome.held_to_bin and outcome.item_id == 1
+    assert throws == [] and peak[sheet] < 0.5, peak

@@ -45,6 +45,12 @@ from sim.flow.catalogue import Catalogue, ItemType
 
 PRESS_DEPTH_M = 0.003
 """The cup aims this far below the item's top so that its lip touches it [m]."""
+ON_SHEET_PRESS_M = 0.002
+"""How far below its surface the cup aims at an item lying partly on a sheet [m]: pressed
+3 mm, a paper scrap lying over an A4 sheet's edge went flat into the sheet (2.4 mm of
+contact penetration), and its lift kicked the sheet off the belt at 1.7 m/s (a line's soak,
+draw seed 0, episode 17; none at 2 mm); 1 mm was too shallow for a 60 mm cup to seal on a
+scrap tilted over a sheet's edge (1.5-2.5 mm sealed)."""
 LIP_RING_POINTS = 16
 """Points on the lip's rim at which the item's surface under the cup is measured."""
 _RIM_ANGLES = np.linspace(0.0, 2.0 * np.pi, LIP_RING_POINTS, endpoint=False)
@@ -310,6 +316,28 @@ class PickController:
             if overlap
         ]
 
+    def _neighbours_forbid(
+        self,
+        target: int | None,
+        overlaps: list[tuple[int, float]],
+        touching: list[tuple[int, float]],
+    ) -> str | None:
+        """Why the item in `target` may not be lifted now because of its neighbours (None: it
+        may), from the neighbours overlapping its outline and those touching it, each with its
+        centre's height over the target's [m]."""
+        if target is None:
+            return None
+        sheet = self.top_of(target) - self.belt_top_z <= SHEET_TOP_M
+        on_edge = [s for s, dz in touching if dz > LIES_ON_DZ_M and (sheet or self.overhangs(s))]
+        if on_edge or any(dz > LIES_ON_DZ_M for _, dz in overlaps):
+            return "a higher item lies on it or against its edge (lifting it would fling that one)"
+        aimed = set(self.aimed_by_others())
+        if aimed and any(slot in aimed for slot, _ in touching):
+            # Two cups over items that touch: whichever lifts first drags the other's target
+            # from under its cup (or flings it). This one waits; the other robot's pick goes on.
+            return "another robot is picking an item touching it"
+        return None
+
     def overhangs(self, slot: int) -> bool:
         """Whether the item in `slot` is round and lying (a capsule or cylinder whose axis is
         more than 45 degrees from vertical): its flank curves out over the belt, so an item
@@ -365,34 +393,26 @@ class PickController:
         # Where the lip comes down onto the item: its highest point, or, on a tilted item, its
         # surface under the lip (a tilted sheet's highest corner is millimetres above it).
         meets = self.lip_meets(target, x, y, top) if target is not None else top
-        pick_z = max(meets - PRESS_DEPTH_M, 0.0)
-        height = max(top, 0.0)
-        lift = max(self.config.lift_height, self.clear_z + height - pick_z)
-        drop = np.array(self.view.drop_xyz[bin_class], dtype=float)
-        # Long items overhang the bin towards the belt: keep them above the rails too.
-        drop[2] = max(drop[2], self.clear_z + height)
         neighbours = self.neighbours(exclude=target)
         # (slot, height of its centre over the target's) of the neighbours overlapping it, and
         # of those touching it edge to edge (within `TOUCH_GAP_M`).
         overlaps = self._overlapping(target, neighbours) if target is not None else []
         touching = self._overlapping(target, neighbours, TOUCH_GAP_M) if target is not None else []
-        sheet = target is not None and self.top_of(target) - self.belt_top_z <= SHEET_TOP_M
-        on_edge = [s for s, dz in touching if dz > LIES_ON_DZ_M and (sheet or self.overhangs(s))]
-        if on_edge or any(dz > LIES_ON_DZ_M for _, dz in overlaps):
+        reason = self._neighbours_forbid(target, overlaps, touching)
+        if reason:
             self.neighbour_refusals += 1
-            reason = (
-                "a higher item lies on it or against its edge (lifting it would fling that one)"
-            )
-            return Intercept(False, reason, float("nan"), np.full(3, np.nan))
-        aimed = set(self.aimed_by_others())
-        if aimed and any(slot in aimed for slot, _ in touching):
-            # Two cups over items that touch: whichever lifts first drags the other's target
-            # from under its cup (or flings it). This one waits; the other robot's pick goes on.
-            self.neighbour_refusals += 1
-            reason = "another robot is picking an item touching it"
             return Intercept(False, reason, float("nan"), np.full(3, np.nan))
         obstacles = [o for _, o in neighbours]
         under = {slot for slot, dz in overlaps if dz < -LIES_ON_DZ_M}
+        # An item lying partly on a sheet is pressed only as deep as `ON_SHEET_PRESS_M`: pressed
+        # flat, it drove its edge into the sheet's and the lift kicked the sheet off the belt.
+        on_sheet = any(self.top_of(s) - self.belt_top_z <= SHEET_TOP_M for s in under)
+        pick_z = max(meets - (ON_SHEET_PRESS_M if on_sheet else PRESS_DEPTH_M), 0.0)
+        height = max(top, 0.0)
+        lift = max(self.config.lift_height, self.clear_z + height - pick_z)
+        drop = np.array(self.view.drop_xyz[bin_class], dtype=float)
+        # Long items overhang the bin towards the belt: keep them above the rails too.
+        drop[2] = max(drop[2], self.clear_z + height)
         # On the last way down the lip meets the item first and seals on it (its axis is over
         # the item); a neighbour whose top is no higher than where the lip meets the item is
         # pressed by the lip at most as deep as the item is (PRESS_DEPTH_M). Only a higher one
