@@ -194,9 +194,10 @@ def test_an_episode_syncs_the_riders_before_anything_reads_them():
             episode.apply(episode.choose())
         picked = episode.metrics.row()["picked"]
     assert seen["observations"] > 40 and seen["decisions"] > 20 and seen["riders"] >= 3
-    # One item waits while a lying bottle touches its edge (`pick_control.TOUCH_GAP_M`) and
-    # passes the robot meanwhile: 39 of 40.
-    assert picked >= 39
+    # Items wait while a neighbour could be flung by their lift (a lying bottle touching an
+    # edge, a higher item within 5 mm of a sheet or over a box's corner: `pick_control`) and
+    # two pass the robot meanwhile: 38 of 40.
+    assert picked >= 38
 
 
 def test_a_loose_item_wakes_the_rider_it_comes_near():

@@ -80,16 +80,22 @@ def footprint_distances(obstacles: Sequence[Obstacle], xy: np.ndarray, shift_x: 
 
 
 def outline_points(obstacle: Obstacle, n: int = 9) -> np.ndarray:
-    """Points (m, 2) [m] covering an obstacle's footprint: an n x n grid over its rectangle
-    grown by its radius (edges included), those inside the footprint (the centre always)."""
+    """Points (n * n, 2) [m] covering an obstacle's footprint: an n x n grid over its rectangle
+    grown by its radius (edges included), each point outside the footprint (the grid's corners
+    beyond a rounded corner) moved onto its nearest point of the footprint's outline, so that the
+    outline's corners are always among the points (a tilted box's corners were dropped, and a
+    neighbour's corner over them went unseen)."""
     b = obstacle
-    u = np.linspace(-1.0, 1.0, n) * (1.0 - 1e-9)
-    gx, gy = np.meshgrid(u * (b.half_x + b.radius), u * (b.half_y + b.radius))
+    u = np.linspace(-1.0, 1.0, n)
+    ga, gb = np.meshgrid(u * (b.half_x + b.radius), u * (b.half_y + b.radius))
+    a, c_ = ga.ravel(), gb.ravel()
+    core_a, core_b = np.clip(a, -b.half_x, b.half_x), np.clip(c_, -b.half_y, b.half_y)
+    da, db = a - core_a, c_ - core_b
+    out = np.hypot(da, db)
+    pull = np.where(out > b.radius, b.radius / np.maximum(out, 1e-300), 1.0)
+    la, lb = core_a + da * pull, core_b + db * pull
     c, s = np.cos(b.heading), np.sin(b.heading)
-    lx, ly = gx.ravel(), gy.ravel()
-    pts = np.stack([b.x + c * lx - s * ly, b.y + s * lx + c * ly], axis=1)
-    keep = footprint_distances([b], pts, np.zeros(len(pts)))[0] <= 1e-9
-    return pts[keep]
+    return np.stack([b.x + c * la - s * lb, b.y + s * la + c * lb], axis=1)
 
 
 @dataclass(frozen=True)
