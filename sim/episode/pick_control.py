@@ -302,7 +302,14 @@ class PickController:
         self, target: int, neighbours: list[tuple[int, Obstacle]], gap: float = 0.0
     ) -> list[tuple[int, float]]:
         """(slot, its centre's height over the target's [m]) of the neighbours whose outline
-        the target's outline overlaps, or comes within `gap` [m] of (touching edge to edge).
+        the target's outline overlaps, or comes within `gap` [m] of (touching edge to edge)."""
+        return [(slot, dz) for slot, dz, d in self._outline_gaps(target, neighbours) if d <= gap]
+
+    def _outline_gaps(
+        self, target: int, neighbours: list[tuple[int, Obstacle]]
+    ) -> list[tuple[int, float, float]]:
+        """(slot, its centre's height over the target's [m], the gap between their outlines
+        [m], 0 where they overlap) of every neighbour.
 
         Measured both ways: the target's outline points against each neighbour's footprint,
         and each neighbour's points against the target's (a tray's corner poking 2 mm over an
@@ -321,9 +328,8 @@ class PickController:
         back = footprint_distances([own], stacked, np.zeros(len(stacked)))[0]
         near = np.minimum(near, np.minimum.reduceat(back, starts))
         return [
-            (slot, float(items.position(slot)[2] - z))
+            (slot, float(items.position(slot)[2] - z), float(distance))
             for (slot, _), distance in zip(neighbours, near, strict=True)
-            if distance <= gap
         ]
 
     def _neighbours_forbid(
@@ -406,8 +412,9 @@ class PickController:
         neighbours = self.neighbours(exclude=target)
         # (slot, height of its centre over the target's) of the neighbours overlapping it, and
         # of those touching it edge to edge (within `TOUCH_GAP_M`).
-        overlaps = self._overlapping(target, neighbours) if target is not None else []
-        touching = self._overlapping(target, neighbours, TOUCH_GAP_M) if target is not None else []
+        gaps = self._outline_gaps(target, neighbours) if target is not None else []
+        overlaps = [(slot, dz) for slot, dz, d in gaps if d <= 0.0]
+        touching = [(slot, dz) for slot, dz, d in gaps if d <= TOUCH_GAP_M]
         reason = self._neighbours_forbid(target, overlaps, touching)
         if reason:
             self.neighbour_refusals += 1

@@ -24,9 +24,8 @@ Run: `python -m sim.evaluation.segmentation_density --seeds 20 21 22 --cache run
 from __future__ import annotations
 
 import argparse
-import pickle
 import time
-from dataclasses import asdict, replace
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -40,7 +39,7 @@ from sim.evaluation.segmentation_eval import (
     RecordedRow,
     Recording,
     TruePoses,
-    from_plain,
+    cached_recording,
     score_recording,
     true_items,
 )
@@ -161,17 +160,7 @@ def load_or_record(
     """A recording, from `cache` (a directory) when it holds it, else recorded (and stored)."""
     name = f"density{density:g}-x{speed_factor:g}-seed{seed}-{duration_s:g}s.pkl"
     path = None if cache is None else cache / name
-    if path is not None and path.exists():
-        with path.open("rb") as f:
-            return from_plain(pickle.load(f))
-    recording = record(density, speed_factor, seed, duration_s)
-    if path is not None:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_suffix(".tmp")
-        with tmp.open("wb") as f:
-            pickle.dump(asdict(recording), f)
-        tmp.replace(path)
-    return recording
+    return cached_recording(path, lambda: record(density, speed_factor, seed, duration_s))
 
 
 def buried_missed(recording: Recording, score: SegmentScore) -> int | None:

@@ -22,6 +22,7 @@ import argparse
 import math
 import pickle
 import time
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
@@ -267,10 +268,16 @@ def score_recording(
 def load_or_record(cache: Path | None, speed_factor: float, seed: int) -> Recording:
     """A recording, from `cache` (a directory) when it holds it, else recorded (and stored)."""
     path = None if cache is None else cache / f"segmentation-x{speed_factor:g}-seed{seed}.pkl"
+    return cached_recording(path, lambda: record(speed_factor, seed))
+
+
+def cached_recording(path: Path | None, make: Callable[[], Recording]) -> Recording:
+    """The recording stored at `path` when there is one, else `make()`'s, stored there (written
+    to a temporary file and renamed); `path` None: never stored."""
     if path is not None and path.exists():
         with path.open("rb") as f:
             return from_plain(pickle.load(f))
-    recording = record(speed_factor, seed)
+    recording = make()
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_suffix(".tmp")

@@ -23,6 +23,8 @@ from sim.experiments.reproduce_tables import PLANNERS, Block  # noqa: E402
 from sim.experiments.thesis_report import thesis_tables  # noqa: E402
 
 if TYPE_CHECKING:
+    from pathlib import Path
+
     from sim.experiments.reproduce import Run
 
 COLOURS = {"qlearning": "tab:blue", "rollout": "tab:green", "proximity": "tab:orange"}
@@ -112,14 +114,11 @@ def _panels(
             ax.legend(fontsize=7)
             break
     seeds = run.seeds_text(*(s for _, s, _ in SWEEPS))
-    fig.suptitle(
+    path = _saved(
+        fig,
         f"{title}\n{run.command}{' --quick' if run.quick else ''}: {seeds}, truth perception",
-        fontsize=10,
+        run.figures / f"{name}.png",
     )
-    fig.tight_layout()
-    path = run.figures / f"{name}.png"
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
     what = seeds + ", truth perception; top: physical cycle, bottom: the thesis's pauses"
     text = "\n".join([run.label(name, what), "", run.figure(path, title)])
     return Block(text, (path,))
@@ -235,15 +234,12 @@ def figure_4_2(run: Run) -> Block:
         ax.grid(alpha=0.3, axis="y")
     axes[0].legend(fontsize=8)
     seeds = run.seeds_text("reproduce_objectives")
-    fig.suptitle(
+    path = _saved(
+        fig,
         f"Figure 4.2: the three objectives, qlearning\n{run.command}"
         f"{' --quick' if run.quick else ''}: episodes {seeds}",
-        fontsize=10,
+        run.figures / "figure_4_2.png",
     )
-    fig.tight_layout()
-    path = run.figures / "figure_4_2.png"
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
     lines = [
         "| setting | " + " | ".join(label for _, _, label in OBJECTIVES) + " |",
         "|---|---|---|---|",
@@ -313,16 +309,13 @@ def figure_4_3(run: Run) -> Block:
         ax.set_aspect("equal", adjustable="datalim")
         rows.append(f"| {label} | {len(result.picks)} of {len(belt.items)} | {result.profit:.2f} |")
     axes[0].set_ylabel("y across the belt [m]")
-    fig.suptitle(
+    path = _saved(
+        fig,
         f"Figure 4.3: qlearning's pick order (numbers) and path to each item's bin "
         f"(squares) on busy belt {FIGURE_4_3_BELT} (kinematic belt, x"
         f"{belt.speed / THESIS_SPEED_X1:.2g})",
-        fontsize=10,
+        run.figures / "figure_4_3.png",
     )
-    fig.tight_layout()
-    path = run.figures / "figure_4_3.png"
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
     text = [
         run.label("figure_4_3", f"busy belt {FIGURE_4_3_BELT} of the planner-level benchmark"),
         "",
@@ -333,3 +326,12 @@ def figure_4_3(run: Run) -> Block:
         run.figure(path, "Figure 4.3: the paths of the three objectives"),
     ]
     return Block("\n".join(text), (path,))
+
+
+def _saved(fig, title: str, path: Path) -> Path:
+    """`fig` under `title` (10 pt), written to `path` (PNG, 100 dpi) and closed; `path`."""
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
