@@ -11,7 +11,8 @@ item into another. With `[belt] infeed_hold`, an item just dropped that penetrat
 deeper than `DEEP_M` (`Items.inside_another`) is taken back and dropped at the infeed's end a
 step later, until it drops clear (after `MAX_HOLD_S` it is dropped onto what is still there);
 the items due after it drop as planned meanwhile. Shallower overlaps (a few millimetres,
-frequent at a line's densities) are left to the contact solver, which separates them gently.
+frequent at a line's densities) are left to the contact solver, which separates them slower than
+the belt moves.
 
 `Infeed` is one of the episode's scheduled events (`sim.episode.scheduler`): due when an item's
 time has come or one is held back.
@@ -27,8 +28,11 @@ from sim.flow.config import X_INFEED
 if TYPE_CHECKING:
     from sim.episode.loop import Episode
 
-DEEP_M = 0.01
-"""An item dropped into another deeper than this is held back [m]."""
+DEEP_M = 0.004
+"""An item dropped into another deeper than this is held back [m]. The items' contacts
+(`solref` 0.004 s) push an overlap apart at about 0.05 m/s per millimetre: a lying can dropped
+9.9 mm into a lying bottle left it at 0.47 m/s against the belt's travel and rolled off the
+infeed's end (a three-robot line at x1.5, seed 554640050); 4 mm stays under the belt's speed."""
 MAX_HOLD_S = 2.0
 """Longest time one item is held back [s] (the belt carries the longest item, 0.35 m, past in
 1.9 s at x1); then what still lies there is stuck (a jam at the infeed) and the item is dropped
