@@ -33,7 +33,7 @@ from perception.items.features import N_FEATURES
 from sim.cell.depth_noise import ZED_CLASS, StereoDepthNoise
 from sim.evaluation.flow_replay import FlowReplay
 from sim.flow.catalogue import load_catalogue
-from sim.flow.config import FlowConfig
+from sim.flow.config import LINE_MAX_ITEMS_PER_METRE, FlowConfig
 from sim.flow.ground_truth import flow_rows
 from sim.paths import REPO_ROOT
 from sim.sensing.item_classifier import (
@@ -77,6 +77,7 @@ def record(
         speed_factor=speed_factor,
         seed=seed,
         n_materials=n_materials,
+        max_items_per_metre=LINE_MAX_ITEMS_PER_METRE,  # a line's busy belts too
         **(mix or {}),
     )
     replay = FlowReplay.start(config, catalogue)
