@@ -11,8 +11,8 @@ item into another. With `[belt] infeed_hold`, an item just dropped that penetrat
 deeper than `DEEP_M` (`Items.inside_another`) is taken back and dropped at the infeed's end a
 step later, until it drops clear (after `MAX_HOLD_S` it is dropped onto what is still there);
 the items due after it drop as planned meanwhile. Shallower overlaps (a few millimetres,
-frequent at a line's densities) are left to the contact solver, which separates them slower than
-the belt moves.
+frequent at a line's densities) are left to the contact solver, which separates them without
+carrying either back past the infeed.
 
 `Infeed` is one of the episode's scheduled events (`sim.episode.scheduler`): due when an item's
 time has come or one is held back.
@@ -29,10 +29,11 @@ if TYPE_CHECKING:
     from sim.episode.loop import Episode
 
 DEEP_M = 0.004
-"""An item dropped into another deeper than this is held back [m]. The items' contacts
-(`solref` 0.004 s) push an overlap apart at about 0.05 m/s per millimetre: a lying can dropped
-9.9 mm into a lying bottle left it at 0.47 m/s against the belt's travel and rolled off the
-infeed's end (a three-robot line at x1.5, seed 554640050); 4 mm stays under the belt's speed."""
+"""An item dropped into another deeper than this is held back [m]. The items' contacts push an
+overlap apart at about 0.07 m/s per millimetre (relative to the belt): a lying can set 4 mm into
+a lying bottle rolls back 2 mm upstream at x1, 6 mm sends it 2 cm, 1 cm 14 cm
+(`tests/test_infeed.py`), and a can dropped 9.9 mm into a bottle rolled back off the infeed's
+end (three robots at x1.5, seed 554640050)."""
 MAX_HOLD_S = 2.0
 """Longest time one item is held back [s] (the belt carries the longest item, 0.35 m, past in
 1.9 s at x1); then what still lies there is stuck (a jam at the infeed) and the item is dropped
