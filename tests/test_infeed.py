@@ -24,9 +24,9 @@ def cell() -> Cell:
     return Cell()
 
 
-def _spawn(cell: Cell, item_id: int, name: str, x: float, y: float) -> int:
+def _spawn(cell: Cell, item_id: int, name: str, x: float, y: float, yaw: float = 0.0) -> int:
     k = [t.name for t in cell.catalogue.types].index(name)
-    return cell.pool.spawn(cell.data, item_id, k, x, y, 0.0, (0.5, 0.5, 0.5, 1), SPEED)
+    return cell.pool.spawn(cell.data, item_id, k, x, y, yaw, (0.5, 0.5, 0.5, 1), SPEED)
 
 
 def test_an_item_dropped_into_another_is_found_and_one_beside_it_is_not(cell):
@@ -102,8 +102,6 @@ def _upstream_travel(cell: Cell, depth_m: float) -> float:
     """A lying can (its axis across the belt, free to roll along it) set `depth_m` [m] into the
     upstream end of a lying bottle, both at the belt's speed: how far either then moves
     upstream of where it was, in the next second [m] (0: both only moved downstream)."""
-    kinds = [t.name for t in cell.catalogue.types]
-    can_type = kinds.index("can_330_lying")
     cell.reset(SPEED)
     bottle = _spawn(cell, 0, "pet_bottle_1l5", X_INFEED + 0.3, 0.0)
     lo, hi = 0.0, 0.3  # the can's distance upstream of the bottle: bisected to the overlap
@@ -112,9 +110,7 @@ def _upstream_travel(cell: Cell, depth_m: float) -> float:
         if can is not None:
             cell.pool.park(cell.data, can)
         dx = 0.5 * (lo + hi)
-        can = cell.pool.spawn(
-            cell.data, 1, can_type, X_INFEED + 0.3 - dx, 0.0, 0.5 * np.pi, (0.5, 0.5, 0.5, 1), SPEED
-        )
+        can = _spawn(cell, 1, "can_330_lying", X_INFEED + 0.3 - dx, 0.0, 0.5 * np.pi)
         mujoco.mj_kinematics(cell.model, cell.data)
         geoms = cell.pool.geom_id(bottle), cell.pool.geom_id(can)
         gap = mujoco.mj_geomDistance(cell.model, cell.data, *geoms, 1.0, None)
