@@ -326,6 +326,18 @@ PERCEPTIONS = (
 )
 
 
+def _coupling_text(sweep) -> str:
+    """How each camera variant's stripe HMMs ran, read from the episodes' configs:
+    'stripes coupled with the stripe HMMs, independent with the fused classifier'."""
+    labels = dict(PERCEPTIONS)
+    coupled = {spec.variant: spec.config.hmm.coupled for spec in sweep.episodes}
+    parts = [
+        f"{'coupled' if on else 'independent'} stripes in {labels.get(v, v)}"
+        for v, on in coupled.items()
+    ]
+    return "the HMMs' " + ", ".join(parts)
+
+
 def _camera_table(run: Run, table: str, piece: str) -> Block:
     t = thesis_tables()[table]
     sweep = "reproduce_4_5" if table == "4.5" else "reproduce_4_6"
@@ -382,7 +394,7 @@ def _camera_table(run: Run, table: str, piece: str) -> Block:
     what = (
         run.seeds_text(sweep, sweep + "_camera")
         + f", belt x{t['speed_factor']:g}, physical cycle, varied world, stereo depth noise; "
-        "the stripe HMMs' stripes independent"
+        + _coupling_text(run.sweep(sweep + "_camera"))
     )
     note = (
         "Each cell: mean profit [EUR] of qlearning / rollout / proximity (`qlearning` the "
