@@ -10,7 +10,7 @@ import pytest
 
 from sim.cli.main import main
 from sim.errors import InvalidInput
-from sim.experiments import reproduce, reproduce_hmm
+from sim.experiments import reproduce, reproduce_hmm, reproduce_tables
 from sim.experiments.reproduce import END_MARKER, Run, start_marker, write_block
 from sim.results import outputs
 
@@ -32,6 +32,23 @@ def test_list_names_every_table_and_figure(capsys):
     assert "11 sweeps, 1242 episodes" in text
     assert main(["reproduce", "--list", "--quick"]) == 0
     assert "reproduce_4_5_camera (30 episodes)" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("table", ["4_5", "4_6"])
+def test_the_camera_tables_run_the_thesis_path_with_coupled_stripes(tmp_path, table):
+    """The camera rows: the thesis's path (classifier "hmm") with its stripes coupled, the fused
+    classifier with independent ones, on the truth rows' flows; the block's first line says so."""
+    run = Run(tmp_path, quick=True)
+    camera = run.sweep(f"reproduce_{table}_camera")
+    ran = {(s.variant, s.config.classifier, s.config.hmm.coupled) for s in camera.episodes}
+    assert ran == {("camera_hmm", "hmm", True), ("camera_fused", "fused", False)}
+    truth = {
+        (s.config.items, s.config.seed, s.config.duration_s)
+        for s in run.sweep(f"reproduce_{table}").episodes
+    }
+    assert {(s.config.items, s.config.seed, s.config.duration_s) for s in camera.episodes} == truth
+    text = reproduce_tables._coupling_text(camera)
+    assert "coupled for camera, stripe HMMs" in text and "independent for camera, fused" in text
 
 
 def test_an_unknown_piece_is_refused_in_one_line(capsys, tmp_path):

@@ -328,14 +328,13 @@ PERCEPTIONS = (
 
 def _coupling_text(sweep) -> str:
     """How each camera variant's stripe HMMs ran, read from the episodes' configs:
-    'stripes coupled with the stripe HMMs, independent with the fused classifier'."""
+    "the HMMs' stripes coupled for camera, stripe HMMs (thesis's path); independent for ..."."""
     labels = dict(PERCEPTIONS)
     coupled = {spec.variant: spec.config.hmm.coupled for spec in sweep.episodes}
     parts = [
-        f"{'coupled' if on else 'independent'} stripes in {labels.get(v, v)}"
-        for v, on in coupled.items()
+        f"{'coupled' if on else 'independent'} for {labels.get(v, v)}" for v, on in coupled.items()
     ]
-    return "the HMMs' " + ", ".join(parts)
+    return "the HMMs' stripes " + "; ".join(parts)
 
 
 def _camera_table(run: Run, table: str, piece: str) -> Block:
