@@ -192,3 +192,14 @@ def test_only_table_4_1_quick(tmp_path, capsys):
         "camera_1.npz",
         "camera_100.npz",
     ]
+
+
+def test_error_bars_of_equal_values_are_never_negative():
+    """Five seeds that all pick every item: the mean of equal floats may round past them."""
+    from sim.experiments.thesis_figures import mean_and_range
+
+    groups = [[0.1] * 3, [1.0, 0.997, 1.0, 1.0, 1.0], [2.0]]
+    m, lo, hi = mean_and_range(groups)
+    assert sum([0.1] * 3) / 3 > 0.1  # the rounding this guards against
+    assert min(lo) >= 0.0 and min(hi) >= 0.0
+    assert lo[1] == pytest.approx(m[1] - 0.997) and hi[1] == pytest.approx(1.0 - m[1])

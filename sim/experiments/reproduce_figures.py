@@ -20,6 +20,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 from sim.experiments.reproduce_tables import PLANNERS, Block  # noqa: E402
+from sim.experiments.thesis_figures import mean_and_range  # noqa: E402
 from sim.experiments.thesis_report import thesis_tables  # noqa: E402
 
 if TYPE_CHECKING:
@@ -81,9 +82,7 @@ def _panels(
         for planner in PLANNERS:
             xs, groups = _series(rows, planner, value)
             if xs:
-                m = [sum(g) / len(g) for g in groups]
-                lo = [a - min(g) for a, g in zip(m, groups, strict=True)]
-                hi = [max(g) - a for a, g in zip(m, groups, strict=True)]
+                m, lo, hi = mean_and_range(groups)
                 ax.errorbar(
                     xs,
                     m,

@@ -35,6 +35,15 @@ THESIS_LABELS = {"qlearning": "thesis: its Q-learning", "proximity": "thesis: pr
 """Legend of the thesis's dashed lines."""
 
 
+def mean_and_range(groups: list[list[float]]) -> tuple[list[float], list[float], list[float]]:
+    """Each group's mean and its distances down to the group's minimum and up to its maximum,
+    as error bars (never negative: the mean of equal values may round past them)."""
+    m = [sum(g) / len(g) for g in groups]
+    lo = [max(0.0, a - min(g)) for a, g in zip(m, groups, strict=True)]
+    hi = [max(0.0, max(g) - a) for a, g in zip(m, groups, strict=True)]
+    return m, lo, hi
+
+
 def _planners(rows: list[dict]) -> list[str]:
     """The sweep's planners, the thesis's two first."""
     names = {r["planner"] for r in rows}
@@ -60,9 +69,7 @@ def _comparison(rows: list[dict], out_dir: Path, tables: dict) -> list[Path]:
             for planner in _planners(rows):
                 xs, groups = _series(rows, planner, factor, column)
                 if xs:
-                    m = [sum(g) / len(g) for g in groups]
-                    lo = [a - min(g) for a, g in zip(m, groups, strict=True)]
-                    hi = [max(g) - a for a, g in zip(m, groups, strict=True)]
+                    m, lo, hi = mean_and_range(groups)
                     ax.errorbar(
                         xs,
                         m,
