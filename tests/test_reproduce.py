@@ -12,6 +12,7 @@ from sim.cli.main import main
 from sim.errors import InvalidInput
 from sim.experiments import reproduce, reproduce_hmm, reproduce_tables
 from sim.experiments.reproduce import END_MARKER, Run, start_marker, write_block
+from sim.experiments.thesis_figures import mean_and_range
 from sim.results import outputs
 
 NAMES = (
@@ -196,8 +197,6 @@ def test_only_table_4_1_quick(tmp_path, capsys):
 
 def test_error_bars_of_equal_values_are_never_negative():
     """Five seeds that all pick every item: the mean of equal floats may round past them."""
-    from sim.experiments.thesis_figures import mean_and_range
-
     groups = [[0.1] * 3, [1.0, 0.997, 1.0, 1.0, 1.0], [2.0]]
     m, lo, hi = mean_and_range(groups)
     assert sum([0.1] * 3) / 3 > 0.1  # the rounding this guards against
