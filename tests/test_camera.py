@@ -167,7 +167,7 @@ def test_frames_with_depth_leave_out_only_a_sky_nobody_sees(cell_with_items, fix
     for (model, data), sky_seen in ((cell_with_items, False), (fixture_model, True)):
         with BeltCamera(model, 640, 360) as camera:
             frame, _ = camera.render_rgbd(data)
-            assert bool(camera._renderer.scene.flags[SKYBOX]) == sky_seen
+            assert bool(camera._passes._renderer.scene.flags[SKYBOX]) == sky_seen
             assert np.array_equal(frame, camera.render(data))
 
 
@@ -183,3 +183,22 @@ def test_a_camera_renders_at_its_own_sample_count(cell_with_items):
     assert np.array_equal(depth, plain_depth)
     edges = np.any(frame != plain, axis=2)
     assert 0 < edges.mean() < 0.05  # the multisampled frame differs only along edges
+
+
+def test_a_window_is_the_whole_frame_cut_to_it(cell_with_items, fixture_model):
+    """`BeltCamera.window` renders only the part of the canvas its pixels sample: the same
+    colours and depths as the whole frame's window (the depth within the rasteriser's float
+    rounding), the can, the tray and the clear bottle in it; one window object per window."""
+    rows, cols = slice(105, 254), slice(126, 514)
+    for model, data in (cell_with_items, fixture_model):
+        with BeltCamera(model, 640, 360, samples=0) as camera:
+            frame, depth = camera.render_rgbd(data)
+            window = camera.window(rows, cols)
+            assert camera.window(slice(105, 254), slice(126, 514)) is window
+            crop, crop_depth = window.render_rgbd(data)
+            assert crop.shape == frame[rows, cols].shape and crop_depth.dtype == np.float32
+            assert np.abs(crop.astype(int) - frame[rows, cols]).max() <= 1
+            assert np.abs(crop_depth - depth[rows, cols]).max() < 1e-5
+            assert np.ptp(crop_depth) > 0.005  # items stand out of the belt in the window
+    with BeltCamera(*cell_with_items[:1], 640, 360) as camera, pytest.raises(InvalidInput):
+        camera.window(slice(300, 400), slice(0, 10))

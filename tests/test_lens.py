@@ -6,7 +6,13 @@ import cv2
 import numpy as np
 import pytest
 
-from perception.camera.lens import ZED_HD_LEFT, LensDistorter, LensModel, source_canvas
+from perception.camera.lens import (
+    ZED_HD_LEFT,
+    LensDistorter,
+    LensModel,
+    source_canvas,
+    window_source,
+)
 from perception.errors import PerceptionInputError
 
 SIZE = (640, 360)
@@ -90,3 +96,34 @@ def test_distortion_is_real_and_undistortion_undoes_it():
 def test_distorter_refuses_a_pinhole_image_of_another_size():
     with pytest.raises(PerceptionInputError, match="pinhole image shape"):
         _distorter().apply(np.zeros((SIZE[1], SIZE[0], 3), np.uint8))
+
+
+@pytest.mark.parametrize(
+    "window", [(slice(105, 254), slice(126, 514)), (slice(0, 40), slice(600, 640))]
+)
+def test_a_window_samples_the_same_rays_from_a_part_of_the_canvas(window):
+    """`window_source`'s part of the canvas is centred on it an integer number of pixels in,
+    holds every ray the window samples, and the window's distortion of the part equals the
+    whole image's distortion of the canvas, cut to the window (an off-centre window too)."""
+    src_matrix, src_size = source_canvas(MATRIX, ZED_HD_LEFT, SIZE)
+    matrix, size, offset = window_source(MATRIX, ZED_HD_LEFT, src_matrix, window)
+    assert size[0] < src_size[0] and size[1] < src_size[1]
+    assert offset == ((src_size[0] - size[0]) // 2, (src_size[1] - size[1]) // 2)
+    assert (src_size[0] - size[0]) % 2 == 0 and (src_size[1] - size[1]) % 2 == 0
+    assert matrix[0, 0] == src_matrix[0, 0]
+    # Images of the canvas's own pixel coordinates: a distortion samples them where it reads.
+    uu, vv = np.meshgrid(np.arange(src_size[0], dtype=np.float32), np.arange(src_size[1]))
+    whole_lens = LensDistorter(MATRIX, ZED_HD_LEFT, SIZE, src_matrix, src_size)
+    cut_lens = LensDistorter(MATRIX, ZED_HD_LEFT, SIZE, matrix, size, window)
+    for image, shift in ((uu, offset[0]), (vv.astype(np.float32), offset[1])):
+        part = image[offset[1] : offset[1] + size[1], offset[0] : offset[0] + size[0]] - shift
+        cut = cut_lens.apply(np.ascontiguousarray(part)) + shift
+        assert cut.shape == whole_lens.apply(image)[window].shape
+        # Both read the same canvas point, to the maps' fixed-point step (1/32 px).
+        assert np.abs(cut - whole_lens.apply(image)[window]).max() <= 1.0 / 16.0
+
+
+def test_window_source_refuses_an_empty_window():
+    src_matrix, _ = source_canvas(MATRIX, ZED_HD_LEFT, SIZE)
+    with pytest.raises(PerceptionInputError, match="window"):
+        window_source(MATRIX, ZED_HD_LEFT, src_matrix, (slice(10, 10), slice(0, 5)))

@@ -183,3 +183,26 @@ def test_footprint_mapper_refuses_bad_settings(fixture_frame):
         FootprintMapper(view, pipeline.raster, rim_fraction=1.5)
     with pytest.raises(PerceptionInputError, match="min_height_m"):
         FootprintMapper(view, pipeline.raster, min_height_m=0.5, max_height_m=0.2)
+
+
+def test_the_window_of_a_frame_gives_the_whole_frames_row(fixture_frame):
+    """`observe_window` (a camera reading out only the window its row's band is seen in) needs
+    a located belt, then gives the row `observe` gives on the whole frame; the band's window is
+    a part of the whole raster's; a window of another shape or an all-black one is refused."""
+    model, data, frame, depth = fixture_frame
+    pipeline = _pipeline(model, data)
+    with pytest.raises(PerceptionError, match="not located"):
+        pipeline.observe_window(frame[:10], depth[:10], SPEED, 0.0)
+    whole = pipeline.observe(frame, SPEED, 0.0, depth)
+    roi = pipeline.band_mapper(SPEED).roi
+    part = pipeline.observe_window(frame[roi], depth[roi], SPEED, 0.0)
+    whole_roi = pipeline.mapper.roi
+    assert whole_roi[0].start <= roi[0].start and roi[0].stop <= whole_roi[0].stop
+    assert roi[0].stop - roi[0].start < 0.7 * (whole_roi[0].stop - whole_roi[0].start)
+    assert part.codes.tolist() == whole.codes.tolist() == [15, 5, 18, 10, 8]
+    for a, b in zip(part.cells, whole.cells, strict=True):
+        assert np.array_equal(a.pixels, b.pixels) and np.array_equal(a.heights, b.heights)
+    with pytest.raises(PerceptionError, match="window shapes"):
+        pipeline.observe_window(frame[roi][:-1], depth[roi][:-1], SPEED, 0.0)
+    with pytest.raises(PerceptionError, match="black"):
+        pipeline.observe_window(np.zeros_like(frame[roi]), depth[roi], SPEED, 0.0)

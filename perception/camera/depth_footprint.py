@@ -51,6 +51,9 @@ class FootprintMapper:
             antialiased rim (partly belt) or its shaded side, and left out.
         smooth_px: Side of the median filter over the depth's heights [px] (a stereo camera's
             depth is noisy); 1: none.
+        x_range: (x_lo, x_hi) [m] of the belt the footprints are wanted over, inside the
+            raster's (default: all of it); the frame window `roi` is what can see it, and
+            the raster's rows beyond it stay belt.
     """
 
     def __init__(
@@ -61,6 +64,7 @@ class FootprintMapper:
         min_height_m: float = 0.0008,
         rim_fraction: float = 0.35,
         smooth_px: int = 5,
+        x_range: tuple[float, float] | None = None,
     ):
         if not 0.0 <= rim_fraction < 1.0:
             raise PerceptionInputError("rim_fraction", "[0, 1)", rim_fraction)
@@ -74,7 +78,11 @@ class FootprintMapper:
         self.min_height_m = float(min_height_m)
         self.rim_fraction = float(rim_fraction)
         self.raster = raster
-        x_range = (raster.x_min, raster.x_min + raster.shape[0] * raster.resolution_m)
+        raster_x = (raster.x_min, raster.x_min + raster.shape[0] * raster.resolution_m)
+        if x_range is None:
+            x_range = raster_x
+        elif not raster_x[0] <= x_range[0] < x_range[1] <= raster_x[1]:
+            raise PerceptionInputError("x_range", f"an interval inside {raster_x} m", x_range)
         y_range = (raster.y_min, raster.y_min + raster.shape[1] * raster.resolution_m)
         width, height = view.calibration.image_size
         # Frame rows/columns that can see the region, at any height up to the tallest item.
@@ -109,7 +117,7 @@ class FootprintMapper:
         """
         return self.footprint_and_height(frame, depth, rules)[0]
 
-    def footprint_and_height(  # noqa: PLR0915
+    def footprint_and_height(
         self, frame: np.ndarray, depth: np.ndarray, rules: ColourRules
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Colour labels (as `footprint`), the height above the belt (rows, cols) float32 [m]
@@ -122,8 +130,26 @@ class FootprintMapper:
         if depth is None or depth.shape != frame.shape[:2]:
             shape = None if depth is None else depth.shape
             raise PerceptionError(f"depth map shape {shape}, expected {frame.shape[:2]}")
-        crop = frame[self.roi]
-        z = depth[self.roi].astype(np.float32)
+        return self.window_footprint_and_height(frame[self.roi], depth[self.roi], rules)
+
+    @property
+    def window_shape(self) -> tuple[int, int]:
+        """(rows, columns) of the frame window `roi` [px]."""
+        return (self.roi[0].stop - self.roi[0].start, self.roi[1].stop - self.roi[1].start)
+
+    def window_footprint_and_height(  # noqa: PLR0915
+        self, crop: np.ndarray, depth: np.ndarray, rules: ColourRules
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """`footprint_and_height` of the window `roi` of a frame and of its depth map: what a
+        camera reading out only that window (`sim.cell.camera.CameraWindow`) delivers.
+
+        Raises:
+            PerceptionError: The crops are not of the window's shape, or hold no valid depth.
+        """
+        if crop.shape[:2] != self.window_shape or depth is None or depth.shape != crop.shape[:2]:
+            shape = (crop.shape[:2], None if depth is None else depth.shape)
+            raise PerceptionError(f"window shapes {shape}, expected {self.window_shape}")
+        z = np.asarray(depth, dtype=np.float32).copy()
         valid = np.isfinite(z) & (z > 0.0)
         z[~valid] = 0.0
         shape = z.shape

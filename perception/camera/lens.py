@@ -88,6 +88,61 @@ def source_canvas(
     return src_matrix, (src_w, src_h)
 
 
+def window_source(
+    camera_matrix: np.ndarray,
+    lens: LensModel,
+    source_matrix: np.ndarray,
+    window: tuple[slice, slice],
+    margin_px: int = 3,
+) -> tuple[np.ndarray, tuple[int, int], tuple[int, int]]:
+    """The part of a pinhole canvas (`source_canvas`) that a window of the distorted image
+    samples from, centred on the optical axis so that it renders with the same focal length.
+
+    Args:
+        camera_matrix: (3, 3) intrinsics of the distorted image [px].
+        lens: The lens.
+        source_matrix: (3, 3) intrinsics of the whole canvas [px] (principal point at its
+            centre, as `source_canvas` places it).
+        window: (rows, columns) slices of the distorted image (steps of 1).
+        margin_px: Canvas pixels kept beyond the outermost one sampled (bilinear reads two).
+
+    Returns:
+        (matrix, size, offset): the part's intrinsics, its (width, height) [px] and where its
+        first pixel lies on the whole canvas (column, row) [px], integers, so that both sample
+        the same rays.
+    """
+    rows, cols = window
+    r0, r1 = int(rows.start), int(rows.stop)
+    c0, c1 = int(cols.start), int(cols.stop)
+    if not (0 <= r0 < r1 and 0 <= c0 < c1):
+        raise PerceptionInputError("window", "non-empty rows and columns from 0", window)
+    border = np.concatenate(
+        [
+            np.stack([np.arange(c0, c1), np.full(c1 - c0, r0)], 1),
+            np.stack([np.arange(c0, c1), np.full(c1 - c0, r1 - 1)], 1),
+            np.stack([np.full(r1 - r0, c0), np.arange(r0, r1)], 1),
+            np.stack([np.full(r1 - r0, c1 - 1), np.arange(r0, r1)], 1),
+        ]
+    ).astype(np.float64)
+    norm = _undistorted_normalised(border, camera_matrix, lens)
+    # The window's rays may all lie on one side of the axis; the part spans both sides.
+    half_w = np.max(np.abs(norm[:, 0])) * source_matrix[0, 0] + margin_px
+    half_h = np.max(np.abs(norm[:, 1])) * source_matrix[1, 1] + margin_px
+    full_w, full_h = (
+        int(round(2 * source_matrix[0, 2])) + 1,
+        int(round(2 * source_matrix[1, 2])) + 1,
+    )
+    width = min(2 * int(np.ceil(half_w)) + 2, full_w)
+    height = min(2 * int(np.ceil(half_h)) + 2, full_h)
+    # Same parity as the canvas: the part's centre is the canvas's, an integer offset away.
+    width += (full_w - width) % 2
+    height += (full_h - height) % 2
+    matrix = source_matrix.astype(np.float64).copy()
+    matrix[0, 2], matrix[1, 2] = (width - 1) / 2.0, (height - 1) / 2.0
+    offset = ((full_w - width) // 2, (full_h - height) // 2)
+    return matrix, (width, height), offset
+
+
 class LensDistorter:
     """Turns pinhole renders into the distorted images of a camera with `lens`.
 
@@ -97,6 +152,8 @@ class LensDistorter:
         size: Output (width, height) [px].
         source_matrix: (3, 3) intrinsics of the pinhole render [px].
         source_size: Pinhole render (width, height) [px].
+        window: (rows, columns) slices of the distorted image to produce (default: all of
+            it); the output is then that window.
     """
 
     def __init__(
@@ -106,19 +163,25 @@ class LensDistorter:
         size: tuple[int, int],
         source_matrix: np.ndarray,
         source_size: tuple[int, int],
+        window: tuple[slice, slice] | None = None,
     ):
         width, height = size
         if width < 16 or height < 16:
             raise PerceptionInputError("size", "width and height >= 16 px", size)
         self.size = (int(width), int(height))
         self.source_size = (int(source_size[0]), int(source_size[1]))
-        u, v = np.meshgrid(np.arange(width, dtype=np.float64), np.arange(height, dtype=np.float64))
+        rows, cols = (slice(0, height), slice(0, width)) if window is None else window
+        u, v = np.meshgrid(
+            np.arange(cols.start, cols.stop, dtype=np.float64),
+            np.arange(rows.start, rows.stop, dtype=np.float64),
+        )
+        out_h, out_w = u.shape
         norm = _undistorted_normalised(np.stack([u.ravel(), v.ravel()], 1), camera_matrix, lens)
         map_x = source_matrix[0, 0] * norm[:, 0] + source_matrix[0, 2]
         map_y = source_matrix[1, 1] * norm[:, 1] + source_matrix[1, 2]
         self._map1, self._map2 = cv2.convertMaps(
-            map_x.reshape(height, width).astype(np.float32),
-            map_y.reshape(height, width).astype(np.float32),
+            map_x.reshape(out_h, out_w).astype(np.float32),
+            map_y.reshape(out_h, out_w).astype(np.float32),
             cv2.CV_16SC2,
         )
 

@@ -31,6 +31,10 @@ from perception.camera.rectify import (
 from perception.errors import PerceptionError, PerceptionInputError
 
 _MARKER_PATCH_PX = 4
+BAND_MARGIN_M = 0.015
+"""Belt beyond each end of a row's band whose footprints are found with it [m]: what the
+filters at the band's edges read (the 5-pixel median, the 3-pixel closing, an item's brightest
+pixel for its rim)."""
 _KERNEL = np.ones((3, 3), np.uint8)
 
 
@@ -94,6 +98,7 @@ class CameraPipeline:
         self.view: BeltView | None = None
         self.rectifier: BeltRectifier | None = None
         self.mapper: FootprintMapper | None = None
+        self._band_mappers: dict[float, FootprintMapper] = {}
         self._marker_px: np.ndarray | None = None
 
     def check_frame(self, frame: np.ndarray) -> None:
@@ -113,9 +118,27 @@ class CameraPipeline:
         view = locate_belt(frame, self.calibration, self.marker_world, self.marker_colours)
         self.rectifier = BeltRectifier(view, self.raster, self.plane_z)
         self.mapper = FootprintMapper(view, self.raster)
+        self._band_mappers = {}
         self.view = view
         self._marker_px = np.round(view.project(self.marker_world)).astype(int)
         return view
+
+    def band_mapper(self, belt_speed: float) -> FootprintMapper:
+        """The footprint mapper of the rows the frames of belt speed `belt_speed` [m/s] are
+        coded on: the row's band (`BeltGrid.band`, centred on the camera line) and
+        `BAND_MARGIN_M` either side, so that each frame's item pixels are found where its row
+        is, and only there (made once per speed; needs a located belt)."""
+        if self.view is None:
+            raise PerceptionError("the belt is not located yet (no frame seen)")
+        key = float(belt_speed)
+        mapper = self._band_mappers.get(key)
+        if mapper is None:
+            x_lo, x_hi = self.grid.band(belt_speed)
+            raster = self.raster
+            x_min, x_max = raster.x_min, raster.x_min + raster.shape[0] * raster.resolution_m
+            x_range = (max(x_lo - BAND_MARGIN_M, x_min), min(x_hi + BAND_MARGIN_M, x_max))
+            mapper = self._band_mappers[key] = FootprintMapper(self.view, raster, x_range=x_range)
+        return mapper
 
     def check(self, frame: np.ndarray) -> None:
         """Locates the belt on first use, then checks the frame and the markers' places."""
@@ -148,8 +171,9 @@ class CameraPipeline:
         """The row of codes of the frame taken at time `t` [s] at belt speed `belt_speed` [m/s].
 
         With a depth map (registered to the frame, [m] along the optical axis) the items'
-        footprints are found in 3-D (`FootprintMapper`); without, the frame is rectified onto
-        the belt plane and tall items look larger than they lie. Item pixel coordinates are
+        footprints are found in 3-D (`FootprintMapper`, over the row's band: `band_mapper`);
+        without, the frame is rectified onto the belt plane and tall items look larger than
+        they lie. Item pixel coordinates are
         belt-plane positions at the row's time t_k = k T; with depth, each cell also carries its
         item pixels' heights above the belt [m] and colours (RGB).
 
@@ -160,7 +184,31 @@ class CameraPipeline:
         if depth is None:
             return self.code_row(self.rectify(frame), belt_speed, t)
         self.check(frame)
-        labels, height, colour = self.mapper.footprint_and_height(frame, depth, self.rules)
+        mapper = self.band_mapper(belt_speed)
+        labels, height, colour = mapper.footprint_and_height(frame, depth, self.rules)
+        return self._code(labels, belt_speed, t, height, colour)
+
+    def observe_window(
+        self, crop: np.ndarray, depth: np.ndarray, belt_speed: float, t: float
+    ) -> RowObservation:
+        """`observe` of a camera reading out only the window its footprints use
+        (`FootprintMapper.roi`): the window of the frame taken at time `t` [s] and of its depth
+        map. The belt must be located (`check` on a whole frame); the markers lie outside the
+        window and are checked on whole frames only.
+
+        Raises:
+            PerceptionError: The belt is not located, or the window cannot be used (shape,
+                dtype, all black).
+        """
+        self._check_speed(belt_speed)
+        if self.view is None:
+            raise PerceptionError("the belt is not located yet (no whole frame seen)")
+        if not isinstance(crop, np.ndarray) or crop.dtype != np.uint8:
+            raise PerceptionError(f"window dtype {getattr(crop, 'dtype', None)}, expected uint8")
+        if crop.size == 0 or int(crop[::8, ::8].max()) < 20:
+            raise PerceptionError("window is all black (camera or lighting off)")
+        mapper = self.band_mapper(belt_speed)
+        labels, height, colour = mapper.window_footprint_and_height(crop, depth, self.rules)
         return self._code(labels, belt_speed, t, height, colour)
 
     def code_row(self, top: np.ndarray, belt_speed: float, t: float) -> RowObservation:

@@ -38,7 +38,13 @@ import numpy as np
 
 from perception.camera.calibration import CameraCalibration
 from perception.camera.grid import BeltGrid
-from perception.camera.lens import ZED_HD_LEFT, LensDistorter, LensModel, source_canvas
+from perception.camera.lens import (
+    ZED_HD_LEFT,
+    LensDistorter,
+    LensModel,
+    source_canvas,
+    window_source,
+)
 from perception.camera.pipeline import CameraPipeline
 from sim.cell.rendering import check_backend
 from sim.errors import InvalidInput, ModelFileError
@@ -204,35 +210,78 @@ class BeltCamera:
         self._cam = camera_id(model, name)
         self.camera_matrix = true_camera_matrix(model, width, height, name)
         if lens is None:
-            self._distorter = None
-            src_size = self.size
+            distorter, src_matrix, src_size = None, self.camera_matrix, self.size
         else:
             src_matrix, src_size = source_canvas(self.camera_matrix, lens, self.size)
-            self._distorter = LensDistorter(
-                self.camera_matrix, lens, self.size, src_matrix, src_size
-            )
-        focal = self.camera_matrix[1, 1]
-        self._fovy = math.degrees(2.0 * math.atan(0.5 * src_size[1] / focal))
-        vis = model.vis.global_
-        vis.offwidth = max(vis.offwidth, src_size[0])
-        vis.offheight = max(vis.offheight, src_size[1])
+            distorter = LensDistorter(self.camera_matrix, lens, self.size, src_matrix, src_size)
+        self.lens = lens
+        self.source_matrix = src_matrix
+        """(3, 3) intrinsics of the pinhole canvas the frames are distorted from [px]."""
         check_backend()  # once per process: a missing back-end refused in one line
-        self._canvas_size = (int(src_size[0]), int(src_size[1]))
         self.samples = int(samples)
-        self._renderer = renderer_with_samples(model, *self._canvas_size, samples)
-        self._depth_renderer: mujoco.Renderer | None = None  # made for the first depth frame
-        self._sky_depth_m = skybox_depth(model, focal, src_size)
+        self._passes = _RenderPasses(model, self._cam, src_size, self.camera_matrix[1, 1],
+                                     samples, distorter)  # fmt: skip
+        self._windows: dict[tuple[int, int, int, int], CameraWindow] = {}
 
     def render(self, data: mujoco.MjData) -> np.ndarray:
         """The camera's frame of the current state of `data` (height, width, 3) uint8."""
-        return self._render(data, depth=False)[0]
+        return self._passes.render(data, depth=False)[0]
 
     def render_rgbd(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
         """The frame and its registered depth map (height, width) float32 [m along the optical
         axis], as a stereo camera like the ZED delivers them (same lens, same pixels)."""
-        return self._render(data, depth=True)
+        return self._passes.render(data, depth=True)
 
-    def _render(self, data: mujoco.MjData, depth: bool) -> tuple[np.ndarray, np.ndarray | None]:
+    def window(self, rows: slice, cols: slice) -> CameraWindow:
+        """The camera reading out only frame rows `rows` and columns `cols` (`CameraWindow`),
+        made once per window and closed with the camera."""
+        key = (int(rows.start), int(rows.stop), int(cols.start), int(cols.stop))
+        window = self._windows.get(key)
+        if window is None:
+            window = self._windows[key] = CameraWindow(self, slice(*key[:2]), slice(*key[2:]))
+        return window
+
+    def close(self) -> None:
+        """Frees the renderers' GL contexts (its windows' too)."""
+        self._passes.close()
+        for window in self._windows.values():
+            window.close()
+        self._windows.clear()
+
+    def __enter__(self) -> BeltCamera:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+class _RenderPasses:
+    """The two passes of a frame with depth on one pinhole canvas (see the module docstring):
+    the depth pass (MuJoCo's segmentation render, one sample) and the colour pass (`samples`),
+    then the lens's distortion.
+
+    Args:
+        model: The compiled cell.
+        cam: The camera's id.
+        canvas: The pinhole canvas (width, height) [px], centred on the optical axis.
+        focal_px: Its focal length [px].
+        samples: Multisamples per pixel of the colour pass.
+        distorter: The lens's distortion onto the output (None: the canvas is the output).
+    """
+
+    def __init__(self, model, cam: int, canvas, focal_px: float, samples: int, distorter):
+        self.model, self._cam, self._distorter = model, cam, distorter
+        self._canvas_size = (int(canvas[0]), int(canvas[1]))
+        self._fovy = math.degrees(2.0 * math.atan(0.5 * canvas[1] / focal_px))
+        vis = model.vis.global_
+        vis.offwidth = max(vis.offwidth, self._canvas_size[0])
+        vis.offheight = max(vis.offheight, self._canvas_size[1])
+        self._renderer = renderer_with_samples(model, *self._canvas_size, samples)
+        self._depth_renderer: mujoco.Renderer | None = None  # made for the first depth frame
+        self._sky_depth_m = skybox_depth(model, focal_px, self._canvas_size)
+
+    def render(self, data: mujoco.MjData, depth: bool) -> tuple[np.ndarray, np.ndarray | None]:
+        """(colour (h, w, 3) uint8, depth (h, w) float32 [m] or None) of the current state."""
         fovy = float(self.model.cam_fovy[self._cam])
         self.model.cam_fovy[self._cam] = self._fovy
         try:
@@ -266,11 +315,51 @@ class BeltCamera:
         if self._depth_renderer is not None:
             self._depth_renderer.close()
 
-    def __enter__(self) -> BeltCamera:
-        return self
 
-    def __exit__(self, *exc: object) -> None:
-        self.close()
+class CameraWindow:
+    """A belt camera reading out only a window of its frames: the rows and columns a
+    perception uses (`perception.camera.depth_footprint.FootprintMapper.roi`), as an
+    industrial camera's region of interest does.
+
+    Only the part of the pinhole canvas the window's pixels sample is rendered
+    (`perception.camera.lens.window_source`: centred on the optical axis, the same focal
+    length, an integer number of pixels from the whole canvas's edge, so it samples the same
+    rays), then distorted onto the window. Its frames equal the whole frame's window up to the
+    rasteriser's rounding (`tests/test_camera.py`); they cost a fraction of it (a third for
+    the belt camera's perception window: `docs/perception.md`, "Speed").
+
+    Args:
+        camera: The whole camera.
+        rows: Frame rows of the window.
+        cols: Frame columns of the window.
+    """
+
+    def __init__(self, camera: BeltCamera, rows: slice, cols: slice):
+        width, height = camera.size
+        if not (0 <= rows.start < rows.stop <= height and 0 <= cols.start < cols.stop <= width):
+            raise InvalidInput("camera window", f"rows 0..{height}, columns 0..{width}",
+                               (rows, cols))  # fmt: skip
+        self.rows, self.cols = rows, cols
+        self.shape = (rows.stop - rows.start, cols.stop - cols.start)
+        # A bare pinhole is a lens without distortion: the window is then a crop.
+        lens = camera.lens or LensModel(0.0, 0.0, 0.0, 0.0, 0.0)
+        part_matrix, canvas, _ = window_source(
+            camera.camera_matrix, lens, camera.source_matrix, (rows, cols)
+        )
+        distorter = LensDistorter(
+            camera.camera_matrix, lens, camera.size, part_matrix, canvas, (rows, cols)
+        )
+        self._passes = _RenderPasses(camera.model, camera._cam, canvas, part_matrix[1, 1],
+                                     camera.samples, distorter)  # fmt: skip
+
+    def render_rgbd(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
+        """The window of the frame (rows, cols, 3) uint8 and of its depth map (rows, cols)
+        float32 [m along the optical axis] (`BeltCamera.render_rgbd`)."""
+        return self._passes.render(data, depth=True)
+
+    def close(self) -> None:
+        """Frees the renderers' GL contexts."""
+        self._passes.close()
 
 
 def camera_pipeline(

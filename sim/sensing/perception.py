@@ -69,6 +69,11 @@ _HMM_INPUTS = (
 )
 CAMERA_SIZE = FRAME_SIZE
 """The belt camera's default frame size [px] (the episode config's `[camera]`)."""
+WHOLE_FRAME_EVERY = 10
+"""The camera perception renders every this-many-th frame whole (the first locates the belt;
+each checks the markers, which lie outside the window the footprints use, are where they
+were): every 5 s at the thesis's 0.5 s period. The frames between are read out as the window
+alone (`sim.cell.camera.CameraWindow`), a third of a whole frame's cost."""
 WINDOW_ROWS = 12
 COMPLETE_ROW = WINDOW_ROWS - 2
 """Window row whose item regions are reported: complete, the newest row did not add to them."""
@@ -272,18 +277,19 @@ class CameraPerception:
     def observe(self, t: float) -> list[Detection]:
         """Take the frame of time `t` [s]; return the items whose last row was the previous."""
         t0 = time.perf_counter()
-        frame, depth = self.camera.render_rgbd(self.data)
-        if self.depth_noise is not None:
-            depth = self.depth_noise.apply(depth, self.rng)
-        t1 = time.perf_counter()
         stripes = self.classes.shape[1]
         try:
-            row = self.pipeline.observe(frame, self.speed, t, depth)
+            crop, depth = self._window_frame()
+            if self.depth_noise is not None:
+                depth = self.depth_noise.apply(depth, self.rng)
+            t1 = time.perf_counter()
+            row = self.pipeline.observe_window(crop, depth, self.speed, t)
             codes = row.codes
             pixels = [np.asarray(c.pixels, dtype=float).reshape(-1, 2) for c in row.cells]
             heights = [np.asarray(c.heights, dtype=float) for c in row.cells]
             rgb = [np.asarray(c.rgb, dtype=np.uint8).reshape(-1, 3) for c in row.cells]
         except PerceptionError as exc:
+            t1 = time.perf_counter()
             self.unobserved += 1
             log.debug("t %.2f s: camera frame unusable, its row read as empty (%s)", t, exc)
             codes = np.full(stripes, EMPTY_CODE)
@@ -309,6 +315,24 @@ class CameraPerception:
         self.pipeline_s += t2 - t1
         self.hmm_s += time.perf_counter() - t2
         return out
+
+    def _window_frame(self) -> tuple[np.ndarray, np.ndarray]:
+        """The window of the frame the footprints of the row's band use (`FootprintMapper.roi`
+        of `CameraPipeline.band_mapper`) and of its exact
+        depth map: read out alone (`sim.cell.camera.CameraWindow`) but every
+        `WHOLE_FRAME_EVERY`-th frame, which is rendered whole to locate the belt (the first)
+        and to check the markers are where they were (`CameraPipeline.check`).
+
+        Raises:
+            PerceptionError: A whole frame's markers are not seen where they were.
+        """
+        pipeline = self.pipeline
+        if pipeline.view is None or self.rows % WHOLE_FRAME_EVERY == 0:
+            frame, depth = self.camera.render_rgbd(self.data)
+            pipeline.check(frame)
+            roi = pipeline.band_mapper(self.speed).roi
+            return frame[roi], depth[roi]
+        return self.camera.window(*pipeline.band_mapper(self.speed).roi).render_rgbd(self.data)
 
     def _completed_items(self, t: float) -> list[Detection]:
         out = []
