@@ -138,13 +138,19 @@ def test_the_painter_draws_the_scene_as_a_renderer_of_the_scene_itself(recorded)
 
 
 def test_an_infinite_floor_becomes_a_square_that_looks_the_same():
-    model, _ = scene_at_home()
+    model = mujoco.MjModel.from_xml_string(
+        """<mujoco><asset><texture name="grid" type="2d" builtin="checker" width="64"
+        height="64"/><material name="floor" texture="grid" texrepeat="8 8"/></asset>
+        <worldbody><geom name="floor" type="plane" size="0 0 0.05" material="floor"/>
+        </worldbody></mujoco>"""
+    )
     floor = model.geom("floor").id
     repeat = model.mat_texrepeat[model.geom_matid[floor]].copy()
     assert finite_floors(model, 10.0) == [floor]
     assert model.geom_size[floor][:2] == pytest.approx([10.0, 10.0])
     assert model.mat_texrepeat[model.geom_matid[floor]] == pytest.approx(10.0 * repeat)
     assert finite_floors(model, 10.0) == []  # finite now
+    assert finite_floors(scene_at_home()[0], 10.0) == []  # the cell's floor is finite
 
 
 def test_a_failure_in_the_video_process_is_one_line_and_leaves_no_file(tmp_path):
