@@ -91,7 +91,9 @@ def main() -> int:
         f"headline episode: x1, {args.items} items over {args.duration:g} s, qlearning; "
         f"runs per mode {runs}; load average {load:.1f} on {os.cpu_count()} CPUs"
     )
-    targets = {"truth": 30.0, "camera": 12.0}  # the speed issue's, on the machine it was filed on
+    # Truth: the speed issue's, on the machine it was filed on; camera: the busy-belt camera
+    # issue's (every frame's band read out and segmented, the visibility monitor beside).
+    targets = {"truth": 30.0, "camera": 7.0}
     for mode in args.modes:
         t0 = time.perf_counter()
         r = bench_mode(cell, mode, runs[mode], args.items, args.duration)

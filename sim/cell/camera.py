@@ -19,6 +19,10 @@ looks down at the belt and the floor), since the skybox is drawn only where noth
 nearer. (The depth pass sees transparent geoms too: one with nothing but sky behind it would
 hide that sky from the test; in the cell the belt and the floor lie behind everything.)
 
+`BeltCamera.window` gives a `CameraWindow`: the camera reading out only a window of its
+frames (an industrial camera's region of interest), rendered from the part of the pinhole
+canvas that window samples; the camera perception reads each frame's band this way.
+
 `true_camera_matrix` is the renderer's exact intrinsics, for tests: perception never uses it,
 it calibrates the camera from checkerboard images instead (`sortsim calibrate`).
 
@@ -325,8 +329,8 @@ class CameraWindow:
     (`perception.camera.lens.window_source`: centred on the optical axis, the same focal
     length, an integer number of pixels from the whole canvas's edge, so it samples the same
     rays), then distorted onto the window. Its frames equal the whole frame's window up to the
-    rasteriser's rounding (`tests/test_camera.py`); they cost a fraction of it (a third for
-    the belt camera's perception window: `docs/perception.md`, "Speed").
+    rasteriser's rounding (`tests/test_camera.py`) and cost what its pixels cost, plus each
+    render's fixed part (`docs/perception.md`, step 1).
 
     Args:
         camera: The whole camera.

@@ -6,20 +6,20 @@ Two sources with one interface, `observe(t) -> list[Detection]`:
   item past the camera line is reported where the simulation has it, with its true class as
   a certainty (perfect perception: an item that slips on the belt is still tracked exactly).
 - `CameraPerception`: the belt camera's frame and its registered depth map (a stereo camera's
-  output) are rendered (`sim.cell.camera.BeltCamera`, real lens distortion), turned into a row of 5
-  observation codes from the items' footprints (`perception.camera.pipeline`), filtered by
-  the online stripe HMMs (`perception.hmm.online`), and items are extracted from the decoded
+  output) are rendered (`sim.cell.camera.BeltCamera`, real lens distortion; only the window the
+  row's band is seen in, `CameraWindow`, but every `WHOLE_FRAME_EVERY`-th frame), turned into a
+  row of 5 observation codes from the items' footprints (`perception.camera.pipeline`), filtered
+  by the online stripe HMMs (`perception.hmm.online`), and items are extracted from the decoded
   class grid (`perception.items.from_grid`). The thesis runs k-means on batches of 20 rows;
-  online that would report an item 10 s after it passed the camera, 1.85 m downstream at x1
-  and so already past the robot 1.48 m away. Here items are the blobs of item pixels of a
-  sliding window of rows (`perception.items.blobs`; touching items are cut apart by their
-  footprints' shape and the steps in height between them, `perception.items.split`), reported
-  the period after their last row, at the centroid of their pixels (the 5-stripe grid alone
-  would place an item up to 8 cm off, more than the cup's lip tolerates), with the filtered HMM
-  posteriors of the cells they cover as class probabilities. (Connected regions of one decoded
-  class, the components alternative of `items_from_grid`, split an item whose cells decode to
-  two materials into two phantom items.) A frame the pipeline cannot use is counted and its
-  row read as empty.
+  online that would report an item 10 s after it passed the camera, 1.85 m downstream at x1 and
+  so already past the robot 1.48 m away. Here items are the blobs of item pixels of a sliding
+  window of rows (`perception.items.blobs`; touching items are cut apart by their footprints'
+  shape and the steps in height between them, `perception.items.split`), reported the period
+  after their last row, at the centroid of their pixels (the 5-stripe grid alone would place an
+  item up to 8 cm off, more than the cup's lip tolerates), with the filtered HMM posteriors of
+  the cells they cover as class probabilities. (Connected regions of one decoded class, the
+  components alternative of `items_from_grid`, split an item whose cells decode to two materials
+  into two phantom items.) A frame the pipeline cannot use is counted and its row read as empty.
 """
 
 from __future__ import annotations
