@@ -7,11 +7,12 @@ with the true item nearest its centroid at that instant (within `MATCH_M`; repor
 from every true item, e.g. two items merged into one, are kept with class 0 and left out of
 training and scores). Per item: the features, the HMMs' posterior, the true class and type.
 
-    python -m sim.evaluation.item_features record --seeds 100 ... --out sim/data/item_features.npz
+    python -m sim.evaluation.item_features record --out sim/data/item_features.npz
     python -m sim.evaluation.item_features evaluate --seeds 0 1 2 3 4
 
 `record` writes the training table the shipped classifier is fitted from (training seeds
-100-111 at x1, x1.2, x1.5); `evaluate` records held-out flows and prints, per class and
+100-115 at x1, x1.2, x1.5, flows of 100 and of 200 items in 90 s: `TRAIN_SEEDS`,
+`SPEED_FACTORS`, `TRAIN_ITEMS`); `evaluate` records held-out flows and prints, per class and
 overall, the accuracy of the `hmm`, `features` and `fused` modes. Recordings are cached per
 flow in `--cache` (default runs/cache/item_features), named after the flow's settings.
 """
@@ -51,8 +52,11 @@ log = logging.getLogger(__name__)
 MATCH_M = 0.03
 """A report is labelled with the nearest true item within this distance of its centroid [m]."""
 DEFAULT_CACHE = REPO_ROOT / "runs" / "cache" / "item_features"
-TRAIN_SEEDS = tuple(range(100, 112))
+TRAIN_SEEDS = tuple(range(100, 116))
 SPEED_FACTORS = (1.0, 1.2, 1.5)
+TRAIN_ITEMS = (100, 200)
+"""Items of a 90 s training flow: the headline's 6 per metre and the 12 of tables 4.5/4.6 (busy
+belts: items touching, their footprints cut apart)."""
 
 
 def record(
@@ -230,10 +234,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=TRAINING_TABLE)
     parser.add_argument("--table", type=Path, default=TRAINING_TABLE, help="training table")
     parser.add_argument(
-        "--items", type=int, nargs="+", default=[100], help="items of a 90 s flow (each count)"
+        "--items", type=int, nargs="+", default=None, help="items of a 90 s flow (each count)"
     )
     args = parser.parse_args(argv)
-    items = tuple(args.items)
+    items = tuple(args.items or ((100,) if args.action == "evaluate" else TRAIN_ITEMS))
     if args.action == "record":
         seeds = args.seeds or list(TRAIN_SEEDS)
         table = gather(args.cache, seeds, args.speed_factors, items=items)
