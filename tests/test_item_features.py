@@ -121,3 +121,16 @@ def test_the_cameras_classifier_gives_the_estimators_probabilities_to_the_bit():
     np.testing.assert_array_equal(
         clf.probabilities(features), _estimators_probabilities(clf, features)
     )
+
+
+def test_a_catalogues_recorded_table_is_named_after_the_camera_code(monkeypatch):
+    """A custom catalogue's training table is recorded through the camera perception: its name
+    holds the camera path's code, so new code records it afresh (here: one folder less read)."""
+    from sim.flow.catalogue import load_catalogue
+    from sim.sensing import item_classifier
+
+    catalogue = load_catalogue()
+    path = item_classifier.catalogue_table(catalogue)
+    assert item_classifier.catalogue_table(catalogue) == path
+    monkeypatch.setattr(item_classifier, "_RECORDING_CODE", ("perception/camera",))
+    assert item_classifier.catalogue_table(catalogue) != path

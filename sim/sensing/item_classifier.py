@@ -55,10 +55,14 @@ def _cache_path(path) -> object:
     return CACHE_DIR / f"item_classifier-{digest.hexdigest()[:12]}.pkl"
 
 
+_RECORDING_CODE = ("perception/camera", "perception/items", "sim/cell", "sim/sensing")
+"""The code a recorded training table depends on (the camera, its perception, the item pool):
+a catalogue's table is named after it too, so a change records it afresh instead of fitting
+the classifier on what an earlier camera saw."""
 CUSTOM_TRAIN_SEEDS = tuple(range(100, 106))
 CUSTOM_SPEED_FACTORS = (1.0, 1.5)
 """The training flows recorded for a catalogue other than the default (12 flows of 100 items;
-the shipped table of the default catalogue has 36): seeds disjoint from every evaluation's."""
+the shipped table of the default catalogue has 96): seeds disjoint from every evaluation's."""
 
 
 def is_default_catalogue(catalogue) -> bool:
@@ -75,6 +79,9 @@ def catalogue_table(catalogue, mix: dict | None = None) -> Path:
     `view` call before a camera episode on another catalogue than the default."""
     key = hashlib.sha1(catalogue.digest.encode())
     key.update(repr(sorted((mix or {}).items())).encode())
+    for folder in _RECORDING_CODE:
+        for path in sorted((REPO_ROOT / folder).glob("*.py")):
+            key.update(path.read_bytes())
     return CACHE_DIR / f"item_features-{key.hexdigest()[:12]}.npz"
 
 
