@@ -55,9 +55,11 @@ def bench_mode(cell: Cell, mode: str, runs: int, items: int, duration: float) ->
             f"profit {row['profit_eur']:.2f} EUR",
             flush=True,
         )
+    stages = ("physics", "perception", "visibility", "decision", "planning")
     share = {
-        k: statistics.median(t[k] / t["total"] for t in timings)
-        for k in ("physics", "perception", "decision", "planning")
+        k: statistics.median(t.get(k, 0.0) / t["total"] for t in timings)
+        for k in stages
+        if mode == "camera" or k != "visibility"
     }
     return {
         "rtf": statistics.median(rtf),
