@@ -6,8 +6,10 @@
 
 `CameraPipeline` is what the episode runner calls once per observation period. It locates the
 belt from the corner markers on its first frame (or on `locate`), then checks on every frame
-that the frame is usable: right shape, not black, markers where they were. An unusable frame
-raises PerceptionError; the runner logs it and marks the row unobserved.
+that the frame is usable: right shape, not black, markers where they were. A camera reading out
+only the window its row's band is seen in (`observe_window`) has its markers, outside that
+window, checked on the whole frames it reads now and then. An unusable frame raises
+PerceptionError; the runner logs it and marks the row unobserved.
 """
 
 from __future__ import annotations
