@@ -58,6 +58,18 @@ def _undistorted_normalised(
     return out.reshape(-1, 2)
 
 
+def _border(r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
+    """(N, 2) pixels (column, row) on the outline of rows r0..r1-1 and columns c0..c1-1."""
+    return np.concatenate(
+        [
+            np.stack([np.arange(c0, c1), np.full(c1 - c0, r0)], 1),
+            np.stack([np.arange(c0, c1), np.full(c1 - c0, r1 - 1)], 1),
+            np.stack([np.full(r1 - r0, c0), np.arange(r0, r1)], 1),
+            np.stack([np.full(r1 - r0, c1 - 1), np.arange(r0, r1)], 1),
+        ]
+    ).astype(np.float64)
+
+
 def source_canvas(
     camera_matrix: np.ndarray, lens: LensModel, size: tuple[int, int], margin_px: int = 4
 ) -> tuple[np.ndarray, tuple[int, int]]:
@@ -68,15 +80,7 @@ def source_canvas(
     principal point moved to keep the optical axis) and its size (width, height) [px].
     """
     width, height = size
-    border = np.concatenate(
-        [
-            np.stack([np.arange(width), np.zeros(width)], 1),
-            np.stack([np.arange(width), np.full(width, height - 1)], 1),
-            np.stack([np.zeros(height), np.arange(height)], 1),
-            np.stack([np.full(height, width - 1), np.arange(height)], 1),
-        ]
-    )
-    norm = _undistorted_normalised(border, camera_matrix, lens)
+    norm = _undistorted_normalised(_border(0, height, 0, width), camera_matrix, lens)
     fx, fy = camera_matrix[0, 0], camera_matrix[1, 1]
     cx, cy = camera_matrix[0, 2], camera_matrix[1, 2]
     half_w = max(np.max(np.abs(norm[:, 0])) * fx, cx, width - 1 - cx) + margin_px
@@ -116,15 +120,7 @@ def window_source(
     c0, c1 = int(cols.start), int(cols.stop)
     if not (0 <= r0 < r1 and 0 <= c0 < c1):
         raise PerceptionInputError("window", "non-empty rows and columns from 0", window)
-    border = np.concatenate(
-        [
-            np.stack([np.arange(c0, c1), np.full(c1 - c0, r0)], 1),
-            np.stack([np.arange(c0, c1), np.full(c1 - c0, r1 - 1)], 1),
-            np.stack([np.full(r1 - r0, c0), np.arange(r0, r1)], 1),
-            np.stack([np.full(r1 - r0, c1 - 1), np.arange(r0, r1)], 1),
-        ]
-    ).astype(np.float64)
-    norm = _undistorted_normalised(border, camera_matrix, lens)
+    norm = _undistorted_normalised(_border(r0, r1, c0, c1), camera_matrix, lens)
     # The window's rays may all lie on one side of the axis; the part spans both sides.
     half_w = np.max(np.abs(norm[:, 0])) * source_matrix[0, 0] + margin_px
     half_h = np.max(np.abs(norm[:, 1])) * source_matrix[1, 1] + margin_px

@@ -115,7 +115,7 @@ def line_table(episodes: list[dict], picks: list[dict]) -> str:
     """Table of a line's perceptions against truth, summed over the seeds."""
     by = {(r["variant"], r["seed"]): r for r in episodes}
     seeds = sorted({s for _, s in by}, key=int)
-    variants = [v for v in dict.fromkeys(r["variant"] for r in episodes)]
+    variants = list(dict.fromkeys(r["variant"] for r in episodes))
     truth = [by[("truth", s)] for s in seeds]
     truth_picked = sum(int(t["picked"]) for t in truth)
     truth_profit = sum(float(t["profit_eur"]) for t in truth)

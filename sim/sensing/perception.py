@@ -73,7 +73,7 @@ WHOLE_FRAME_EVERY = 10
 """The camera perception renders every this-many-th frame whole (the first locates the belt;
 each checks the markers, which lie outside the window the footprints use, are where they
 were): every 5 s at the thesis's 0.5 s period. The frames between are read out as the window
-alone (`sim.cell.camera.CameraWindow`), a third of a whole frame's cost."""
+alone (`sim.cell.camera.CameraWindow`)."""
 WINDOW_ROWS = 12
 COMPLETE_ROW = WINDOW_ROWS - 2
 """Window row whose item regions are reported: complete, the newest row did not add to them."""
@@ -317,11 +317,11 @@ class CameraPerception:
         return out
 
     def _window_frame(self) -> tuple[np.ndarray, np.ndarray]:
-        """The window of the frame the footprints of the row's band use (`FootprintMapper.roi`
-        of `CameraPipeline.band_mapper`) and of its exact
-        depth map: read out alone (`sim.cell.camera.CameraWindow`) but every
-        `WHOLE_FRAME_EVERY`-th frame, which is rendered whole to locate the belt (the first)
-        and to check the markers are where they were (`CameraPipeline.check`).
+        """The window of the frame that the footprints of the row's band use
+        (`FootprintMapper.roi` of `CameraPipeline.band_mapper`) and of its exact depth map:
+        read out alone (`sim.cell.camera.CameraWindow`) but every `WHOLE_FRAME_EVERY`-th
+        frame, which is rendered whole to locate the belt (the first) and to check the markers
+        are where they were (`CameraPipeline.check`).
 
         Raises:
             PerceptionError: A whole frame's markers are not seen where they were.
