@@ -51,6 +51,42 @@ def test_a_standing_can_is_round_tall_and_red():
     assert feature(f, "hue_0") == 1.0 and feature(f, "coloured") == 1.0
 
 
+def _lying(kind, length, radius, yaw, rgb=(30, 80, 200), noise=0.0):
+    """A lying can ("cylinder": flat ends) or bottle ("capsule": half-sphere ends) seen from
+    above, its axis at `yaw` [rad]: its pixels and heights above the belt [m]."""
+    grid = np.arange(-0.13, 0.13, PIXEL)
+    b, y = (a.ravel() for a in np.meshgrid(grid, grid, indexing="ij"))
+    along = b * math.cos(yaw) + y * math.sin(yaw)
+    across = -b * math.sin(yaw) + y * math.cos(yaw)
+    if kind == "cylinder":
+        off_axis = np.where(np.abs(along) <= length / 2, np.abs(across), np.inf)
+    else:
+        off_axis = np.hypot(np.clip(np.abs(along) - (length / 2 - radius), 0, None), across)
+    inside = off_axis <= radius
+    h = radius + np.sqrt(np.clip(radius**2 - off_axis[inside] ** 2, 0, None))
+    h = h + noise * np.random.default_rng(0).standard_normal(h.size)
+    rgb = np.tile(np.asarray(rgb, np.uint8), (int(inside.sum()), 1))
+    return b[inside], y[inside], h, rgb, along[inside]
+
+
+@pytest.mark.parametrize("yaw", [0.0, 0.5, 1.3, 2.6])
+def test_a_bottles_round_ends_are_narrower_and_lower_than_a_cans_flat_ends(yaw):
+    """A 0.5 L can (66 x 168 mm) and a 0.5 L bottle (65 x 205 mm) lying, the same colour:
+    the can's ends are as wide and nearly as high as its middle, the bottle's half-spheres are
+    not, at any yaw, through stereo depth noise, and with one of the bottle's ends hidden."""
+    can = item_features(*_lying("cylinder", 0.168, 0.033, yaw, noise=0.004)[:4])
+    *bottle_pixels, along = _lying("capsule", 0.205, 0.0325, yaw, noise=0.004)
+    bottle = item_features(*bottle_pixels)
+    assert feature(can, "end_width") == pytest.approx(1.0, abs=0.06)
+    assert feature(can, "end_height") == pytest.approx(0.95, abs=0.08)
+    assert feature(bottle, "end_width") == pytest.approx(0.63, abs=0.08)
+    assert feature(bottle, "end_height") == pytest.approx(0.73, abs=0.08)
+    hidden = along <= 0.06  # a neighbour covers the bottle's far end: cut square there
+    half_hidden = item_features(*(a[hidden] for a in bottle_pixels))
+    rounder_end = feature(bottle, "end_width")
+    assert feature(half_hidden, "end_width") == pytest.approx(rounder_end, abs=0.08)
+
+
 def test_features_refuse_mismatched_pixels():
     b, y, h, rgb = _rect(0.05, 0.05, 0.0, (0, 0, 200))
     with pytest.raises(PerceptionInputError):
