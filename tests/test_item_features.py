@@ -170,3 +170,40 @@ def test_a_catalogues_recorded_table_is_named_after_the_camera_code(monkeypatch)
     assert item_classifier.catalogue_table(catalogue) == path
     monkeypatch.setattr(item_classifier, "_RECORDING_CODE", ("perception/camera",))
     assert item_classifier.catalogue_table(catalogue) != path
+
+
+def test_the_evaluations_table_names_the_item_types_the_classifier_errs_on():
+    """`python -m sim.evaluation.item_features evaluate` names the types taken for another
+    material: here crushed PET bottles that look exactly like the red crushed cans."""
+    from sim.evaluation.item_features import accuracy_table
+    from sim.flow.catalogue import load_catalogue
+
+    names = [t.name for t in load_catalogue().types]
+    kinds = {  # type: (class, length, height, colour)
+        "paper_sheet_a4": (2, 0.2, 0.001, (235, 235, 230)),
+        "pet_bottle_0l5": (3, 0.2, 0.035, (190, 215, 225)),
+        "can_500_lying_crushed": (4, 0.17, 0.022, (200, 20, 20)),
+    }
+    rows, labels, types = [], [], []
+    for name, (cls, length, height, rgb) in kinds.items():
+        for k in range(20):
+            rows.append(item_features(*_rect(length, 0.08, height, rgb, 0.004, k)))
+            labels.append(cls)
+            types.append(names.index(name))
+    clf = ItemClassifier(np.array(rows), np.array(labels))
+    lookalikes = [
+        item_features(*_rect(0.17, 0.08, 0.022, (200, 20, 20), 0.004, 50 + k)) for k in range(3)
+    ]
+    table = {
+        "features": np.array(rows[:5] + rows[40:42] + lookalikes),
+        "class_id": np.array(labels[:5] + labels[40:42] + [3, 3, 3]),
+        "type_index": np.array(
+            types[:5] + types[40:42] + [names.index("pet_bottle_0l5_crushed")] * 3
+        ),
+        "hmm": np.full((10, 3), 1 / 3),
+        "hmm_prior": np.full((10, 3), 1 / 3),
+    }
+    errors = [line for line in accuracy_table(table, clf) if line.startswith("fused mode's errors")]
+    assert errors == [
+        "fused mode's errors (3 of 10), by item type: pet_bottle_0l5_crushed 3 of 3 (aluminium 3)"
+    ]

@@ -14,7 +14,8 @@ training and scores). Per item: the features, the HMMs' posterior, the true clas
 100-115 at x1, x1.2, x1.5, flows of 100 and of 200 items in 90 s: `TRAIN_SEEDS`,
 `SPEED_FACTORS`, `TRAIN_ITEMS`); `evaluate` records held-out flows and prints, per class and
 overall, the accuracy of the `hmm`, `features` and `fused` modes. Recordings are cached per
-flow in `--cache` (default runs/cache/item_features), named after the flow's settings.
+flow in `--cache` (default runs/cache/item_features/<digest of the camera and perception code>,
+so a change of that code records afresh), named after the flow's settings.
 """
 
 from __future__ import annotations
@@ -45,13 +46,14 @@ from sim.sensing.item_classifier import (
     catalogue_table,
     is_default_catalogue,
     load_table,
+    recording_code_digest,
 )
 from sim.sensing.perception import WINDOW_ROWS
 
 log = logging.getLogger(__name__)
 MATCH_M = 0.03
 """A report is labelled with the nearest true item within this distance of its centroid [m]."""
-DEFAULT_CACHE = REPO_ROOT / "runs" / "cache" / "item_features"
+DEFAULT_CACHE = REPO_ROOT / "runs" / "cache" / "item_features" / recording_code_digest()
 TRAIN_SEEDS = tuple(range(100, 116))
 SPEED_FACTORS = (1.0, 1.2, 1.5)
 TRAIN_ITEMS = (100, 200)
@@ -220,9 +222,29 @@ def accuracy_table(table: dict, classifier: ItemClassifier) -> list[str]:
             mine = truth == c
             cells.append(f"{np.mean(guess[mine] == c):.3f} (n={int(mine.sum())})")
         lines.append(f"| {label} | " + " | ".join(cells) + f" | {np.mean(guess == truth):.3f} |")
+    lines.append(_errors_by_type(table, labelled, fuse(clf, classifier.train_prior, prior)))
     unmatched = int(np.sum(~labelled))
     lines.append(f"reports matched to no true item within {MATCH_M * 1000:.0f} mm: {unmatched}")
     return lines
+
+
+def _errors_by_type(table: dict, labelled: np.ndarray, probs: np.ndarray, most: int = 6) -> str:
+    """One line: the item types the fused mode errs on most (wrong of all, and as what)."""
+    names = [t.name for t in load_catalogue().types]
+    types = table["type_index"][labelled]
+    guess = np.asarray(MATERIAL_IDS)[np.argmax(probs, axis=1)]
+    wrong = guess != table["class_id"][labelled]
+    counts = [(int(np.sum(wrong & (types == k))), k) for k in np.unique(types)]
+    counts.sort(reverse=True)
+    parts = []
+    for n_wrong, k in counts[:most]:
+        if n_wrong == 0:
+            break
+        as_what = np.bincount(guess[wrong & (types == k)], minlength=max(MATERIAL_IDS) + 1)
+        taken = ", ".join(f"{CLASS_NAMES[c - 1]} {as_what[c]}" for c in MATERIAL_IDS if as_what[c])
+        parts.append(f"{names[k]} {n_wrong} of {int(np.sum(types == k))} ({taken})")
+    total = f"{int(wrong.sum())} of {int(labelled.sum())}"
+    return f"fused mode's errors ({total}), by item type: " + ("; ".join(parts) or "none")
 
 
 def main(argv: list[str] | None = None) -> int:

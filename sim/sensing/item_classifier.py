@@ -79,10 +79,18 @@ def catalogue_table(catalogue, mix: dict | None = None) -> Path:
     `view` call before a camera episode on another catalogue than the default."""
     key = hashlib.sha1(catalogue.digest.encode())
     key.update(repr(sorted((mix or {}).items())).encode())
+    key.update(recording_code_digest().encode())
+    return CACHE_DIR / f"item_features-{key.hexdigest()[:12]}.npz"
+
+
+def recording_code_digest() -> str:
+    """Digest (12 hex digits) of the code a recorded item table depends on (`_RECORDING_CODE`):
+    recordings kept under it are never read back by another camera or feature code."""
+    key = hashlib.sha1()
     for folder in _RECORDING_CODE:
         for path in sorted((REPO_ROOT / folder).glob("*.py")):
             key.update(path.read_bytes())
-    return CACHE_DIR / f"item_features-{key.hexdigest()[:12]}.npz"
+    return key.hexdigest()[:12]
 
 
 def trained_item_classifier(catalogue=None, mix: dict | None = None) -> ItemClassifier:
