@@ -169,7 +169,12 @@ def test_a_catalogues_recorded_table_is_named_after_the_camera_code(monkeypatch)
     path = item_classifier.catalogue_table(catalogue)
     assert item_classifier.catalogue_table(catalogue) == path
     monkeypatch.setattr(item_classifier, "_RECORDING_CODE", ("perception/camera",))
+    assert item_classifier.catalogue_table(catalogue) == path  # read once a process
+    item_classifier.recording_code_digest.cache_clear()
     assert item_classifier.catalogue_table(catalogue) != path
+    monkeypatch.undo()
+    item_classifier.recording_code_digest.cache_clear()
+    assert item_classifier.catalogue_table(catalogue) == path
 
 
 def test_the_evaluations_table_names_the_item_types_the_classifier_errs_on():

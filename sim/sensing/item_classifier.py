@@ -83,9 +83,12 @@ def catalogue_table(catalogue, mix: dict | None = None) -> Path:
     return CACHE_DIR / f"item_features-{key.hexdigest()[:12]}.npz"
 
 
+@functools.cache
 def recording_code_digest() -> str:
     """Digest (12 hex digits) of the code a recorded item table depends on (`_RECORDING_CODE`):
-    recordings kept under it are never read back by another camera or feature code."""
+    recordings kept under it are never read back by another camera or feature code. Read once a
+    process, so that a run that records a table finds it again under the same name even when
+    the files change meanwhile."""
     key = hashlib.sha1()
     for folder in _RECORDING_CODE:
         for path in sorted((REPO_ROOT / folder).glob("*.py")):
