@@ -222,14 +222,17 @@ def accuracy_table(table: dict, classifier: ItemClassifier) -> list[str]:
             mine = truth == c
             cells.append(f"{np.mean(guess[mine] == c):.3f} (n={int(mine.sum())})")
         lines.append(f"| {label} | " + " | ".join(cells) + f" | {np.mean(guess == truth):.3f} |")
-    lines.append(_errors_by_type(table, labelled, fuse(clf, classifier.train_prior, prior)))
+    lines.append(errors_by_type(table, labelled, fuse(clf, classifier.train_prior, prior)))
     unmatched = int(np.sum(~labelled))
     lines.append(f"reports matched to no true item within {MATCH_M * 1000:.0f} mm: {unmatched}")
     return lines
 
 
-def _errors_by_type(table: dict, labelled: np.ndarray, probs: np.ndarray, most: int = 6) -> str:
-    """One line: the item types the fused mode errs on most (wrong of all, and as what)."""
+def errors_by_type(
+    table: dict, labelled: np.ndarray, probs: np.ndarray, most: int = 6, mode: str = "fused mode's"
+) -> str:
+    """One line: the item types `probs` (of the `labelled` items) err on most (wrong of all, and
+    as what)."""
     names = [t.name for t in load_catalogue().types]
     types = table["type_index"][labelled]
     guess = np.asarray(MATERIAL_IDS)[np.argmax(probs, axis=1)]
@@ -244,7 +247,7 @@ def _errors_by_type(table: dict, labelled: np.ndarray, probs: np.ndarray, most: 
         taken = ", ".join(f"{CLASS_NAMES[c - 1]} {as_what[c]}" for c in MATERIAL_IDS if as_what[c])
         parts.append(f"{names[k]} {n_wrong} of {int(np.sum(types == k))} ({taken})")
     total = f"{int(wrong.sum())} of {int(labelled.sum())}"
-    return f"fused mode's errors ({total}), by item type: " + ("; ".join(parts) or "none")
+    return f"{mode} errors ({total}), by item type: " + ("; ".join(parts) or "none")
 
 
 def main(argv: list[str] | None = None) -> int:
