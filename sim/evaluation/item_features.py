@@ -232,7 +232,7 @@ def errors_by_type(
     table: dict, labelled: np.ndarray, probs: np.ndarray, most: int = 6, mode: str = "fused mode's"
 ) -> str:
     """One line: the item types `probs` (of the `labelled` items) err on most (wrong of all, and
-    as what)."""
+    as what), named by the default catalogue (`table["type_index"]` indexes its types)."""
     names = [t.name for t in load_catalogue().types]
     types = table["type_index"][labelled]
     guess = np.asarray(MATERIAL_IDS)[np.argmax(probs, axis=1)]
