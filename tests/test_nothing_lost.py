@@ -326,7 +326,9 @@ def long_sweep(tmp_path):
     if shutil.which("pgrep") is None or not Path("/proc").is_dir():
         pytest.skip("needs pgrep and /proc to see the sweep's workers")
     config = tmp_path / "sweep.toml"
-    config.write_text(SWEEP.format(items=60, seeds=2, duration=30.0))
+    # 40 episodes of a few seconds each: the sweep is still running when the test stops it,
+    # however fast the machine (4 of them ended before the signal on a quiet one).
+    config.write_text(SWEEP.format(items=60, seeds=20, duration=30.0))
     proc = subprocess.Popen(
         _command("sweep", "--config", config, "--out", tmp_path / "out", "--workers", "2"),
         cwd=REPO_ROOT,
