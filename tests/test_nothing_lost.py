@@ -25,7 +25,9 @@ from sim.results.locks import LOCK_FILE, FolderLock
 
 ENV = {**os.environ, "MUJOCO_GL": "egl", "PYOPENGL_PLATFORM": "egl"}
 TINY = ["--items", "5", "--duration", "3", "--perception", "truth", "--quiet"]
-LONGER = ["--items", "20", "--duration", "10", "--perception", "truth", "--quiet"]
+LONGER = ["--items", "60", "--duration", "30", "--perception", "truth", "--quiet"]
+"""A run that lasts seconds after it takes its folder's lock, longer than a second command's
+start-up, however fast the machine."""
 PAGE = 4096
 SWEEP = """
 [sweep]
@@ -263,14 +265,14 @@ def test_two_runs_into_one_folder_one_runs_the_other_is_refused(tmp_path):
     assert f"{out} is in use by process {first.pid}" in line
     assert first.wait(timeout=300) == 0, first.stderr.read()
     manifest = json.loads((out / "manifest.json").read_text())
-    assert manifest["seeds"] == [4] and manifest["config"]["items"] == 20
+    assert manifest["seeds"] == [4] and manifest["config"]["items"] == 60
     assert {r["seed"] for r in outputs.read_rows(out / "episodes.csv")} == {"4"}
     assert not (out / LOCK_FILE).exists()
 
 
 def test_two_sweeps_into_one_folder_one_runs_the_other_is_refused(tmp_path):
     config = tmp_path / "sweep.toml"
-    config.write_text(SWEEP.format(items=5, seeds=2, duration=3.0))
+    config.write_text(SWEEP.format(items=20, seeds=4, duration=10.0))  # seconds after its lock
     out = tmp_path / "sweep"
     first = _start("sweep", "--config", config, "--out", out, "--workers", "1", "--quiet")
     _wait_for(lambda: (out / LOCK_FILE).exists(), first)
@@ -279,7 +281,7 @@ def test_two_sweeps_into_one_folder_one_runs_the_other_is_refused(tmp_path):
     assert f"{out} is in use by process {first.pid}" in _one_line(second.stderr)
     assert first.wait(timeout=300) == 0, first.stderr.read()
     keys = [(r["planner"], r["seed"]) for r in outputs.read_rows(out / "episodes.csv")]
-    assert len(keys) == len(set(keys)) == 4  # every episode once, none twice
+    assert len(keys) == len(set(keys)) == 8  # every episode once, none twice
 
 
 def test_a_run_and_a_sweep_never_share_a_folder(tmp_path, reference):
