@@ -339,6 +339,9 @@ def long_sweep(tmp_path):
         stderr=subprocess.PIPE,
         text=True,
         start_new_session=True,  # its own process group, as a terminal's job
+        # and Ctrl-C's default action, as a terminal's job has it, however the suite was started
+        # (a shell starts a background job with SIGINT ignored, and children inherit that)
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     _wait_for(lambda: len(_workers(proc.pid)) == 2, proc)
     workers = _workers(proc.pid)
