@@ -53,7 +53,9 @@ from sim.sensing.perception import WINDOW_ROWS
 log = logging.getLogger(__name__)
 MATCH_M = 0.03
 """A report is labelled with the nearest true item within this distance of its centroid [m]."""
-DEFAULT_CACHE = REPO_ROOT / "runs" / "cache" / "item_features" / recording_code_digest()
+CACHE_ROOT = REPO_ROOT / "runs" / "cache" / "item_features"
+"""`--cache`'s default is its folder named by `recording_code_digest()` (read when the command
+runs, not when an episode's command imports this module for `prepare_camera`)."""
 TRAIN_SEEDS = tuple(range(100, 116))
 SPEED_FACTORS = (1.0, 1.2, 1.5)
 TRAIN_ITEMS = (100, 200)
@@ -255,13 +257,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("action", choices=("record", "evaluate"))
     parser.add_argument("--seeds", type=int, nargs="+", default=None)
     parser.add_argument("--speed-factors", type=float, nargs="+", default=list(SPEED_FACTORS))
-    parser.add_argument("--cache", type=Path, default=DEFAULT_CACHE)
+    parser.add_argument("--cache", type=Path, default=None)
     parser.add_argument("--out", type=Path, default=TRAINING_TABLE)
     parser.add_argument("--table", type=Path, default=TRAINING_TABLE, help="training table")
     parser.add_argument(
         "--items", type=int, nargs="+", default=None, help="items of a 90 s flow (each count)"
     )
     args = parser.parse_args(argv)
+    args.cache = args.cache or CACHE_ROOT / recording_code_digest()
     items = tuple(args.items or ((100,) if args.action == "evaluate" else TRAIN_ITEMS))
     if args.action == "record":
         seeds = args.seeds or list(TRAIN_SEEDS)
