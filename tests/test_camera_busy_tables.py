@@ -8,12 +8,12 @@ from sim.results.camera_busy_tables import line_table, main, one_robot_table, po
 
 EPISODE_KEYS = ("variant", "seed", "n_items", "items_per_m", "entered", "never_detected",
                 "never_visible", "picked", "profit_eur", "wrong_bin", "empty_picks",
-                "thrown_off")  # fmt: skip
+                "left_unsure", "thrown_off")  # fmt: skip
 PICK_KEYS = ("variant", "seed", "n_items", "bin", "true_class", "success")
 
 
-def _episode(variant, seed, picked, profit, wrong=0, never=0):
-    values = (variant, seed, "100", "6.0", "100", never, 0, picked, profit, wrong, 1, 0)
+def _episode(variant, seed, picked, profit, wrong=0, never=0, unsure=0):
+    values = (variant, seed, "100", "6.0", "100", never, 0, picked, profit, wrong, 1, unsure, 0)
     return dict(zip(EPISODE_KEYS, map(str, values), strict=True))
 
 
@@ -27,7 +27,7 @@ def _picks(variant, seed, rights, wrongs):
 
 EPISODES = [
     _episode("truth", 1, 100, 25.0),
-    _episode("camera", 1, 98, 24.0, wrong=2, never=1),
+    _episode("camera", 1, 98, 24.0, wrong=2, never=1, unsure=3),
     _episode("truth", 2, 100, 20.0),
     _episode("camera", 2, 99, 19.0, wrong=1),
 ]
@@ -44,11 +44,11 @@ def test_purity_counts_what_each_bin_holds():
 def test_one_robot_rows_and_their_sum():
     table = one_robot_table(EPISODES, PICKS, "100").splitlines()
     assert len(table) == 2 + 2 + 1
-    assert table[2].startswith("| 1 | 6.0 | 1 | 0 | 98 (100) | 24.00 (25.00) | 0.960 | 2 | 1 |")
+    assert table[2].startswith("| 1 | 6.0 | 1 | 0 | 98 (100) | 24.00 (25.00) | 0.960 | 2 | 1 | 3 |")
     assert "0.960 / - / -" in table[2] and "0.975 / - / -" in table[3]
     total = table[4]
     assert "1 of 200 (0.5 %)" in total and "197 (200)" in total
-    assert f"| {43 / 45:.3f} |" in total  # camera profit over truth's, summed
+    assert f"| {43 / 45:.3f} | 3 | 2 | 3 |" in total  # profit over truth's, wrong, empty, unsure
     assert "0.967 / - / - pooled; lowest seed 0.960 / - / -" in total
 
 
@@ -71,6 +71,6 @@ def test_main_prints_both_and_refuses_a_folder_without_a_sweep(tmp_path, capsys)
                 writer.writerows(rows)
     assert main([str(tmp_path / "one"), str(tmp_path / "line")]) == 0
     out = capsys.readouterr().out
-    assert "One robot, 100 items in 90 s" in out and "A line" in out
+    assert "One robot, 100 items in 90 s, camera" in out and "A line" in out
     assert main([str(tmp_path / "one"), str(tmp_path / "none")]) == 2
     assert "episodes.csv" in capsys.readouterr().err

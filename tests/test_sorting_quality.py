@@ -16,7 +16,12 @@ from sim.experiments import sweep_config
 from sim.results import outputs
 from sim.results.metrics import EpisodeMetrics, PickRecord
 from sim.sensing.attribution import attributed_item
-from sim.sensing.confidence import is_unsure, sure_items, top_class_probability
+from sim.sensing.confidence import (
+    ITEM_CLASSIFIER_MIN_CONFIDENCE,
+    is_unsure,
+    sure_items,
+    top_class_probability,
+)
 from sim.sensing.tracking import Detection, Track
 
 VALUES = {PAPER: 0.22, PLASTIC: 0.25, ALUMINIUM: 0.27}
@@ -176,7 +181,7 @@ def test_sure_items_keeps_order_and_filters_below_the_threshold():
 # ----- the config key --------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("bad", [-0.01, 1.01, 2, math.nan, math.inf, "0.5", True, None])
+@pytest.mark.parametrize("bad", [-0.01, 1.01, 2, math.nan, math.inf, "0.5", True])
 def test_min_class_confidence_refuses_what_is_not_a_probability(bad):
     with pytest.raises(InvalidInput) as exc:
         config.EpisodeConfig(min_class_confidence=bad)
@@ -185,7 +190,7 @@ def test_min_class_confidence_refuses_what_is_not_a_probability(bad):
 
 
 def test_min_class_confidence_from_toml_and_overrides():
-    assert config.EpisodeConfig().min_class_confidence == 0.0
+    assert config.EpisodeConfig().min_class_confidence is None  # the classifier's own
     assert config.from_dict({"min_class_confidence": 1}).min_class_confidence == 1
     assert config.load(None, min_class_confidence=0.6).min_class_confidence == 0.6
     with pytest.raises(InvalidInput, match="min_class_confidence") as exc:
@@ -193,9 +198,32 @@ def test_min_class_confidence_from_toml_and_overrides():
     assert exc.value.where == "grid.toml"
 
 
-def test_sweep_identity_leaves_the_default_threshold_out():
-    base = config.EpisodeConfig()
-    assert "min_class_confidence" not in sweep_config._resolved("base", base)
+def test_an_unset_threshold_is_the_classifiers_own():
+    """0.9 for the camera's item classifier modes, 0 for the HMMs alone and for truth; a set
+    threshold wins, 0 included."""
+    camera = config.EpisodeConfig(perception="camera")
+    assert camera.applied_min_class_confidence == ITEM_CLASSIFIER_MIN_CONFIDENCE == 0.9
+    assert camera.replace(classifier="features").applied_min_class_confidence == 0.9
+    assert camera.replace(classifier="hmm").applied_min_class_confidence == 0.0
+    assert camera.replace(perception="truth").applied_min_class_confidence == 0.0
+    assert camera.replace(min_class_confidence=0).applied_min_class_confidence == 0.0
+    hmm = config.EpisodeConfig(classifier="hmm", min_class_confidence=0.7)
+    assert hmm.applied_min_class_confidence == 0.7
+    assert config.from_dict(camera.to_dict()) == camera  # unset stays unset
+
+
+def test_sweep_identity_holds_the_threshold_applied():
+    """A grid point is identified by the threshold its episodes apply: one left to the
+    classifier's 0.9 is not a sweep begun when every classifier's default was 0 (that sweep's
+    identity has no threshold), while truth, the HMMs and an explicit 0 keep that identity."""
+    base = config.EpisodeConfig()  # camera, fused
+    assert '"min_class_confidence": 0.9' in sweep_config._resolved("base", base)
+    for as_before in (
+        base.replace(min_class_confidence=0.0),
+        base.replace(classifier="hmm"),
+        base.replace(perception="truth"),
+    ):
+        assert "min_class_confidence" not in sweep_config._resolved("base", as_before)
     unsure = base.replace(min_class_confidence=0.8)
     assert '"min_class_confidence": 0.8' in sweep_config._resolved("base", unsure)
 

@@ -30,8 +30,10 @@ TOML layout (every key optional; defaults are the headline episode)::
     observation_period_s = 0.5  # one grid row per period [s]
     item_riding = "path"        # path | settled | contact (see sim/cell/riding.py)
     energy_price_eur_per_kwh = 0.0  # > 0: every planner nets each pick's motor energy cost
-    min_class_confidence = 0.0  # 0..1: an item whose most probable class is less probable is
-                                # left on the belt (sim/sensing/confidence.py); 0: none is
+    min_class_confidence = 0.9  # 0..1: an item whose most probable class is less probable is
+                                # left on the belt (sim/sensing/confidence.py); 0: none is;
+                                # unset: the classifier's own (0.9 fused and features, 0 hmm
+                                # and truth)
     classifier = "fused"        # camera items' class: fused | features | hmm (the thesis's)
     depth_noise = true          # the stereo camera's depth error (sim/cell/depth_noise.py)
     world = "varied"            # varied | uniform: how items vary (sim/flow/world.py,
@@ -162,6 +164,7 @@ from sim.model.scene_edits import (
     CUP_DIAMETER_RANGE_M,
     CellSettings,
 )
+from sim.sensing.confidence import default_min_confidence
 
 BELT_SPEED_X1_MPS = SPEED_X1_MPS
 BELT_SPEED_RANGE_MPS = SPEED_RANGE_MPS
@@ -731,7 +734,7 @@ class EpisodeConfig:
     observation_period_s: float = 0.5
     item_riding: str = "path"
     energy_price_eur_per_kwh: float = 0.0
-    min_class_confidence: float = 0.0
+    min_class_confidence: float | None = None
     classifier: str = "fused"
     depth_noise: bool = True
     world: str = "varied"
@@ -796,8 +799,13 @@ class EpisodeConfig:
             RANGES[key].check(key, getattr(self, key), w)
         r = self.item_riding
         check(r in ITEM_RIDINGS, "item_riding", " | ".join(ITEM_RIDINGS), r, w)
-        for key in ("energy_price_eur_per_kwh", "min_class_confidence"):
-            RANGES[key].check(key, getattr(self, key), w)
+        RANGES["energy_price_eur_per_kwh"].check(
+            "energy_price_eur_per_kwh", self.energy_price_eur_per_kwh, w
+        )
+        if self.min_class_confidence is not None:  # None: the classifier's own
+            RANGES["min_class_confidence"].check(
+                "min_class_confidence", self.min_class_confidence, w
+            )
         k = self.classifier
         check(k in CLASSIFIERS, "classifier", " | ".join(CLASSIFIERS), k, w)
         check(
@@ -903,6 +911,15 @@ class EpisodeConfig:
             return True
         density = self.items / (self.duration_s * self.belt_speed_mps)
         return density > MAX_ITEMS_PER_METRE * (1 + 1e-9)
+
+    @property
+    def applied_min_class_confidence(self) -> float:
+        """The confidence rule's threshold the episode applies, in [0, 1]: `min_class_confidence`
+        when set, else the classifier's own (`sim.sensing.confidence.default_min_confidence`:
+        0.9 for the camera's `fused` and `features`, 0 for `hmm` and truth)."""
+        if self.min_class_confidence is not None:
+            return float(self.min_class_confidence)
+        return default_min_confidence(self.perception, self.classifier)
 
     @property
     def world_variation(self) -> WorldVariation:

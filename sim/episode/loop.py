@@ -413,7 +413,7 @@ class Episode:
     def book_unsure(self, gone: list) -> None:
         """Count the tracks among `gone` (went past the robot unpicked, or still tracked at the
         end) that the confidence rule kept from the decision manager (`left_unsure`)."""
-        threshold = self.config.min_class_confidence
+        threshold = self.config.applied_min_class_confidence
         self.metrics.on_left_unsure(sum(1 for tr in gone if is_unsure(tr.probs, threshold)))
 
     def _finished(self) -> bool:

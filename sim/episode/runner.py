@@ -158,7 +158,7 @@ def run_episode(
         "variant": variant,
         "perception": config.perception,
         "energy_price_eur_per_kwh": config.energy_price_eur_per_kwh,
-        "min_class_confidence": config.min_class_confidence,
+        "min_class_confidence": config.applied_min_class_confidence,
         "items_per_m": config.items / (config.duration_s * config.belt_speed_mps),
         "real_time_factor": sim_s / wall if wall > 0 else 0.0,
         **episode.robot_columns(sim_s),

@@ -205,4 +205,4 @@ def offerable_items(episode: Episode, t: float) -> list[TrackedItem]:
         made[tr.track_id] = (tr.probs, item)
         items.append(item)
     episode.track_items = made
-    return sure_items(items, episode.config.min_class_confidence)
+    return sure_items(items, episode.config.applied_min_class_confidence)

@@ -173,6 +173,9 @@ def _scalars() -> list[Setting]:
             meaning = world.get(name, comments.get(name, ""))
         elif name == "robots":
             default, meaning = "1", comments.get(name, "")
+        elif name == "min_class_confidence":
+            default = "the classifier's: 0.9 (fused, features), 0 (hmm; truth perception)"
+            meaning = comments.get(name, "")
         else:
             default = _toml(field.default)
             meaning = comments.get(name) or UNCOMMENTED.get(name, "")

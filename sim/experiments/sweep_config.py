@@ -129,10 +129,11 @@ def variant_values(spec: EpisodeSpec, keys: tuple[str, ...]) -> dict[str, Any]:
         {`variant.<key>`: the variant's value, the base's or the default}, read from the
         settings in the layout of before per-robot pauses (`settings_as_before`: `robots` a
         count where the robots are at the default places); a world number the config leaves to
-        its preset (`world`), the preset's; None (an empty cell) for a key the config does not
-        hold.
+        its preset (`world`), the preset's; `min_class_confidence` left to the classifier, the
+        threshold applied; None (an empty cell) for a key the config does not hold.
     """
     settings = settings_as_before(spec.config.to_dict())
+    settings["min_class_confidence"] = spec.config.applied_min_class_confidence
     out = {}
     for key in keys:
         value: Any = settings
@@ -338,6 +339,9 @@ def _resolved(variant: str, config: EpisodeConfig) -> str:
     later key at its default is left out (`LATER_KEYS`)."""
     settings = settings_as_before(config.to_dict())
     settings.pop("seed")
+    # The threshold the episode applies: a grid point left to the classifier's own is told
+    # from one at 0 (a sweep begun when 0 was every classifier's default)
+    settings["min_class_confidence"] = config.applied_min_class_confidence
     for key, default in LATER_KEYS.items():
         if settings.get(key) == default:
             settings.pop(key)

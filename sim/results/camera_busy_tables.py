@@ -1,11 +1,13 @@
 """The camera on busy belts against truth, seed by seed: `docs/perception.md`'s tables 2-4.
 
-Reads the sweeps of `experiments/camera_busy.toml` (one robot, variants `truth` and `camera`,
-100 and 200 items) and `experiments/camera_busy_line.toml` (four robots, variants `truth`,
-`one camera`, `camera per robot`) and prints their tables in Markdown: per seed (one robot) or
-summed over the seeds (the line), the camera's never-detected and never-visible items, picks
-and profit against truth's on the same flows, wrong bins, empty picks and each bin's purity
-(its own material's share of what it holds), pooled over the seeds and on the lowest seed.
+Reads the sweeps of `experiments/camera_busy.toml` (one robot, variant `truth` and camera
+variants, 100 and 200 items) and `experiments/camera_busy_line.toml` (four robots, variant
+`truth` and camera variants) and prints their tables in Markdown: per seed (one robot, a table
+per camera variant and item count) or summed over the seeds (the line, a row per variant), the
+camera's never-detected and never-visible items, picks and profit against truth's on the same
+flows, wrong bins, empty picks, items the confidence rule left on the belt (`left_unsure`) and
+each bin's purity (its own material's share of what it holds), pooled over the seeds and on
+the lowest seed.
 
     python -m sim.results.camera_busy_tables runs/camera_busy runs/camera_busy_line
 """
@@ -23,13 +25,14 @@ BINS = ("paper", "plastic", "aluminium")
 ONE_ROBOT_HEADER = (
     "| seed | items per metre | never detected | never visible | picked, camera (truth) | "
     "profit EUR, camera (truth) | camera / truth profit | wrong bin | empty picks | "
-    "purity paper / plastic / aluminium |\n|---|---|---|---|---|---|---|---|---|---|"
+    "left unsure | purity paper / plastic / aluminium |\n"
+    "|---|---|---|---|---|---|---|---|---|---|---|"
 )
 LINE_HEADER = (
     "| perception | picked (of truth's) | profit EUR (of truth's) | lowest seed: picks / "
-    "profit | never detected | never visible | wrong bin | empty picks | purity paper / "
-    "plastic / aluminium pooled (lowest seed) | thrown |\n"
-    "|---|---|---|---|---|---|---|---|---|---|"
+    "profit | never detected | never visible | wrong bin | empty picks | left unsure | "
+    "purity paper / plastic / aluminium pooled (lowest seed) | thrown |\n"
+    "|---|---|---|---|---|---|---|---|---|---|---|"
 )
 
 
@@ -72,24 +75,33 @@ def _lowest(picks: list[dict], seeds: list[str], **where: str) -> str:
     return " / ".join(lows)
 
 
-def one_robot_table(episodes: list[dict], picks: list[dict], n_items: str) -> str:
-    """Table of one robot's camera against truth at `n_items`, a row per seed and their sum."""
+def camera_variants(episodes: list[dict]) -> list[str]:
+    """The sweep's variants other than truth, in the order of its rows."""
+    return [v for v in dict.fromkeys(r["variant"] for r in episodes) if v != "truth"]
+
+
+def one_robot_table(
+    episodes: list[dict], picks: list[dict], n_items: str, variant: str = "camera"
+) -> str:
+    """Table of one robot's camera `variant` against truth at `n_items`, a row per seed and
+    their sum."""
     by = {(r["variant"], r["seed"]): r for r in episodes if r["n_items"] == n_items}
-    seeds = sorted({s for v, s in by if v == "camera"}, key=int)
+    seeds = sorted({s for v, s in by if v == variant}, key=int)
     lines = [ONE_ROBOT_HEADER]
-    total = dict.fromkeys(("entered", "never_detected", "never_visible", "wrong_bin"), 0)
+    counted = ("entered", "never_detected", "never_visible", "wrong_bin", "left_unsure")
+    total = dict.fromkeys(counted, 0)
     total.update(picked=0, truth_picked=0, profit=0.0, truth_profit=0.0, empty=0)
     for s in seeds:
-        c, t = by[("camera", s)], by[("truth", s)]
-        purity = pooled_purity(picks, variant="camera", n_items=n_items, seed=s)
+        c, t = by[(variant, s)], by[("truth", s)]
+        purity = pooled_purity(picks, variant=variant, n_items=n_items, seed=s)
         ratio = float(c["profit_eur"]) / float(t["profit_eur"])
         lines.append(
             f"| {s} | {float(c['items_per_m']):.1f} | {c['never_detected']} | "
             f"{c['never_visible']} | {c['picked']} ({t['picked']}) | "
             f"{float(c['profit_eur']):.2f} ({float(t['profit_eur']):.2f}) | {ratio:.3f} | "
-            f"{c['wrong_bin']} | {c['empty_picks']} | {_shares(purity)} |"
+            f"{c['wrong_bin']} | {c['empty_picks']} | {c['left_unsure']} | {_shares(purity)} |"
         )
-        for key in ("entered", "never_detected", "never_visible", "wrong_bin"):
+        for key in counted:
             total[key] += int(c[key] or 0)
         total["picked"] += int(c["picked"])
         total["truth_picked"] += int(t["picked"])
@@ -97,7 +109,7 @@ def one_robot_table(episodes: list[dict], picks: list[dict], n_items: str) -> st
         total["truth_profit"] += float(t["profit_eur"])
         total["empty"] += int(c["empty_picks"])
     n = len(seeds)
-    purity = pooled_purity(picks, variant="camera", n_items=n_items)
+    purity = pooled_purity(picks, variant=variant, n_items=n_items)
     missed = total["never_detected"]
     lines.append(
         f"| all {n} | | {missed} of {total['entered']} "
@@ -105,8 +117,8 @@ def one_robot_table(episodes: list[dict], picks: list[dict], n_items: str) -> st
         f"{total['picked']} ({total['truth_picked']}) | {total['profit'] / n:.2f} "
         f"({total['truth_profit'] / n:.2f}) mean | "
         f"{total['profit'] / total['truth_profit']:.3f} | {total['wrong_bin']} | "
-        f"{total['empty']} | {_shares(purity)} pooled; lowest seed "
-        f"{_lowest(picks, seeds, variant='camera', n_items=n_items)} |"
+        f"{total['empty']} | {total['left_unsure']} | {_shares(purity)} pooled; lowest seed "
+        f"{_lowest(picks, seeds, variant=variant, n_items=n_items)} |"
     )
     return "\n".join(lines)
 
@@ -136,6 +148,7 @@ def line_table(episodes: list[dict], picks: list[dict]) -> str:
             f"{sum(int(r['entered']) for r in rows)} | {never_visible} | "
             f"{sum(int(r['wrong_bin']) for r in rows)} | "
             f"{sum(int(r['empty_picks']) for r in rows)} | "
+            f"{sum(int(r['left_unsure'] or 0) for r in rows)} | "
             f"{_shares(pooled_purity(picks, variant=v))} ({_lowest(picks, seeds, variant=v)}) | "
             f"{sum(int(r['thrown_off']) for r in rows)} |"
         )
@@ -154,8 +167,10 @@ def main(argv: list[str] | None = None) -> int:
     except InvalidInput as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    for n_items in sorted({r["n_items"] for r in one[0]}, key=int):
-        print(f"One robot, {n_items} items in 90 s:\n\n{one_robot_table(*one, n_items)}\n")
+    for variant in camera_variants(one[0]):
+        for n_items in sorted({r["n_items"] for r in one[0]}, key=int):
+            table = one_robot_table(*one, n_items, variant)
+            print(f"One robot, {n_items} items in 90 s, {variant}:\n\n{table}\n")
     print(f"A line:\n\n{line_table(*line)}")
     return 0
 
