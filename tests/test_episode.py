@@ -103,3 +103,5 @@ def test_camera_episode_sees_and_picks_items(cell):
     assert row["attempts"] >= 2, row
     assert row["picked"] >= 1, row
     assert result.latencies["perception"], "no frame went through the camera pipeline"
+    assert row["min_class_confidence"] == 0.9  # unset: the fused classifier's own threshold
+    assert 0 <= row["left_unsure"] <= row["entered"]
