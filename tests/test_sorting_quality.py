@@ -228,6 +228,29 @@ def test_sweep_identity_holds_the_threshold_applied():
     assert '"min_class_confidence": 0.8' in sweep_config._resolved("base", unsure)
 
 
+def test_a_sweeps_variant_column_holds_the_threshold_applied():
+    sweep = sweep_config.from_dict(
+        {
+            "sweep": {"name": "rule", "items": [10], "seeds": 1},
+            "base": {"duration_s": 10.0},
+            "variants": [
+                {"name": "truth", "perception": "truth"},
+                {"name": "camera", "perception": "camera"},
+                {"name": "hmm", "perception": "camera", "classifier": "hmm"},
+                {"name": "rule off", "perception": "camera", "min_class_confidence": 0.0},
+            ],
+        },
+        "rule.toml",
+    )
+    assert sweep.variant_keys == ("perception", "classifier", "min_class_confidence")
+    column = "variant.min_class_confidence"
+    applied = {
+        spec.variant: sweep_config.variant_values(spec, sweep.variant_keys)[column]
+        for spec in sweep.episodes
+    }
+    assert applied == {"truth": 0.0, "camera": 0.9, "hmm": 0.0, "rule off": 0.0}
+
+
 # ----- physics episodes -------------------------------------------------------------------------
 
 SHORT = dict(items=10, duration_s=8.0, perception="truth", planner="fifo", seed=1)

@@ -1,4 +1,4 @@
-"""The camera on busy belts against truth, seed by seed: `docs/perception.md`'s tables 2-4.
+"""The camera on busy belts against truth, seed by seed: `docs/perception.md`'s tables 2-5.
 
 Reads the sweeps of `experiments/camera_busy.toml` (one robot, variant `truth` and camera
 variants, 100 and 200 items) and `experiments/camera_busy_line.toml` (four robots, variant
