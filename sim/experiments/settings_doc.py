@@ -29,6 +29,7 @@ from sim.episode.line_robots import RobotSpec
 from sim.errors import InvalidInput
 from sim.flow.world import WorldVariation
 from sim.paths import REPO_ROOT
+from sim.sensing.confidence import ITEM_CLASSIFIER_MIN_CONFIDENCE
 
 OUT = REPO_ROOT / "docs" / "settings.md"
 PROBES = (-1e30, "\0?", [-1e30])
@@ -174,7 +175,8 @@ def _scalars() -> list[Setting]:
         elif name == "robots":
             default, meaning = "1", comments.get(name, "")
         elif name == "min_class_confidence":
-            default = "the classifier's: 0.9 (fused, features), 0 (hmm; truth perception)"
+            threshold = f"{ITEM_CLASSIFIER_MIN_CONFIDENCE:g}"
+            default = f"the classifier's: {threshold} (fused, features), 0 (hmm; truth perception)"
             meaning = comments.get(name, "")
         else:
             default = _toml(field.default)

@@ -132,8 +132,7 @@ def variant_values(spec: EpisodeSpec, keys: tuple[str, ...]) -> dict[str, Any]:
         its preset (`world`), the preset's; `min_class_confidence` left to the classifier, the
         threshold applied; None (an empty cell) for a key the config does not hold.
     """
-    settings = settings_as_before(spec.config.to_dict())
-    settings["min_class_confidence"] = spec.config.applied_min_class_confidence
+    settings = _settings_applied(spec.config)
     out = {}
     for key in keys:
         value: Any = settings
@@ -164,6 +163,16 @@ def settings_as_before(settings: dict[str, Any]) -> dict[str, Any]:
         return settings
     placed = [{k: v for k, v in t.items() if k not in SECTION_KEYS} for t in tables]
     return settings | {"robots": placed if any(placed) else len(tables), "robot": shared[0]}
+
+
+def _settings_applied(config: EpisodeConfig) -> dict[str, Any]:
+    """`settings_as_before(config.to_dict())` with the confidence threshold the episode applies
+    (a config that leaves it to the classifier holds None): so a grid point at the classifier's
+    own threshold is told from one at 0, and a sweep begun when 0 was every classifier's
+    default does not resume under the rule."""
+    settings = settings_as_before(config.to_dict())
+    settings["min_class_confidence"] = config.applied_min_class_confidence
+    return settings
 
 
 def _merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
@@ -337,11 +346,8 @@ of the identity, so an old sweep resumes only when its episodes would still run 
 def _resolved(variant: str, config: EpisodeConfig) -> str:
     """One grid point's resolved config, seed aside, as canonical JSON (for the identity); a
     later key at its default is left out (`LATER_KEYS`)."""
-    settings = settings_as_before(config.to_dict())
+    settings = _settings_applied(config)
     settings.pop("seed")
-    # The threshold the episode applies: a grid point left to the classifier's own is told
-    # from one at 0 (a sweep begun when 0 was every classifier's default)
-    settings["min_class_confidence"] = config.applied_min_class_confidence
     for key, default in LATER_KEYS.items():
         if settings.get(key) == default:
             settings.pop(key)
