@@ -11,11 +11,52 @@ riders' sync is private to this module.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import mujoco
 import numpy as np
 
 from sim.cell.item_pool import ItemPool
 from sim.cell.riding import ItemRiding
+from sim.cell.vectors import norms
+
+
+@dataclass(frozen=True, eq=False)
+class ItemsNow:
+    """The items in play at one moment, read once for the monitors that look at them all
+    (`Items.now`): the item checks every few milliseconds of an episode.
+
+    Attributes:
+        time: Sim time [s].
+        slots: Pool slots in play, ascending (n,).
+        positions: Their centres [m], (n, 3).
+        velocities: Their free joints' velocities, linear [m/s] then angular [rad/s], (n, 6)
+            (a rider asleep reads zero).
+        speeds: Their linear speeds [m/s], (n,).
+    """
+
+    time: float
+    slots: np.ndarray
+    positions: np.ndarray
+    velocities: np.ndarray
+    speeds: np.ndarray
+
+    def in_play(self, pool: ItemPool) -> ItemsNow:
+        """The same moment without the items `pool` has parked since (parking moves no other
+        item)."""
+        keep = pool.item_ids[self.slots] >= 0
+        if keep.all():
+            return self
+        return ItemsNow(
+            self.time,
+            self.slots[keep],
+            self.positions[keep],
+            self.velocities[keep],
+            self.speeds[keep],
+        )
+
+
+_SIX = np.arange(6)
 
 
 class Items:
@@ -93,6 +134,17 @@ class Items:
         self._bring_up_to_date()
         geom = self.pool.geom_id(slot)
         return self._data.geom_xpos[geom], self._data.geom_xmat[geom]
+
+    def now(self) -> ItemsNow:
+        """The items in play now, read once (riders carried on first): see `ItemsNow`."""
+        self._bring_up_to_date()
+        data, pool = self._data, self.pool
+        slots = pool.active_slots()
+        velocities = data.qvel[pool.dof_adr[slots, None] + _SIX]
+        speeds = norms(velocities[:, :3])
+        return ItemsNow(
+            float(data.time), slots, data.xpos[pool.body_ids[slots]], velocities, speeds
+        )
 
     def velocities(self, slots: np.ndarray) -> np.ndarray:
         """Linear velocities of the items' free joints in `slots` [m/s], (n, 3), a copy (a

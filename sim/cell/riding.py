@@ -38,12 +38,17 @@ the robots.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
 
 from sim.cell.held_slots import NONE_HELD, held_mask
 from sim.cell.item_pool import ItemPool
+from sim.cell.vectors import norms
+
+if TYPE_CHECKING:
+    from sim.cell.items import ItemsNow
 
 SETTLE_SPEED_MPS = 1e-3
 """Largest difference from the belt's velocity of a settled item [m/s]."""
@@ -189,16 +194,19 @@ class ItemRiding:
         held: np.ndarray = NONE_HELD,
         robot_busy: bool = False,
         busy_paths: list[PlannedPath] | None = None,
+        now: ItemsNow | None = None,
     ) -> None:
         """Switches items to riding or back; call every `check_period` of simulated time.
         `held`: the slots the cups hold (`sim.cell.held_slots`).
         With `in_window`, which settled items in the window may start riding: given
         `busy_paths` (the planned paths of the picks under way), those the rest of no path
-        passes near; else, when `robot_busy` (a pick is under way), none."""
+        passes near; else, when `robot_busy` (a pick is under way), none. `now`: the items in
+        play as read at this moment (`sim.cell.items.ItemsNow`, riders carried on), else read
+        here."""
         if not self.enabled:
             return
         pool = self.pool
-        active = pool.active_slots()
+        active = pool.active_slots() if now is None else now.slots
         # A slot parked or re-spawned since the last call is no longer riding.
         stale = (self._rider_of >= 0) & (self._rider_of != pool.item_ids)
         if stale.any():
@@ -210,53 +218,78 @@ class ItemRiding:
         self._born[new] = data.time
         if not len(active):
             return
+        if now is None:
+            pos = data.xpos[pool.body_ids[active]]
+            vel = data.qvel[pool.dof_adr[active][:, None] + np.arange(6)]
+        else:
+            pos, vel = now.positions, now.velocities
         riding = self._rider_of[active] >= 0
-        riders, movers = active[riding], active[~riding]
-        vb = pool.belt.speed
-        v = data.qvel[pool.dof_adr[movers][:, None] + np.arange(6)]
+        movers = active[~riding]
+        mover_pos, v = pos[~riding], vel[~riding]
         settled = (
-            (np.abs(v[:, 0] - vb) <= SETTLE_SPEED_MPS)
+            (np.abs(v[:, 0] - pool.belt.speed) <= SETTLE_SPEED_MPS)
             & (np.hypot(v[:, 1], v[:, 2]) <= SETTLE_SPEED_MPS)
-            & (np.linalg.norm(v[:, 3:], axis=1) <= SETTLE_SPIN_RADPS)
+            & (norms(v[:, 3:]) <= SETTLE_SPIN_RADPS)
         )
-        # Wake the riders near the robot, and those an item not moving with the belt nears.
-        rider_xy = data.xpos[pool.body_ids[riders], :2]
-        wake = riders[rider_xy[:, 0] >= self.wake_x] if not self.in_window else riders[:0]
+        riders = active[riding]
+        self._wake_riders(data, riders, pos[riding, :2], movers, mover_pos, v, settled)
+        self._ride_settled(data, riders, movers, mover_pos, settled, held, robot_busy, busy_paths)
+
+    def _wake_riders(self, data, riders, rider_xy, movers, mover_pos, v, settled) -> None:
+        """Wake the riders near the robot (unless they ride through its window), and those an
+        item not moving with the belt nears."""
+        if not len(riders):
+            return
+        if self.in_window:
+            wake = np.zeros(len(riders), dtype=bool)
+        else:
+            wake = rider_xy[:, 0] >= self.wake_x
         loose = movers[~settled]
-        if len(riders) and len(loose):
-            loose_xy = data.xpos[pool.body_ids[loose], :2]
-            gap = np.linalg.norm(loose_xy[:, None, :] - rider_xy[None, :, :], axis=-1)
+        if len(loose):
+            loose_xy = mover_pos[~settled, :2]
+            gap = norms(loose_xy[:, None, :] - rider_xy[None, :, :])
             reach = self._radius(loose)[:, None] + self._radius(riders)[None, :] + PROXIMITY_M
             if self.in_window:  # a knocked item moves fast: wake what it can reach by then
-                speed = np.linalg.norm(v[~settled, :3] - (vb, 0.0, 0.0), axis=1)
+                vb = self.pool.belt.speed
+                speed = norms(v[~settled, :3] - (vb, 0.0, 0.0))
                 reach = reach + (2.0 * self.check_period) * speed[:, None]
-            wake = np.union1d(wake, riders[np.any(gap < reach, axis=0)])
-        for slot in wake:
-            self._wake(data, int(slot))
-        # Ride the settled items upstream of the robot that touch nothing but the belt.
-        upstream = data.xpos[pool.body_ids[movers], 0] < self.wake_x - RIDE_MARGIN_M
+            wake |= np.any(gap < reach, axis=0)
+        for slot in riders[wake].tolist():  # ascending, as the riders
+            self._wake(data, slot)
+
+    def _ride_settled(
+        self, data, riders, movers, mover_pos, settled, held, robot_busy, busy_paths
+    ) -> None:
+        """Ride the settled items upstream of the robot that touch nothing but the belt (with
+        `in_window`, in the window too, away from the picks' paths); `riders`: the slots that
+        rode at the check's start (a group of settled items touching them rides on too)."""
+        upstream = mover_pos[:, 0] < self.wake_x - RIDE_MARGIN_M
         where = upstream | (self.in_window and (busy_paths is not None or not robot_busy))
-        candidates = movers[
+        chosen = (
             settled
             & (data.time - self._born[movers] >= SETTLE_AGE_S)
             & where
             & ~held_mask(movers, held)
-        ]
-        if self.in_window and busy_paths and len(candidates):
+        )
+        if not chosen.any():
+            return
+        candidates = movers[chosen]
+        if self.in_window and busy_paths:
             # In the window: not where a pick under way will pass.
-            centre = data.xpos[pool.body_ids[candidates]]
+            centre = mover_pos[chosen]
             radius = self._radius(candidates)
             clear = np.ones(len(candidates), dtype=bool)
+            vb, t = self.pool.belt.speed, float(data.time)
             for path in busy_paths:
-                clear &= ~path.passes_near(centre, radius, vb, float(data.time))
+                clear &= ~path.passes_near(centre, radius, vb, t)
             candidates = candidates[clear | (centre[:, 0] < self.wake_x - RIDE_MARGIN_M)]
-        if not len(candidates):
-            return
+            if not len(candidates):
+                return
         calm = set(candidates.tolist()) | set(riders.tolist()) if self.in_window else set()
         touching = self._touching_other(data, calm)
-        for slot in candidates:
+        for slot in candidates.tolist():
             if slot not in touching:
-                self._ride(data, int(slot), vb)
+                self._ride(data, slot, self.pool.belt.speed)
 
     def wake_near(self, data: mujoco.MjData, slots) -> None:
         """Wakes the riders within `PROXIMITY_M` of the items in `slots` (e.g. just dropped

@@ -133,6 +133,8 @@ class SuctionCup:
         self._force = np.zeros(6)
         # [m/s^2] (read once: the option never changes)
         self._gravity = tuple(model.opt.gravity.tolist())
+        self._budget = self.force_budget  # [N], read every step while holding
+        self._parts: tuple[int, int, int, float, int] | None = None  # `_held_parts`' last
 
     @property
     def area(self) -> float:
@@ -159,6 +161,12 @@ class SuctionCup:
         """Whether the vacuum valve is open."""
         return self._vacuum
 
+    @property
+    def active(self) -> bool:
+        """Whether `update` has anything to do: the vacuum is on or an item is held (else it
+        changes nothing and returns no event)."""
+        return self._vacuum or self._held is not None
+
     def vacuum_on(self) -> None:
         """Opens the vacuum valve."""
         self._vacuum = True
@@ -181,7 +189,7 @@ class SuctionCup:
             else:
                 load = self.load(data, self._held)
                 self.last_load, self.peak_load = load, max(self.peak_load, load)
-                if load > self.force_budget:
+                if load > self._budget:
                     events.append(self._drop(data, "lost", t, load))
         elif self._vacuum:
             slot, sealing = self._touched_slot(data), self._sealing
@@ -273,29 +281,40 @@ class SuctionCup:
         self._held, self._release_at = None, None
         return SuctionEvent(kind, t, int(self.pool.item_ids[slot]), slot, load)
 
+    def _held_parts(self, slot: int) -> tuple[int, int, int, float, int]:
+        """(slot, body, first dof, mass [kg], colliding geom) of the item in `slot`, read once
+        per item held (the pool changes them only when it spawns another item there)."""
+        parts = self._parts
+        if parts is None or parts[0] != slot or parts[3] != self.model.body_mass[parts[1]]:
+            body = int(self.pool.body_ids[slot])
+            mass = float(self.model.body_mass[body])
+            parts = (slot, body, int(self.pool.dof_adr[slot]), mass, self.pool.geom_id(slot))
+            self._parts = parts
+        return parts
+
     def cup_force(self, data: mujoco.MjData, slot: int) -> tuple[float, float, float]:
         """Force of the cup on the item in `slot` [N, world]: m (a - g) - its other contacts.
 
         Runs every step while the cup holds an item: worked in Python floats (the same
-        operations as on numpy's float64), numpy only to find the item's contacts and for
-        those with anything but the lip (the item still on the belt, touching a neighbour)."""
-        body = self.pool.body_ids[slot]
-        dof = self.pool.dof_adr[slot]
-        mass = float(self.model.body_mass[body])
+        operations as on numpy's float64); the contacts are scanned as a list (a handful a
+        step), and only those with anything but the lip (the item still on the belt,
+        touching a neighbour) are read from MuJoCo."""
+        _, _, dof, mass, geom = self._held_parts(slot)
         ax, ay, az = data.qacc[dof : dof + 3].tolist()
         gx, gy, gz = self._gravity
-        force = (mass * (ax - gx), mass * (ay - gy), mass * (az - gz))
+        fx, fy, fz = mass * (ax - gx), mass * (ay - gy), mass * (az - gz)
         n = data.ncon
         if not n:
-            return force
-        geom = self.pool.geom_id(slot)
-        pairs = data.contact.geom[:n]
-        # The item's contacts in contact order: (contact, side the item is on, the other geom).
-        contacts, sides = np.nonzero(pairs == geom)
-        others = pairs[contacts, 1 - sides]
-        fx, fy, fz = force
-        for i, side, other in zip(contacts.tolist(), sides.tolist(), others.tolist(), strict=True):
-            if other == self.geom_id:
+            return fx, fy, fz
+        lip = self.geom_id
+        for i, (first, second) in enumerate(data.contact.geom[:n].tolist()):
+            if first == geom:
+                side, other = 0, second
+            elif second == geom:
+                side, other = 1, first
+            else:
+                continue
+            if other == lip:
                 continue  # the lip (the usual contacts while holding): the force sought
             mujoco.mj_contactForce(self.model, data, i, self._force)
             frame = data.contact.frame[i].reshape(3, 3)
@@ -309,7 +328,7 @@ class SuctionCup:
         fx, fy, fz = self.cup_force(data, slot)
         ax, ay, az = data.site_xmat[self.site_id, 2::3].tolist()  # the lip's axis in the world
         lx, ly, lz = data.site_xpos[self.site_id].tolist()
-        cx, cy, cz = data.xpos[self.pool.body_ids[slot]].tolist()
+        cx, cy, cz = data.xpos[self._held_parts(slot)[1]].tolist()
         if ax * (cx - lx) + ay * (cy - ly) + az * (cz - lz) < 0:
             ax, ay, az = -ax, -ay, -az  # unit vector from the lip into the item
         along = fx * ax + fy * ay + fz * az

@@ -4,8 +4,8 @@ robot's reach or past the belt's end (missed), items come to rest in a bin or el
 (`sim.monitors.bins`), tracks gone past the robots, and which settled items ride the belt
 (`sim.cell.riding`).
 
-Each is a function of the episode registered as a periodic event (`Episode._register`), as a
-user's monitor would be (`Episode.every`).
+They run as one periodic event (`run_checks`, registered by `Episode._register` as a user's
+monitor would be, `Episode.every`) on the items as read once at each check (`Items.now`).
 """
 
 from __future__ import annotations
@@ -13,9 +13,11 @@ from __future__ import annotations
 import logging
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from sim.cell.cell import Cell
 from sim.cell.held_slots import held_mask
-from sim.cell.items import Items
+from sim.cell.items import Items, ItemsNow
 from sim.flow.ground_truth import yaw_from_xmat
 from sim.monitors.bins import Bins
 from sim.sensing.attribution import attributed_item
@@ -39,7 +41,7 @@ def yaw_of(items: Items, slot: int) -> float:
     return float(yaw_from_xmat(items.orientation(slot)[None])[0])
 
 
-def warnings_and_throws(episode: Episode) -> None:
+def warnings_and_throws(episode: Episode, now: ItemsNow, held: np.ndarray) -> None:
     """MuJoCo's new warnings (a `MujocoWarning` names them), then the items thrown off the
     belt; items a cup let go of over a bin fall into it: never judged as thrown."""
     metrics, watch = episode.metrics, episode.throw_watch
@@ -50,7 +52,7 @@ def warnings_and_throws(episode: Episode) -> None:
             if event.kind == "released":
                 watch.note_released(event.item_id)
         station.cup_events_seen = len(cup.events)
-    for throw in watch.update(episode.cell.items, episode.held()):
+    for throw in watch.update(episode.cell.items, held, now):
         doing = "; ".join(s.robot.activity() for s in episode.stations)
         metrics.on_thrown(throw, doing)
         log.warning(
@@ -63,25 +65,24 @@ def warnings_and_throws(episode: Episode) -> None:
         )
 
 
-def out_of_reach(episode: Episode) -> None:
+def out_of_reach(episode: Episode, now: ItemsNow, held: np.ndarray) -> None:
     """Items past every robot's reach (not held), and items past the belt's end: missed."""
     items, metrics, tracker = episode.cell.items, episode.metrics, episode.tracker
-    active = items.active_slots()
-    pos = items.positions(active)
+    active, pos = now.slots, now.positions
     passed = (pos[:, 0] > episode.x_discard) & (pos[:, 2] > BELOW_BELT_Z)
-    for slot in active[passed & ~held_mask(active, episode.held())].tolist():  # discarded
+    discarded = passed & ~held_mask(active, held)
+    # Past the belt's end (e.g. pushed along), of those still in play.
+    beyond = ~discarded & (pos[:, 0] > items.pool.belt.geometry.x_discharge)
+    for slot in (*active[discarded].tolist(), *active[beyond].tolist()):
         item_id = items.park(slot)
         metrics.on_missed(item_id)
         episode.book_unsure(tracker.remove_true(item_id))
-    for item_id in items.park_missed():  # past the belt's end (e.g. pushed along)
-        metrics.on_missed(item_id)
-        episode.book_unsure(tracker.remove_true(item_id))
 
 
-def landings(episode: Episode) -> None:
+def landings(episode: Episode, now: ItemsNow, held: np.ndarray) -> None:
     """Items come to rest: in a bin (picked, if a cup let go of it there) or dropped."""
     metrics, released = episode.metrics, episode.throw_watch.released
-    for landing in episode.bins.update(episode.cell.items, episode.held()):
+    for landing in episode.bins.update(episode.cell.items, held, now):
         if landing.bin is None or landing.item_id not in released:
             # Only what the cup carried and let go of over a bin is picked; an item that
             # reached a bin otherwise (knocked off the belt) is dropped.
@@ -91,19 +92,31 @@ def landings(episode: Episode) -> None:
         episode.tracker.remove_true(landing.item_id)
 
 
-def gone_tracks(episode: Episode) -> None:
+def gone_tracks(episode: Episode, now: ItemsNow, held: np.ndarray) -> None:
     """Tracks gone past the robots unpicked."""
-    episode.book_unsure(episode.tracker.prune(episode.data.time, episode.x_discard))
+    episode.book_unsure(episode.tracker.prune(now.time, episode.x_discard))
 
 
-def riding(episode: Episode) -> None:
+def riding(episode: Episode, now: ItemsNow, held: np.ndarray) -> None:
     """Which settled items ride the belt, away from the paths of the picks under way."""
     paths = [s.path for s in episode.stations if s.robot.busy and s.path is not None]
-    episode.riding.update(episode.cell.items.current(), episode.held(), busy_paths=paths)
+    data = episode.cell.items.current()
+    episode.riding.update(data, held, busy_paths=paths, now=now)
 
 
 CHECKS = (warnings_and_throws, out_of_reach, landings, gone_tracks, riding)
 """The checks, in the order they run."""
+
+
+def run_checks(episode: Episode) -> None:
+    """Every check of `CHECKS` in order, on the items as read once at this moment (each check
+    after one that parked items sees them out of play) and the slots the cups hold (no check
+    changes what a cup holds)."""
+    pool = episode.cell.pool
+    now, held = episode.cell.items.now(), episode.held()
+    for check in CHECKS:
+        now = now.in_play(pool)
+        check(episode, now, held)
 
 
 def attribute(episode: Episode, created: list, t: float) -> None:

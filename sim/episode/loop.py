@@ -1,12 +1,13 @@
 """The loop of one episode: the only place that steps the physics while an episode runs.
 
-In the manner of dm_control's `Environment.step` with composer's hook lists: each physics step
-runs the `"before_step"` hooks (the busy robots' set-points), `mj_step`, the `"after_step"`
-hooks (riders' belt time, actuator log, cups: `sim.episode.step_hooks`), then every scheduled
-event due (`sim.episode.scheduler`: drops at the infeed, observations, the item checks of
-`sim.episode.item_checks`, video frames, a user's `every`), then the finished picks are booked.
-While every robot idles the physics runs in one block up to the next event or decision. Users
-register their own: `add_hook("after_step" | "before_step", fn)`, `every(period_s, fn)`.
+In the manner of dm_control's `Environment.step` with composer's hook lists. While robots play
+their picks the physics runs in chunks up to the next event or idle robot's decision, each step
+with its own work only (set-points, actuator log, riders' belt time, cups: `sim.episode.chunks`);
+while every robot idles, in one block. After each chunk or block every scheduled event due fires
+(`sim.episode.scheduler`: drops at the infeed, observations, the item checks of
+`sim.episode.item_checks`, video frames, a user's `every`), then finished picks are booked. A
+user's `add_hook("after_step" | "before_step", fn)` runs around every step (the loop then steps
+one at a time, with the episode's own hooks of `sim.episode.step_hooks`).
 
 `step_until_decision` advances until a robot is free and a choice is needed; `apply` takes the
 choice (the configured decision manager's in `run`, or a Gymnasium agent's). The episode ends
@@ -16,7 +17,6 @@ by `sim.episode.builder`.
 
 from __future__ import annotations
 
-import logging
 import time
 from collections.abc import Callable
 from dataclasses import replace
@@ -29,12 +29,12 @@ from planner.decision.registry import ask_manager
 from sim.cell.cell import Cell
 from sim.cell.held_slots import held_slots
 from sim.cell.riding import PlannedPath
-from sim.episode import builder, item_checks, stations, step_hooks
+from sim.episode import builder, chunks, item_checks, stations, step_hooks
 from sim.episode.builder import CHECK_PERIOD_S, SETTLE_S, make_decision_manager
 from sim.episode.config import EpisodeConfig
 from sim.episode.infeed import Infeed
 from sim.episode.overlay import overlay_of
-from sim.episode.pick_control import PickController, PickOutcome
+from sim.episode.pick_control import PickController
 from sim.episode.scheduler import (
     FrameEvent,
     Hooks,
@@ -52,8 +52,6 @@ from sim.sensing.confidence import is_unsure
 from sim.sensing.tracking import Tracker
 
 __all__ = ["Episode", "make_decision_manager"]
-
-log = logging.getLogger(__name__)
 
 DECIDE_PERIOD_S = 0.02
 """How often an idle robot asks the decision manager again [s]."""
@@ -99,7 +97,8 @@ class Episode:
 
     def add_hook(self, stage: str, fn: Callable[[Episode], object]) -> None:
         """Run `fn(episode)` before or after every physics step (a block of steps while every
-        robot idles), after the episode's own hooks; kept across resets.
+        robot idles), after the episode's own hooks; kept across resets. The loop then steps
+        one at a time while picks are under way, instead of in chunks (`sim.episode.chunks`).
 
         Args:
             stage: "before_step" or "after_step".
@@ -225,8 +224,7 @@ class Episode:
             self.hooks.add("after_step", fn)
         self.scheduler.add(self.infeed)
         builder.add_observations(self.scheduler, self)  # perception, visibility monitor
-        for check in item_checks.CHECKS:
-            self.scheduler.add(PeriodicEvent(CHECK_PERIOD_S, check))
+        self.scheduler.add(PeriodicEvent(CHECK_PERIOD_S, item_checks.run_checks))
         if self.video is not None:
             self.scheduler.add(FrameEvent(self.video, overlay_of))
         for stage, fn in self._user_hooks:
@@ -347,21 +345,32 @@ class Episode:
     # ----- stepping -----------------------------------------------------------------------------
 
     def _step(self) -> None:
-        """One control period while a pick is under way, else one block of steps up to the next
-        scheduled event or decision: hooks, step, hooks, events due, finished picks."""
+        """While a pick is under way, a chunk of steps up to the next event or idle robot's
+        decision (`sim.episode.chunks`; one step at a time with a user's step hooks), else one
+        block of steps up to the next event or decision; then the events due, finished picks."""
         busy = [s for s in self.stations if s.robot.busy]
         self.busy = busy
-        self.hooks.run("before_step", self)
-        nstep = 1 if busy else self._idle_steps()
-        mujoco.mj_step(self.model, self.data, nstep=nstep)
-        self.last_step_s = nstep * self._timestep
-        self.hooks.run("after_step", self)
+        if busy and not self._user_hooks:
+            t, dt = self.data.time, self._timestep
+            idle = [s.next_decision for s in self.stations if not s.robot.busy]
+            when = min([self.scheduler.next_due(t), *idle])
+            steps = chunks.steps_until_due_stepwise(t, when, dt, chunks.MAX_CHUNK_STEPS)
+            robots = [s.robot for s in busy]
+            chunks.step_busy(self.model, self.data, robots, self.actuator_log, self.riding, steps)
+            self.last_step_s = dt
+        else:
+            self.hooks.run("before_step", self)
+            nstep = 1 if busy else self._idle_steps()
+            mujoco.mj_step(self.model, self.data, nstep=nstep)
+            self.last_step_s = nstep * self._timestep
+            self.hooks.run("after_step", self)
         self._fire_due()
         if busy:
             for station in busy:
                 outcome = station.robot.poll()
-                if outcome is not None:
-                    self._finish_pick(station, outcome)
+                if outcome is not None:  # booked; the robot decides again at once
+                    stations.book_pick(self, station, outcome)
+                    station.next_decision = self.data.time
             return
         t = self.data.time
         if self.progress is not None and t - self._last_report >= 1.0:
@@ -387,11 +396,6 @@ class Episode:
     def held(self) -> np.ndarray:
         """The pool slots the robots' cups hold now, robot by robot (`sim.cell.held_slots`)."""
         return held_slots(s.robot.suction.held_slot for s in self.stations)
-
-    def _finish_pick(self, station: RobotStation, outcome: PickOutcome) -> None:
-        """Book a finished pick (`sim.episode.stations.book_pick`) and decide again at once."""
-        stations.book_pick(self, station, outcome)
-        station.next_decision = self.data.time
 
     def observe(self) -> None:
         """The perception's detections now, handed to the tracker (timed); new tracks booked

@@ -537,10 +537,12 @@ class PickController:
         )
         self.sleep.busy()
         self.aimed_slot, self._planned_slot = self._planned_slot, None
+        playback = self._playback_of(plan.chain)
         self._pick = _PickInProgress(
             chain=plan.chain,
             target=int(target),
-            playback=self._playback_of(plan.chain),
+            playback=playback,
+            times=playback.times.tolist(),
             vacuum_from=plan.chain.phase_start("descend"),
             release_time=plan.release_time,
             t_start=float(self.cell.data.time),
@@ -577,13 +579,17 @@ class PickController:
         if pick is not None and pick.k < pick.playback.n:
             pick.playback.apply(pick.k)
 
-    def after_step(self) -> None:
-        """The cup after a physics step: vacuum on at the descent, off at the drop point."""
+    def after_step(self) -> bool:
+        """The cup after a physics step: vacuum on at the descent, off at the drop point.
+
+        Returns whether the loop must look at the pick before the next step: the cup did
+        something (sealed, lost or released an item), or the chain has been played (`poll`).
+        """
         pick, data, cup = self._pick, self.cell.data, self.suction
         if pick is None:
-            return
+            return False
         if pick.k < pick.playback.n:
-            t_traj = float(pick.playback.times[pick.k])
+            t_traj = pick.times[pick.k]
             pick.k += 1
             if not pick.vacuum_on and t_traj >= pick.vacuum_from:
                 cup.vacuum_on()
@@ -591,7 +597,12 @@ class PickController:
             if not pick.vacuum_off and t_traj >= pick.release_time:
                 cup.vacuum_off(float(data.time))
                 pick.vacuum_off = True
-        pick.events.extend(cup.update(data))
+        if cup.active:  # else `update` changes nothing
+            events = cup.update(data)
+            if events:
+                pick.events.extend(events)
+                return True
+        return pick.k >= pick.playback.n
 
     def poll(self) -> PickOutcome | None:
         """The outcome once the chain has been played and the cup has let go, else None."""
@@ -622,6 +633,7 @@ class _PickInProgress:
     chain: object
     target: int
     playback: Playback
+    times: list[float]  # the playback's period ends [s], as Python floats (read every step)
     vacuum_from: float
     release_time: float
     t_start: float

@@ -153,6 +153,13 @@ class Scheduler:
         if due or self._earliest == -math.inf:
             self._earliest = self.next_time(t)
 
+    def next_due(self, t: float) -> float:
+        """The earliest time an event is due next [s] (inf: none), as kept between firings
+        (`fire_due` notes it after each firing), seen at sim time `t` [s]."""
+        if self._earliest == -math.inf:
+            self._earliest = self.next_time(t)
+        return self._earliest
+
     def next_time(self, t: float) -> float:
         """The earliest time an event is due next [s] (inf: none)."""
         times = (event.next_time(t) for event in self.events)

@@ -18,7 +18,7 @@ import numpy as np
 
 from perception.codes import THESIS_MATERIALS, Materials
 from sim.cell.held_slots import NONE_HELD, held_mask
-from sim.cell.items import Items
+from sim.cell.items import Items, ItemsNow
 
 BIN_CLASSES = THESIS_MATERIALS.names
 """The thesis's bins (a catalogue's materials name others)."""
@@ -116,22 +116,24 @@ class Bins:
                 return name
         return None
 
-    def update(self, items: Items, held: np.ndarray = NONE_HELD) -> list[Landing]:
+    def update(
+        self, items: Items, held: np.ndarray = NONE_HELD, now: ItemsNow | None = None
+    ) -> list[Landing]:
         """Judges the items that came to rest off the belt; parks them; returns the new records.
 
         Args:
             items: The cell's items.
             held: The slots the cups hold (`sim.cell.held_slots`): never judged.
+            now: The items as read at this moment (`Items.now`); read here when None.
         """
-        pool, t = self.pool, items.time
+        now = items.now() if now is None else now
+        pool, t = self.pool, now.time
         belt = pool.belt.geometry
-        slots = items.active_slots()
-        slots = slots[~held_mask(slots, held)]
+        free = ~held_mask(now.slots, held)
+        slots, pos = now.slots[free], now.positions[free]
         self._rest_since[held] = np.nan
-        pos = items.positions(slots)
-        vel = items.velocities(slots)
         fell = pos[:, 2] < self.lowest_z - 0.05
-        moving = (np.linalg.norm(vel, axis=1) > REST_SPEED) & ~fell
+        moving = (now.speeds[free] > REST_SPEED) & ~fell
         self._rest_since[slots[moving]] = np.nan
         still = slots[~moving]
         self._rest_since[still] = np.where(
@@ -140,6 +142,8 @@ class Bins:
         riding = belt.on_belt(pos[:, :2]) & (pos[:, 2] > belt.top_z - 0.01)
         settled = (t - self._rest_since[slots] >= REST_TIME - 1e-9) & ~riding
         judged = ~moving & (settled | fell)
+        if not judged.any():
+            return []
         new = []
         for slot, p, fell_through in zip(slots[judged], pos[judged], fell[judged], strict=True):
             slot = int(slot)

@@ -50,12 +50,10 @@ class WarningCounter:
         self.by_kind = dict.fromkeys(KINDS, 0)
 
     def _take(self) -> np.ndarray:
-        counts = np.zeros(len(KINDS), dtype=np.int64)
-        for i in range(len(KINDS)):
-            stat = self.data.warning[i]
-            counts[i] = stat.number
-            if stat.number:
-                stat.number = 0
+        numbers = self.data.warning.number  # a view of every kind's count
+        counts = numbers.astype(np.int64)
+        if counts.any():
+            numbers[:] = 0
         return counts
 
     def update(self) -> dict[str, int]:

@@ -23,7 +23,7 @@ import numpy as np
 from sim.cell.conveyor import RAIL_GEOMS
 from sim.cell.held_slots import NONE_HELD, held_mask
 from sim.cell.item_pool import ItemPool
-from sim.cell.items import Items
+from sim.cell.items import Items, ItemsNow
 from sim.flow.config import X_INFEED
 
 THROW_SPEED_MPS = 1.5
@@ -82,40 +82,57 @@ class ThrowWatch:
         self.y_limit = rail_outer_y(model) - belt.y_centre
         self.x_upstream = X_INFEED - UPSTREAM_MARGIN_M
         self.released: set[int] = set()
+        self._released_ids = np.zeros(64, dtype=bool)  # `released` by flow id
         self.thrown: dict[int, Throw] = {}
         self.peak_speed = 0.0
         """Fastest item seen not held and not released over a bin [m/s] (margin to the limit)."""
 
     def note_released(self, item_id: int) -> None:
         """The cup let go of `item_id` at the drop point: it falls into a bin, not judged."""
-        self.released.add(int(item_id))
+        item_id = int(item_id)
+        self.released.add(item_id)
+        if item_id >= len(self._released_ids):
+            grown = np.zeros(max(2 * len(self._released_ids), item_id + 1), dtype=bool)
+            grown[: len(self._released_ids)] = self._released_ids
+            self._released_ids = grown
+        self._released_ids[item_id] = True
 
-    def update(self, items: Items, held: np.ndarray = NONE_HELD) -> list[Throw]:
+    def _released_mask(self, ids: np.ndarray) -> np.ndarray:
+        """(n,) whether each flow id of `ids` (n,) was let go of over a bin."""
+        known = ids < len(self._released_ids)
+        out = np.zeros(len(ids), dtype=bool)
+        out[known] = self._released_ids[ids[known]]
+        return out
+
+    def update(
+        self, items: Items, held: np.ndarray = NONE_HELD, now: ItemsNow | None = None
+    ) -> list[Throw]:
         """The items newly thrown off since the last call (call every few ms).
 
         Args:
             items: The cell's items.
             held: The slots the cups hold (`sim.cell.held_slots`): never judged.
+            now: The items as read at this moment (`Items.now`); read here when None.
         """
-        pool = self.pool
-        slots = items.active_slots()
-        slots = slots[~held_mask(slots, held)]
-        if not len(slots):
+        now = items.now() if now is None else now
+        free = ~held_mask(now.slots, held)
+        if not free.any():
             return []
-        ids = pool.item_ids[slots]
-        judged = np.array([i not in self.released for i in ids.tolist()], dtype=bool)
+        ids = self.pool.item_ids[now.slots]
+        judged = free & ~self._released_mask(ids)
         if not judged.any():
             return []
-        slots, ids = slots[judged], ids[judged]
-        pos = items.positions(slots)
-        vel = items.velocities(slots)
-        speed = np.linalg.norm(vel, axis=1)
+        ids, pos = ids[judged], now.positions[judged]
+        vel, speed = now.velocities[judged, :3], now.speeds[judged]
         self.peak_speed = max(self.peak_speed, float(speed.max()))
         sideways = np.abs(pos[:, 1] - self.y_centre) > self.y_limit
         upstream = pos[:, 0] < self.x_upstream
         fast = speed > self.speed_limit
+        off = sideways | upstream | fast
+        if not off.any():
+            return []
         new = []
-        for k in np.flatnonzero(sideways | upstream | fast):
+        for k in np.flatnonzero(off):
             item = int(ids[k])
             if item in self.thrown:
                 continue
