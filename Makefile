@@ -26,8 +26,11 @@ test: $(STAMP)
 test-all: $(STAMP)
 	$(PY) -m pytest -q -n 2 --dist loadfile
 
+# The benchmark scripts, then today's code timed beside BENCH_AGAINST (the speed issue's
+# reference commit) in the same run: `sortsim bench --against COMMIT`.
+BENCH_AGAINST ?= ef30036
 bench: $(STAMP)
-	$(VENV)/bin/sortsim bench
+	$(VENV)/bin/sortsim bench --against $(BENCH_AGAINST)
 
 # 200 random single-cell episodes and 200 random lines (2-4 robots, 100-400 items), each
 # checked: counts add up, no MuJoCo warning, finite state, nothing thrown off the belt

@@ -156,3 +156,22 @@ def test_a_dense_flow_rides_the_whole_belt_and_every_item_is_missed_in_order():
     assert sorted(missed) == list(range(len(flow)))
     assert lowest > -0.005  # no item ever dropped below the belt surface
     assert not any(w.number for w in data.warning)
+
+
+def test_a_pool_sized_for_its_flow_gives_the_results_of_the_full_pool():
+    from sim.cell.item_pool import pool_size_for
+    from sim.episode import config as episode_config
+    from sim.episode.runner import config_cell, run_episode
+
+    cfg = episode_config.load(None, perception="truth", seed=12, items=30, duration_s=20.0)
+    sized = config_cell(cfg, sized=True)
+    full = config_cell(cfg)
+    assert sized.pool.size < full.pool.size == sized.pool_capacity == 72
+    a, b = run_episode(cfg, cell=sized), run_episode(cfg, cell=full)
+    wall = ("wall_s", "real_time_factor")
+    assert {k: v for k, v in a.episode_row.items() if k not in wall} == {
+        k: v for k, v in b.episode_row.items() if k not in wall
+    }
+    assert a.pick_rows == b.pick_rows
+    assert pool_size_for(27, 72) == 48 and pool_size_for(70, 72) == 72
+    assert pool_size_for(0, 160) == 16

@@ -40,6 +40,8 @@ class Cell:
             (`sim/data/items.toml`, the thesis's paper, plastic and aluminium) when omitted.
         prefixes: The robots' name prefixes in the model, upstream first; ("",) (the scene's
             one robot) when omitted.
+        pool_capacity: The items on the belt at once that the flows it takes are refused
+            beyond (`sim.episode.builder.episode_flow`); its pool's size when omitted.
     """
 
     def __init__(
@@ -48,6 +50,7 @@ class Cell:
         settings: CellSettings | None = None,
         catalogue: Catalogue | None = None,
         prefixes: tuple[str, ...] = ("",),
+        pool_capacity: int | None = None,
     ):
         if not prefixes:
             raise ValueError("a cell has at least one robot (prefixes)")
@@ -61,6 +64,9 @@ class Cell:
         self.data = mujoco.MjData(self.model)
         self.belt = Belt(self.model)
         self.pool = ItemPool(self.model, self.catalogue, self.belt)
+        self.pool_capacity = self.pool.size if pool_capacity is None else int(pool_capacity)
+        """The most items any flow this cell takes may have on the belt at once (the pool's
+        size, or more for a pool sized for one flow, `sim.cell.item_pool.pool_size_for`)."""
         self.items = Items(self.model, self.data, self.pool)
         """The items, read through accessors that keep riders' poses right."""
         self.robots = tuple(

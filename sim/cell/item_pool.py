@@ -63,6 +63,21 @@ def label_size(item_type: ItemType) -> tuple[float, float]:
     return LABEL_RADIUS_GAIN * radius, LABEL_LENGTH_SHARE * half
 
 
+POOL_MARGIN = 16
+"""Bodies a pool sized for one flow has beyond the most items the flow has on the belt at once
+(none picked, `sim.flow.generator.max_items_on_belt`): items falling into a bin, or held up on
+the belt, stay in play a little longer than the flow's count assumes."""
+
+
+def pool_size_for(most: int, capacity: int) -> int:
+    """Bodies of a pool sized for a flow with at most `most` items on the belt at once: that
+    and `POOL_MARGIN`, in steps of 8 (so flows of a sweep share a few compiled cells), at most
+    `capacity`. Parked bodies sleep but MuJoCo still pays for each every step (kinematics,
+    broad phase, integration: about 0.13 us a body); the bodies a flow uses, their order and so
+    every result are the same in any pool large enough (`tests/test_item_pool.py`)."""
+    return min(int(capacity), 8 * math.ceil((int(most) + POOL_MARGIN) / 8))
+
+
 class ItemPool:
     """Which pool slot plays which flow item, and the writes that spawn and park them.
 

@@ -320,7 +320,6 @@ def check_perception(config) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Run one episode and write its files."""
-    from sim.evaluation.item_features import prepare_camera
     from sim.paths import CACHE_DIR, remove_stale_temporaries
     from sim.results.locks import FolderLock
     from sim.results.outputs import OutputError
@@ -332,7 +331,10 @@ def main(args: argparse.Namespace) -> int:
     with FolderLock(out, "--out"):
         extra = [] if video_path is None else [video_path.parent]
         remove_stale_temporaries(out, CACHE_DIR, *extra)
-        prepare_camera(config)  # a custom catalogue's item classifier table, recorded once
+        if config.perception == "camera":  # its modules cost a truth run a second to import
+            from sim.evaluation.item_features import prepare_camera
+
+            prepare_camera(config)  # a custom catalogue's item classifier table, recorded once
         progress = None if args.quiet else Progress()
         result, video = run_with_video(config, video_path, progress)
         if progress is not None:
@@ -373,7 +375,7 @@ def run_with_video(config, video_path: Path | None, progress):
         return run_episode(config, progress=progress), None
     from sim.render.video import VideoRecorder
 
-    cell = config_cell(config)
+    cell = config_cell(config, sized=True)
     v = config.video
     video = KeptVideo.start(VideoRecorder, cell.model, video_path, v.fps, v.width, v.height)
     try:

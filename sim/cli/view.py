@@ -62,7 +62,7 @@ def main(args: argparse.Namespace) -> int:
     from sim.episode.runner import config_cell, run_episode
     from sim.render.live_view import LiveView, ViewerClosed
 
-    cell = config_cell(config)
+    cell = config_cell(config, sized=True)
     view = LiveView(cell.model, cell.data, args.real_time_factor, panels=args.panels)
     progress = None if args.quiet else Progress()
     try:

@@ -30,7 +30,7 @@ from sim.episode.scheduler import PeriodicEvent, Scheduler
 from sim.episode.stations import RobotStation
 from sim.errors import InvalidInput
 from sim.flow.config import X_INFEED
-from sim.flow.generator import Flow, generate_flow
+from sim.flow.generator import Flow, generate_flow, max_items_on_belt
 from sim.monitors.energy import ActuatorLog, EnergyMeter
 from sim.monitors.visibility import SCALE, VisibilityWatch, belt_slope
 from sim.render.segmentation import shared_segmentation
@@ -119,13 +119,36 @@ class Timeline:
         return cls(t_last_spawn, x_discard, t_end, t_end + 10.0)
 
 
+_FLOWS: dict[tuple, Flow] = {}
+"""The flows made last, by (flow config, catalogue digest, pool capacity): a cell's pool is
+sized for a flow (`sim.episode.runner.config_cell`), then its episode runs that flow."""
+
+
+def config_flow(config: EpisodeConfig, catalogue, capacity: int) -> Flow:
+    """The flow of the config's seed on `catalogue`, refused as a pool of `capacity` bodies
+    refuses it (`sim.flow.generator.generate_flow`); made once for both callers."""
+    key = (config.flow_config(), catalogue.digest, int(capacity))
+    flow = _FLOWS.get(key)
+    if flow is None:
+        flow = generate_flow(key[0], catalogue, key[2])
+        if len(_FLOWS) >= 4:
+            _FLOWS.clear()
+        _FLOWS[key] = flow
+    return flow
+
+
 def episode_flow(config: EpisodeConfig, cell: Cell) -> Flow:
     """The flow of the config's seed, for the cell's catalogue and pool."""
     if cell.catalogue.digest != config.item_catalogue.digest:
         raise InvalidInput(
             "catalogue", "the catalogue the cell was built from", config.catalogue or "default"
         )
-    return generate_flow(config.flow_config(), cell.catalogue, cell.pool.size)
+    flow = config_flow(config, cell.catalogue, cell.pool_capacity)
+    most = max_items_on_belt(flow)
+    if most > cell.pool.size:
+        allowed = f"flows with at most {cell.pool.size} items on the belt at once (its pool)"
+        raise InvalidInput("cell", allowed, f"a flow with {most} (config_cell(config))")
+    return flow
 
 
 def episode_metrics(config: EpisodeConfig, cell: Cell, flow: Flow) -> EpisodeMetrics:

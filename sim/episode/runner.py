@@ -63,6 +63,7 @@ def shared_cell(
     line: bool = False,
     positions_m: tuple[float, ...] = (),
     cameras_per_robot: bool = False,
+    pool_size: int | None = None,
 ):
     """This process's cell of `settings` (an episode config's `cell_settings`; the scene's when
     None) and `catalogue` (the default one when None; its materials name the bins): compiled
@@ -70,7 +71,8 @@ def shared_cell(
     sweep over the cup's diameter, the belt's length or the catalogue gets each its own model.
     A line of `robots` stands at `positions_m` along the belt [m] (() the default spacing,
     `sim.model.line_model.LineLayout`); one robot away from x = 0 runs on a line's model; a
-    line of several robots with `cameras_per_robot` has a belt camera for each robot."""
+    line of several robots with `cameras_per_robot` has a belt camera for each robot. Its item
+    pool has `pool_size` bodies (`pool_capacity` when None: the most any flow may need)."""
     from sim.model.line_model import LineLayout, compile_line
 
     if catalogue is None:
@@ -82,20 +84,46 @@ def shared_cell(
     layout = LineLayout(robots, tuple(positions_m), prefixes, cameras_per_robot=cameras)
     line = line or robots > 1 or layout.positions_m[0] != 0.0
     settings = settings or CellSettings()
-    key = (os.getpid(), settings, catalogue.digest, robots, line, layout.positions_m, cameras)
+    capacity = pool_capacity(line)
+    size = capacity if pool_size is None else min(int(pool_size), capacity)
+    key = (os.getpid(), settings, catalogue.digest, robots, line, layout.positions_m, cameras, size)
     if key not in _CELLS:
-        if not line:
-            _CELLS[key] = Cell(settings=key[1], catalogue=catalogue)
+        if not line and size == capacity:
+            cell = Cell(settings=key[1], catalogue=catalogue)
+        elif not line:  # the single cell with a smaller pool
+            model = compile_line(LineLayout(), key[1], catalogue.materials, pool_size=size)
+            cell = Cell(model, key[1], catalogue, pool_capacity=capacity)
         else:  # a sorting line, or one robot with a line's item pool
-            model = compile_line(layout, key[1], catalogue.materials)
-            _CELLS[key] = Cell(model, key[1], catalogue, layout.prefixes)
+            model = compile_line(layout, key[1], catalogue.materials, pool_size=size)
+            cell = Cell(model, key[1], catalogue, layout.prefixes, pool_capacity=capacity)
+        _CELLS[key] = cell
     return _CELLS[key]
 
 
-def config_cell(config: EpisodeConfig):
+def pool_capacity(line: bool) -> int:
+    """Item bodies the pool of a cell (`line` False) or of a line has when not sized for one
+    flow: the most items any flow it takes may have on the belt at once."""
+    from sim.model.item_pool_xml import POOL_SIZE
+    from sim.model.line_model import LINE_POOL_SIZE
+
+    return LINE_POOL_SIZE if line else POOL_SIZE
+
+
+def config_cell(config: EpisodeConfig, sized: bool = False):
     """This process's shared cell for `config` (`shared_cell` of its model settings,
     catalogue, robots and their positions, and a camera per robot for a line's camera
-    perception with `[camera] per_robot`)."""
+    perception with `[camera] per_robot`); with `sized`, its item pool sized for the flow of
+    the config's seed (`sim.cell.item_pool.pool_size_for`: fewer parked bodies for MuJoCo to
+    step, the same results), else for any flow (a cell reset with other seeds)."""
+    size = None
+    if sized:
+        from sim.cell.item_pool import pool_size_for
+        from sim.episode.builder import config_flow
+        from sim.flow.generator import max_items_on_belt
+
+        capacity = pool_capacity(config.line_cell)
+        flow = config_flow(config, config.item_catalogue, capacity)
+        size = pool_size_for(max_items_on_belt(flow), capacity)
     return shared_cell(
         config.cell_settings,
         config.item_catalogue,
@@ -103,6 +131,7 @@ def config_cell(config: EpisodeConfig):
         config.line_cell,
         config.robot_positions_m,
         config.camera.per_robot and config.perception == "camera",
+        pool_size=size,
     )
 
 
@@ -134,7 +163,7 @@ def run_episode(
         raise ValueError("run_episode takes a video_path or a recorder, not both")
     wall0, cpu0 = time.perf_counter(), time.process_time()
     if cell is None:
-        cell = config_cell(config)
+        cell = config_cell(config, sized=True)
     video = recorder
     if video_path is not None:
         from sim.render.video import VideoRecorder

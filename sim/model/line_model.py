@@ -379,7 +379,11 @@ def _scene_with_pool(pool_size: int, folder: Path) -> Path:
 
 
 def line_spec(
-    layout: LineLayout, settings: CellSettings | None = None, materials=None, path=SCENE_XML
+    layout: LineLayout,
+    settings: CellSettings | None = None,
+    materials=None,
+    path=SCENE_XML,
+    pool_size: int | None = None,
 ) -> mujoco.MjSpec:
     """The line's `MjSpec` (see the module docstring), not yet holding the keyframe `home` of a
     line of several robots (`compile_line` adds it, from the compiled robots' keys).
@@ -391,6 +395,8 @@ def line_spec(
         materials: One bin per material for each robot (`perception.codes.Materials`); the
             thesis's when None.
         path: The scene file.
+        pool_size: Item bodies in the pool (the scene's file: `sim.model.item_pool_xml`);
+            the scene's own for one robot in place, `LINE_POOL_SIZE` for a line, when None.
 
     Raises:
         ModelFileError: the scene or the robot's file is refused (`sim.model.mjcf`).
@@ -400,11 +406,13 @@ def line_spec(
 
     settings = settings or CellSettings()
     materials = THESIS_MATERIALS if materials is None else materials
-    if layout.in_place or path != SCENE_XML:
+    if pool_size is None and not layout.in_place:
+        pool_size = LINE_POOL_SIZE
+    if pool_size is None or path != SCENE_XML:
         spec = load_spec(path, CELL_ELEMENTS)
-    else:  # the scene with a pool of `LINE_POOL_SIZE` bodies
+    else:  # the scene with a pool of `pool_size` bodies
         with tempfile.TemporaryDirectory() as folder:
-            spec = load_spec(_scene_with_pool(LINE_POOL_SIZE, Path(folder)), CELL_ELEMENTS)
+            spec = load_spec(_scene_with_pool(pool_size, Path(folder)), CELL_ELEMENTS)
     set_belt_length(spec, max(settings.belt_length_m, layout.belt_length_m))
     lay_out_bins(spec, materials)  # the file's own bins for the thesis's materials
     if layout.in_place:
@@ -442,6 +450,7 @@ def compile_line(
     settings: CellSettings | None = None,
     materials=None,
     path=SCENE_XML,
+    pool_size: int | None = None,
 ) -> mujoco.MjModel:
     """The line's compiled model (arguments as `line_spec`; `LineLayout()` when None: the
     single cell), checked as `sim.model.mjcf` checks a file, every robot's elements present.
@@ -452,7 +461,7 @@ def compile_line(
     from sim.model.mjcf import compile_spec
 
     layout = layout or LineLayout()
-    spec = line_spec(layout, settings, materials, path)
+    spec = line_spec(layout, settings, materials, path, pool_size)
     elements = line_elements(layout, materials)
     if layout.in_place:
         return compile_spec(spec, path, elements)
