@@ -224,8 +224,13 @@ class ItemRiding:
         else:
             pos, vel = now.positions, now.velocities
         riding = self._rider_of[active] >= 0
-        movers = active[~riding]
-        mover_pos, v = pos[~riding], vel[~riding]
+        moving = ~riding
+        if not moving.any():  # no item to ride or to wake a rider: only the wake line
+            if not self.in_window:
+                self._wake_riders(data, active, pos[:, :2], active[:0], pos[:0], vel[:0], None)
+            return
+        movers = active[moving]
+        mover_pos, v = pos[moving], vel[moving]
         settled = (
             (np.abs(v[:, 0] - pool.belt.speed) <= SETTLE_SPEED_MPS)
             & (np.hypot(v[:, 1], v[:, 2]) <= SETTLE_SPEED_MPS)
@@ -244,7 +249,7 @@ class ItemRiding:
             wake = np.zeros(len(riders), dtype=bool)
         else:
             wake = rider_xy[:, 0] >= self.wake_x
-        loose = movers[~settled]
+        loose = movers[~settled] if len(movers) else movers
         if len(loose):
             loose_xy = mover_pos[~settled, :2]
             gap = norms(loose_xy[:, None, :] - rider_xy[None, :, :])

@@ -65,24 +65,29 @@ def warnings_and_throws(episode: Episode, now: ItemsNow, held: np.ndarray) -> No
         )
 
 
-def out_of_reach(episode: Episode, now: ItemsNow, held: np.ndarray) -> None:
-    """Items past every robot's reach (not held), and items past the belt's end: missed."""
+def out_of_reach(episode: Episode, now: ItemsNow, held: np.ndarray) -> bool:
+    """Items past every robot's reach (not held), and items past the belt's end: missed.
+    Returns whether any was."""
     items, metrics, tracker = episode.cell.items, episode.metrics, episode.tracker
     active, pos = now.slots, now.positions
     passed = (pos[:, 0] > episode.x_discard) & (pos[:, 2] > BELOW_BELT_Z)
     discarded = passed & ~held_mask(active, held)
     # Past the belt's end (e.g. pushed along), of those still in play.
     beyond = ~discarded & (pos[:, 0] > items.pool.belt.geometry.x_discharge)
-    for slot in (*active[discarded].tolist(), *active[beyond].tolist()):
+    gone = (*active[discarded].tolist(), *active[beyond].tolist())
+    for slot in gone:
         item_id = items.park(slot)
         metrics.on_missed(item_id)
         episode.book_unsure(tracker.remove_true(item_id))
+    return bool(gone)
 
 
-def landings(episode: Episode, now: ItemsNow, held: np.ndarray) -> None:
-    """Items come to rest: in a bin (picked, if a cup let go of it there) or dropped."""
+def landings(episode: Episode, now: ItemsNow, held: np.ndarray) -> bool:
+    """Items come to rest: in a bin (picked, if a cup let go of it there) or dropped. Returns
+    whether any did (and was parked)."""
     metrics, released = episode.metrics, episode.throw_watch.released
-    for landing in episode.bins.update(episode.cell.items, held, now):
+    landed = episode.bins.update(episode.cell.items, held, now)
+    for landing in landed:
         if landing.bin is None or landing.item_id not in released:
             # Only what the cup carried and let go of over a bin is picked; an item that
             # reached a bin otherwise (knocked off the belt) is dropped.
@@ -90,6 +95,7 @@ def landings(episode: Episode, now: ItemsNow, held: np.ndarray) -> None:
         else:
             metrics.on_binned(landing.item_id, landing.true_class, landing.bin_class)
         episode.tracker.remove_true(landing.item_id)
+    return bool(landed)
 
 
 def gone_tracks(episode: Episode, now: ItemsNow, held: np.ndarray) -> None:
@@ -105,18 +111,18 @@ def riding(episode: Episode, now: ItemsNow, held: np.ndarray) -> None:
 
 
 CHECKS = (warnings_and_throws, out_of_reach, landings, gone_tracks, riding)
-"""The checks, in the order they run."""
+"""The checks, in the order they run; a check that returns True has parked items."""
 
 
 def run_checks(episode: Episode) -> None:
-    """Every check of `CHECKS` in order, on the items as read once at this moment (each check
-    after one that parked items sees them out of play) and the slots the cups hold (no check
+    """Every check of `CHECKS` in order, on the items as read once at this moment (the checks
+    after one that parked items see them out of play) and the slots the cups hold (no check
     changes what a cup holds)."""
     pool = episode.cell.pool
     now, held = episode.cell.items.now(), episode.held()
     for check in CHECKS:
-        now = now.in_play(pool)
-        check(episode, now, held)
+        if check(episode, now, held):
+            now = now.in_play(pool)
 
 
 def attribute(episode: Episode, created: list, t: float) -> None:

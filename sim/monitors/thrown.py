@@ -99,10 +99,11 @@ class ThrowWatch:
 
     def _released_mask(self, ids: np.ndarray) -> np.ndarray:
         """(n,) whether each flow id of `ids` (n,) was let go of over a bin."""
-        known = ids < len(self._released_ids)
-        out = np.zeros(len(ids), dtype=bool)
-        out[known] = self._released_ids[ids[known]]
-        return out
+        if len(ids) and ids.max() >= len(self._released_ids):
+            grown = np.zeros(2 * int(ids.max()) + 1, dtype=bool)
+            grown[: len(self._released_ids)] = self._released_ids
+            self._released_ids = grown
+        return self._released_ids[ids]
 
     def update(
         self, items: Items, held: np.ndarray = NONE_HELD, now: ItemsNow | None = None
@@ -115,22 +116,21 @@ class ThrowWatch:
             now: The items as read at this moment (`Items.now`); read here when None.
         """
         now = items.now() if now is None else now
-        free = ~held_mask(now.slots, held)
-        if not free.any():
-            return []
-        ids = self.pool.item_ids[now.slots]
-        judged = free & ~self._released_mask(ids)
+        judged = ~self._released_mask(self.pool.item_ids[now.slots])
+        if len(held):
+            judged &= ~held_mask(now.slots, held)
         if not judged.any():
             return []
-        ids, pos = ids[judged], now.positions[judged]
-        vel, speed = now.velocities[judged, :3], now.speeds[judged]
-        self.peak_speed = max(self.peak_speed, float(speed.max()))
+        pos, speed = now.positions, now.speeds
+        self.peak_speed = max(self.peak_speed, float(speed[judged].max()))
         sideways = np.abs(pos[:, 1] - self.y_centre) > self.y_limit
         upstream = pos[:, 0] < self.x_upstream
         fast = speed > self.speed_limit
-        off = sideways | upstream | fast
+        off = judged & (sideways | upstream | fast)
         if not off.any():
             return []
+        ids = self.pool.item_ids[now.slots]
+        vel = now.velocities[:, :3]
         new = []
         for k in np.flatnonzero(off):
             item = int(ids[k])
