@@ -12,6 +12,7 @@ import pytest
 from perception.camera.rectify import colour_mask
 from sim.cell.camera import (
     BeltCamera,
+    _metric_depth,
     camera_id,
     camera_pose,
     marker_points,
@@ -158,6 +159,40 @@ def test_the_depth_pass_is_the_same_on_one_sample(cell_with_items):
     assert not np.array_equal(*colours)
     assert np.array_equal(*depths)
     assert np.ptp(depths[0]) > 0.1  # the items stand out of the belt
+
+
+def test_one_colour_pass_and_the_clear_items_give_the_segmentation_passs_depth(cell_with_items):
+    """On one sample the camera reads the colour and the depth of one colour pass and adds the
+    transparent geoms' depth from a segmentation pass of them alone: the same frame and the
+    same depth, bit for bit, as `mujoco.Renderer`'s colour render and its depth (segmentation)
+    render of the whole scene, though the colour pass's own depth misses the clear bottle and
+    the camera's scene leaves out the geoms out of its view (the robot, the bins)."""
+    model, data = cell_with_items
+    with BeltCamera(model, 640, 360, lens=None, samples=0) as camera:
+        frame, depth = camera.render_rgbd(data)
+        renderer = camera.renderer
+        scene = renderer.scene
+        transparent = [scene.geoms[k].transparent for k in range(scene.ngeom)]
+        scene.flags[:] = renderer._defaults
+        scene.flags[SKYBOX] = False
+        own = np.empty((360, 640), np.float32)
+        renderer._render((640, 360), 0, None, own)
+        own = _metric_depth(model, scene, own)[::-1]
+    assert 0 < sum(transparent) < len(transparent)
+    reference = renderer_with_samples(model, 640, 360, 0)
+    try:
+        reference.update_scene(data, camera=camera_id(model))
+        reference.scene.flags[SKYBOX] = False
+        colours = reference.render()
+        reference.enable_depth_rendering()
+        depths = reference.render()
+    finally:
+        reference.close()
+    assert len(transparent) < reference.scene.ngeom
+    assert np.array_equal(frame, colours)
+    assert np.array_equal(depth, depths)
+    farther = own > depths + 0.01  # the colour pass sees the belt through the clear bottle
+    assert farther.sum() > 100 and np.array_equal(own[~farther], depths[~farther])
 
 
 def test_frames_with_depth_leave_out_only_a_sky_nobody_sees(cell_with_items, fixture_model):
