@@ -137,10 +137,16 @@ class OnlineStripeHmms:
         )
         self.models = StripeHmms(self.models.pi, fitted.A, fitted.B)
 
-    def smoothed_window(self) -> np.ndarray:
-        """(W, S, N) smoothed posteriors of the rows in the window (fixed-lag smoothing)."""
+    def smoothed_window(self, last: int | None = None) -> np.ndarray:
+        """(W, S, N) smoothed posteriors of the rows in the window (fixed-lag smoothing), or
+        of its `last` newest rows only (the backward pass then stops there: the same values).
+        """
         codes, _ = self.window()
         models = self._window_models()
         alpha, c, steps, _ = forward_stripes(models, codes.T)
-        beta = backward(steps, emission_probs(models.B, codes.T), c)
-        return (alpha * beta).transpose(1, 0, 2)
+        rows = alpha.shape[1] if last is None else min(int(last), alpha.shape[1])
+        start = alpha.shape[1] - rows
+        # beta of row t needs only the rows after t: the newest rows' pass is the whole one's.
+        bo = emission_probs(models.B, codes.T)[:, start:]
+        beta = backward(steps[:, start:], bo, c[:, start:])
+        return (alpha[:, start:] * beta).transpose(1, 0, 2)

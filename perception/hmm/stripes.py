@@ -27,7 +27,7 @@ import numpy as np
 
 from perception.errors import PerceptionInputError
 from perception.hmm.baum_welch import normalise_rows
-from perception.hmm.model import backward, check_codes, check_stochastic, emission_probs, forward
+from perception.hmm.model import backward, check_codes, check_stochastic, emission_probs
 
 N_STRIPES = 5
 
@@ -104,11 +104,18 @@ def forward_stripes(models: StripeHmms, obs: np.ndarray):
     alpha, c = np.empty((s, t_len, n)), np.empty((s, t_len))
     steps, w = np.empty((s, t_len, n, n)), np.zeros((s, t_len, n_ctx))
     steps[:, 0] = models.A[:, 0]
+    coupled = models.coupled
+    if not coupled and t_len > 1:
+        # Independent stripes: every row's context weight is 1 and its transition the same,
+        # mixed once (the values the loop would mix at every row).
+        w[:, 1:] = context_weights(models, models.pi)[:, None]
+        steps[:, 1:] = mixed_transitions(models, w[:, 1])[:, None]
     a = models.pi * Bo[:, 0]
     for t in range(t_len):
         if t:
-            w[:, t] = context_weights(models, alpha[:, t - 1])
-            steps[:, t] = mixed_transitions(models, w[:, t])
+            if coupled:
+                w[:, t] = context_weights(models, alpha[:, t - 1])
+                steps[:, t] = mixed_transitions(models, w[:, t])
             a = np.matmul(alpha[:, t - 1, None, :], steps[:, t])[:, 0] * Bo[:, t]
         c[:, t] = 1.0 / a.sum(axis=1)
         alpha[:, t] = a * c[:, t, None]
@@ -154,9 +161,9 @@ def expected_counts(models: StripeHmms, obs: np.ndarray) -> tuple[np.ndarray, ..
         Expected counts of the start (S, N), transitions (S, C, N, N), codes (S, N, M), and the
         log-likelihoods (S,).
     """
-    _, _, steps, w = forward_stripes(models, obs)
+    # The joint forward pass's alpha and c are `forward`'s of its steps (the same operations).
+    alpha, c, steps, w = forward_stripes(models, obs)
     Bo = emission_probs(models.B, obs)
-    alpha, c = forward(models.pi, steps, Bo)
     beta = backward(steps, Bo, c)
     gamma = alpha * beta
     g = Bo * beta * c[..., None]

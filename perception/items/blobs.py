@@ -96,8 +96,9 @@ def item_blobs(
         return []
     b = np.concatenate([p[2] for p in parts])
     y = np.concatenate([p[3] for p in parts])
-    row = np.concatenate([np.full(len(p[2]), p[0]) for p in parts])
-    stripe = np.concatenate([np.full(len(p[2]), p[1]) for p in parts])
+    sizes = [len(p[2]) for p in parts]
+    row = np.repeat(np.array([p[0] for p in parts], dtype=np.int64), sizes)
+    stripe = np.repeat(np.array([p[1] for p in parts], dtype=np.int64), sizes)
     early = reported is not None and split is not None and complete_row is not None
     done = None
     if early:

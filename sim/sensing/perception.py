@@ -338,7 +338,7 @@ class CameraPerception:
         out = []
         # Fixed-lag smoothing: an item is reported once all its rows are in, so the rows after
         # it inform its class as well as those before (forward-backward over the HMM window).
-        smoothed = self.hmm.smoothed_window()[-WINDOW_ROWS:]
+        smoothed = self.hmm.smoothed_window(last=WINDOW_ROWS)
         posteriors = self.posteriors.copy()
         posteriors[WINDOW_ROWS - len(smoothed) :] = smoothed
         # Regions that still touch the newest row are still growing; older ones were reported.
