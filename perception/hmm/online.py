@@ -125,7 +125,7 @@ class OnlineStripeHmms:
     def _window_models(self) -> StripeHmms:
         _, start = self.window()
         start = start / start.sum(axis=1, keepdims=True)
-        return StripeHmms(start, self.models.A, self.models.B)
+        return self.models.with_start(start)
 
     def reestimate(self) -> None:
         """Baum-Welch on the last `window` rows, anchored to the trained models."""
@@ -135,7 +135,7 @@ class OnlineStripeHmms:
         fitted, _ = reestimate(
             self._window_models(), [codes.T], self.config.iterations, 0.0, self._prior
         )
-        self.models = StripeHmms(self.models.pi, fitted.A, fitted.B)
+        self.models = fitted.with_start(self.models.pi)
 
     def smoothed_window(self, last: int | None = None) -> np.ndarray:
         """(W, S, N) smoothed posteriors of the rows in the window (fixed-lag smoothing), or

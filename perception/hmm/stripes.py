@@ -62,6 +62,17 @@ class StripeHmms:
             arr.flags.writeable = False
             object.__setattr__(self, name, arr)
 
+    def with_start(self, pi: np.ndarray) -> StripeHmms:
+        """These models with the start distributions `pi` (S, N), checked as the constructor
+        checks them; the transitions and emissions, checked and read-only, are shared rather
+        than checked and copied again (the online filter does this twice a period)."""
+        pi = check_stochastic("pi", pi, self.pi.shape).copy()
+        pi.flags.writeable = False
+        out = object.__new__(StripeHmms)
+        for name, arr in (("pi", pi), ("A", self.A), ("B", self.B)):
+            object.__setattr__(out, name, arr)
+        return out
+
     @property
     def coupled(self) -> bool:
         """True when the transitions depend on the neighbours' states at t-1."""
@@ -117,8 +128,9 @@ def forward_stripes(models: StripeHmms, obs: np.ndarray):
                 w[:, t] = context_weights(models, alpha[:, t - 1])
                 steps[:, t] = mixed_transitions(models, w[:, t])
             a = np.matmul(alpha[:, t - 1, None, :], steps[:, t])[:, 0] * Bo[:, t]
-        c[:, t] = 1.0 / a.sum(axis=1)
-        alpha[:, t] = a * c[:, t, None]
+        # c = 1 / a.sum(axis=1) and alpha = a * c, written in place (the same ufuncs).
+        np.divide(1.0, np.add.reduce(a, axis=1), out=c[:, t])
+        np.multiply(a, c[:, t, None], out=alpha[:, t])
     return alpha, c, steps, w
 
 
