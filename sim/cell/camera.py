@@ -382,12 +382,20 @@ class SceneRenderer:
         return context
 
     def close(self) -> None:
-        """Frees the render contexts (the OpenGL context is the process's)."""
+        """Frees the render contexts (the OpenGL context is the thread's), in that context."""
         if self._contexts:
             self._gl.make_current()
         for context in self._contexts.values():
             context.free()
         self._contexts.clear()
+
+    def __del__(self) -> None:
+        # Freed in their own OpenGL context, never in whichever is current; at interpreter
+        # exit, when EGL may be gone, they are left to the process's end.
+        try:
+            self.close()
+        except Exception:  # a finaliser never raises
+            pass
 
 
 def _metric_depth(model: mujoco.MjModel, scene: mujoco.MjvScene, raw: np.ndarray) -> np.ndarray:
@@ -511,6 +519,9 @@ class _RenderPasses:
     def __init__(self, renderer, cam: int, canvas, focal_px: float, samples: int, distorter):
         self._renderer, self._cam, self._distorter = renderer, cam, distorter
         self._canvas_size = (int(canvas[0]), int(canvas[1]))
+        vis = renderer.model.vis.global_  # the off-screen buffer holds the canvas
+        vis.offwidth = max(vis.offwidth, self._canvas_size[0])
+        vis.offheight = max(vis.offheight, self._canvas_size[1])
         self._focal_px, self._samples = float(focal_px), int(samples)
         self._sky_depth_m = skybox_depth(renderer.model, focal_px, self._canvas_size)
 

@@ -11,7 +11,8 @@ for the refusal. `check_backend` then renders one tiny frame the first time some
 when that fails. Nothing here imports MuJoCo at module level (`sortsim --help` stays fast).
 
 The OpenGL context `check_backend` renders its frame in is kept: `gl_context` hands it to the
-belt cameras (`sim.cell.camera.SceneRenderer`), so a process makes one context for all of them.
+belt cameras (`sim.cell.camera.SceneRenderer`), so a process makes one context for all of them
+(one per thread that renders).
 On Mesa's software renderer a context's first MuJoCo render context and first frames cost
 about 0.2 s and 0.1 s of CPU time (its shaders are compiled per context), a later one's 0.04 s.
 """
@@ -21,6 +22,7 @@ from __future__ import annotations
 import contextlib
 import gc
 import os
+import threading
 import warnings
 from collections.abc import Iterator
 
@@ -40,8 +42,9 @@ ALLOWED = (
 )
 WHERE = "the environment"
 _checked: list[bool] = []
-_context: list = []
-"""The process's OpenGL context (`gl_context`), made by `check_backend`."""
+_contexts: dict[int, object] = {}
+"""The OpenGL context of each thread that renders (`gl_context`), by thread id: the first is
+the one `check_backend` rendered its frame in."""
 
 
 _LIBRARIES = {"egl": "EGL", "osmesa": "OSMesa"}
@@ -144,7 +147,7 @@ def check_backend() -> None:
         gc.collect()  # a half-made context's finaliser may complain: while stderr is quiet
     if failure is not None:
         raise _refusal(failure)
-    _context.append(context)
+    _contexts[threading.get_ident()] = context
     _checked.append(True)
 
 
@@ -181,13 +184,18 @@ def _probe():
 
 
 def gl_context():
-    """The process's OpenGL context, made current on this thread: the one `check_backend`
-    rendered its frame in (checked first).
+    """This thread's OpenGL context, made current: the one `check_backend` rendered its frame
+    in (checked first) on the thread that checked, one made now on another (a context is
+    current on one thread at a time).
 
     Raises:
         InvalidInput: As `check_backend`.
     """
     check_backend()
-    context = _context[0]
+    context = _contexts.get(threading.get_ident())
+    if context is None:
+        from mujoco.rendering.classic import gl_context as backends
+
+        context = _contexts[threading.get_ident()] = backends.GLContext(8, 8)
     context.make_current()
     return context
