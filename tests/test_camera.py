@@ -15,6 +15,7 @@ from sim.cell.camera import (
     _metric_depth,
     camera_id,
     camera_pose,
+    geoms_out_of_view,
     marker_points,
     renderer_with_samples,
     true_camera_matrix,
@@ -193,6 +194,23 @@ def test_one_colour_pass_and_the_clear_items_give_the_segmentation_passs_depth(c
     assert np.array_equal(depth, depths)
     farther = own > depths + 0.01  # the colour pass sees the belt through the clear bottle
     assert farther.sum() > 100 and np.array_equal(own[~farther], depths[~farther])
+
+
+def test_a_cameras_scene_leaves_out_only_the_geoms_out_of_its_view(cell_with_items):
+    """`geoms_out_of_view` names the geoms whose bounding sphere lies wholly outside the
+    canvas: the robot and its bins downstream, never the items under the camera, the belt or
+    the floor (a plane is never left out)."""
+    model, data = cell_with_items
+    cam = camera_id(model)
+    focal = true_camera_matrix(model, 640, 360)[1, 1]
+    out = set(geoms_out_of_view(model, data, cam, (640, 360), focal).tolist())
+    names = ("base_housing", "platform_plate", "bin_paper_stand", "belt", "floor")
+    robot, platform, bin_stand, belt, floor = (
+        mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, name) for name in names
+    )
+    assert {robot, platform, bin_stand} <= out
+    items = set(range(model.ngeom - 3, model.ngeom))  # the fixture's can, tray and bottle
+    assert not (items | {belt, floor}) & out
 
 
 def test_frames_with_depth_leave_out_only_a_sky_nobody_sees(cell_with_items, fixture_model):
