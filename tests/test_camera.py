@@ -12,8 +12,10 @@ import pytest
 from perception.camera.rectify import colour_mask
 from sim.cell.camera import (
     BeltCamera,
+    _metric_depth,
     camera_id,
     camera_pose,
+    geoms_out_of_view,
     marker_points,
     renderer_with_samples,
     true_camera_matrix,
@@ -158,6 +160,57 @@ def test_the_depth_pass_is_the_same_on_one_sample(cell_with_items):
     assert not np.array_equal(*colours)
     assert np.array_equal(*depths)
     assert np.ptp(depths[0]) > 0.1  # the items stand out of the belt
+
+
+def test_one_colour_pass_and_the_clear_items_give_the_segmentation_passs_depth(cell_with_items):
+    """On one sample the camera reads the colour and the depth of one colour pass and adds the
+    transparent geoms' depth from a segmentation pass of them alone: the same frame and the
+    same depth, bit for bit, as `mujoco.Renderer`'s colour render and its depth (segmentation)
+    render of the whole scene, though the colour pass's own depth misses the clear bottle and
+    the camera's scene leaves out the geoms out of its view (the robot, the bins)."""
+    model, data = cell_with_items
+    with BeltCamera(model, 640, 360, lens=None, samples=0) as camera:
+        frame, depth = camera.render_rgbd(data)
+        renderer = camera.renderer
+        scene = renderer.scene
+        transparent = [scene.geoms[k].transparent for k in range(scene.ngeom)]
+        scene.flags[:] = renderer._defaults
+        scene.flags[SKYBOX] = False
+        own = np.empty((360, 640), np.float32)
+        renderer._render((640, 360), 0, None, own)
+        own = _metric_depth(model, scene, own)[::-1]
+    assert 0 < sum(transparent) < len(transparent)
+    reference = renderer_with_samples(model, 640, 360, 0)
+    try:
+        reference.update_scene(data, camera=camera_id(model))
+        reference.scene.flags[SKYBOX] = False
+        colours = reference.render()
+        reference.enable_depth_rendering()
+        depths = reference.render()
+    finally:
+        reference.close()
+    assert len(transparent) < reference.scene.ngeom
+    assert np.array_equal(frame, colours)
+    assert np.array_equal(depth, depths)
+    farther = own > depths + 0.01  # the colour pass sees the belt through the clear bottle
+    assert farther.sum() > 100 and np.array_equal(own[~farther], depths[~farther])
+
+
+def test_a_cameras_scene_leaves_out_only_the_geoms_out_of_its_view(cell_with_items):
+    """`geoms_out_of_view` names the geoms whose bounding sphere lies wholly outside the
+    canvas: the robot and its bins downstream, never the items under the camera, the belt or
+    the floor (a plane is never left out)."""
+    model, data = cell_with_items
+    cam = camera_id(model)
+    focal = true_camera_matrix(model, 640, 360)[1, 1]
+    out = set(geoms_out_of_view(model, data, cam, (640, 360), focal).tolist())
+    names = ("base_housing", "platform_plate", "bin_paper_stand", "belt", "floor")
+    robot, platform, bin_stand, belt, floor = (
+        mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, name) for name in names
+    )
+    assert {robot, platform, bin_stand} <= out
+    items = set(range(model.ngeom - 3, model.ngeom))  # the fixture's can, tray and bottle
+    assert not (items | {belt, floor}) & out
 
 
 def test_frames_with_depth_leave_out_only_a_sky_nobody_sees(cell_with_items, fixture_model):

@@ -91,22 +91,24 @@ class ColourRules:
                 greyish pixels outside it are white or transparent by their own brightness.
         """
         hsv = cv2.cvtColor(image, cv2.COLOR_RGB2HSV_FULL)
-        hue = hsv[..., 0].astype(np.float32) * (360.0 / 256.0)
         sat, val = hsv[..., 1], hsv[..., 2]
         labels = np.full(image.shape[:2], BELT, dtype=np.int8)
         item = val >= self.item_min_value
         if where is not None:
             item &= where
         grey = item & (sat < self.grey_max_saturation)
-        hued = item & ~grey
+        # Hue bands of the hued pixels only (the belt's pixels, most of them, have none).
+        hued = np.flatnonzero(item & ~grey)
+        hue = hsv[..., 0].ravel()[hued].astype(np.float32) * (360.0 / 256.0)
         bands = (
             ("red", (hue < self.red_max_hue) | (hue >= self.blue_max_hue)),
             ("brown", (hue >= self.red_max_hue) & (hue < self.brown_max_hue)),
             ("green", (hue >= self.brown_max_hue) & (hue < self.green_max_hue)),
             ("blue", (hue >= self.green_max_hue) & (hue < self.blue_max_hue)),
         )
+        flat = labels.ravel()
         for name, band in bands:
-            labels[hued & band] = COLOURS.index(name)
+            flat[hued[band]] = COLOURS.index(name)
         if np.any(grey):
             core = grey & (val >= self.white_min_value)
             lit = grey & (val >= self.transparent_min_value)

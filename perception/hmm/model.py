@@ -135,7 +135,8 @@ def backward(A: np.ndarray, Bo: np.ndarray, c: np.ndarray) -> np.ndarray:
     beta = np.empty((k, t_len, n))
     beta[:, -1] = 1.0
     for t in range(t_len - 2, -1, -1):
-        g = Bo[:, t + 1] * beta[:, t + 1] * c[:, t + 1, None]
+        g = Bo[:, t + 1] * beta[:, t + 1]
+        np.multiply(g, c[:, t + 1, None], out=g)  # g *= c in place: the same product
         beta[:, t] = np.matmul(_step_matrix(A, t + 1), g[:, :, None])[:, :, 0]
     return beta
 

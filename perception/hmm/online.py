@@ -125,7 +125,7 @@ class OnlineStripeHmms:
     def _window_models(self) -> StripeHmms:
         _, start = self.window()
         start = start / start.sum(axis=1, keepdims=True)
-        return StripeHmms(start, self.models.A, self.models.B)
+        return self.models.with_start(start)
 
     def reestimate(self) -> None:
         """Baum-Welch on the last `window` rows, anchored to the trained models."""
@@ -135,12 +135,18 @@ class OnlineStripeHmms:
         fitted, _ = reestimate(
             self._window_models(), [codes.T], self.config.iterations, 0.0, self._prior
         )
-        self.models = StripeHmms(self.models.pi, fitted.A, fitted.B)
+        self.models = fitted.with_start(self.models.pi)
 
-    def smoothed_window(self) -> np.ndarray:
-        """(W, S, N) smoothed posteriors of the rows in the window (fixed-lag smoothing)."""
+    def smoothed_window(self, last: int | None = None) -> np.ndarray:
+        """(W, S, N) smoothed posteriors of the rows in the window (fixed-lag smoothing), or
+        of its `last` newest rows only (the backward pass then stops there: the same values).
+        """
         codes, _ = self.window()
         models = self._window_models()
         alpha, c, steps, _ = forward_stripes(models, codes.T)
-        beta = backward(steps, emission_probs(models.B, codes.T), c)
-        return (alpha * beta).transpose(1, 0, 2)
+        rows = alpha.shape[1] if last is None else min(int(last), alpha.shape[1])
+        start = alpha.shape[1] - rows
+        # beta of row t needs only the rows after t: the newest rows' pass is the whole one's.
+        bo = emission_probs(models.B, codes.T)[:, start:]
+        beta = backward(steps[:, start:], bo, c[:, start:])
+        return (alpha[:, start:] * beta).transpose(1, 0, 2)

@@ -27,7 +27,7 @@ import numpy as np
 
 from perception.errors import PerceptionInputError
 from perception.hmm.baum_welch import normalise_rows
-from perception.hmm.model import backward, check_codes, check_stochastic, emission_probs, forward
+from perception.hmm.model import backward, check_codes, check_stochastic, emission_probs
 
 N_STRIPES = 5
 
@@ -61,6 +61,17 @@ class StripeHmms:
             arr = check_stochastic(name, arr, arr.shape).copy()
             arr.flags.writeable = False
             object.__setattr__(self, name, arr)
+
+    def with_start(self, pi: np.ndarray) -> StripeHmms:
+        """These models with the start distributions `pi` (S, N), checked as the constructor
+        checks them; the transitions and emissions, checked and read-only, are shared rather
+        than checked and copied again (the online filter does this twice a period)."""
+        pi = check_stochastic("pi", pi, self.pi.shape).copy()
+        pi.flags.writeable = False
+        out = object.__new__(StripeHmms)
+        for name, arr in (("pi", pi), ("A", self.A), ("B", self.B)):
+            object.__setattr__(out, name, arr)
+        return out
 
     @property
     def coupled(self) -> bool:
@@ -104,14 +115,22 @@ def forward_stripes(models: StripeHmms, obs: np.ndarray):
     alpha, c = np.empty((s, t_len, n)), np.empty((s, t_len))
     steps, w = np.empty((s, t_len, n, n)), np.zeros((s, t_len, n_ctx))
     steps[:, 0] = models.A[:, 0]
+    coupled = models.coupled
+    if not coupled and t_len > 1:
+        # Independent stripes: every row's context weight is 1 and its transition the same,
+        # mixed once (the values the loop would mix at every row).
+        w[:, 1:] = context_weights(models, models.pi)[:, None]
+        steps[:, 1:] = mixed_transitions(models, w[:, 1])[:, None]
     a = models.pi * Bo[:, 0]
     for t in range(t_len):
         if t:
-            w[:, t] = context_weights(models, alpha[:, t - 1])
-            steps[:, t] = mixed_transitions(models, w[:, t])
+            if coupled:
+                w[:, t] = context_weights(models, alpha[:, t - 1])
+                steps[:, t] = mixed_transitions(models, w[:, t])
             a = np.matmul(alpha[:, t - 1, None, :], steps[:, t])[:, 0] * Bo[:, t]
-        c[:, t] = 1.0 / a.sum(axis=1)
-        alpha[:, t] = a * c[:, t, None]
+        # c = 1 / a.sum(axis=1) and alpha = a * c, written in place (the same ufuncs).
+        np.divide(1.0, np.add.reduce(a, axis=1), out=c[:, t])
+        np.multiply(a, c[:, t, None], out=alpha[:, t])
     return alpha, c, steps, w
 
 
@@ -154,9 +173,9 @@ def expected_counts(models: StripeHmms, obs: np.ndarray) -> tuple[np.ndarray, ..
         Expected counts of the start (S, N), transitions (S, C, N, N), codes (S, N, M), and the
         log-likelihoods (S,).
     """
-    _, _, steps, w = forward_stripes(models, obs)
+    # The joint forward pass's alpha and c are `forward`'s of its steps (the same operations).
+    alpha, c, steps, w = forward_stripes(models, obs)
     Bo = emission_probs(models.B, obs)
-    alpha, c = forward(models.pi, steps, Bo)
     beta = backward(steps, Bo, c)
     gamma = alpha * beta
     g = Bo * beta * c[..., None]

@@ -16,6 +16,7 @@ into two phantom items of two classes.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -51,7 +52,7 @@ class Blob:
 def item_blobs(
     pixel_b: list[list[np.ndarray]],
     pixel_y: list[list[np.ndarray]],
-    posteriors: np.ndarray,
+    posteriors: np.ndarray | Callable[[], np.ndarray],
     raster_m: float = 0.006,
     min_pixels: int = 40,
     pixel_height: list[list[np.ndarray]] | None = None,
@@ -64,7 +65,8 @@ def item_blobs(
     Args:
         pixel_b: [row][stripe] arrays of the item pixels' belt coordinates [m].
         pixel_y: [row][stripe] arrays of their lateral positions [m].
-        posteriors: (rows, stripes, 4) class posteriors of the window's cells.
+        posteriors: (rows, stripes, 4) class posteriors of the window's cells, or a function
+            that gives them, called once when the first blob is found (none: never).
         raster_m: Raster pitch the pixels are binned on before labelling [m].
         min_pixels: Blobs with fewer pixels are noise and dropped.
         pixel_height: Optional [row][stripe] arrays of the pixels' heights above the belt [m]
@@ -96,8 +98,9 @@ def item_blobs(
         return []
     b = np.concatenate([p[2] for p in parts])
     y = np.concatenate([p[3] for p in parts])
-    row = np.concatenate([np.full(len(p[2]), p[0]) for p in parts])
-    stripe = np.concatenate([np.full(len(p[2]), p[1]) for p in parts])
+    sizes = [len(p[2]) for p in parts]
+    row = np.repeat(np.array([p[0] for p in parts], dtype=np.int64), sizes)
+    stripe = np.repeat(np.array([p[1] for p in parts], dtype=np.int64), sizes)
     early = reported is not None and split is not None and complete_row is not None
     done = None
     if early:
@@ -128,15 +131,14 @@ def item_blobs(
     for label in growing:
         cut = _pieces(np.flatnonzero(label_of_pixel == label), b, y, height, split)
         pieces += [mine for mine in cut if row[mine].max() < complete_row]
-    blobs = []
-    for mine in pieces:
-        if early:
-            done[mine] = True
-        if len(mine) >= min_pixels:
-            blobs.append(_blob(mine, b, y, row, stripe, posteriors))
     if early:
+        for mine in pieces:
+            done[mine] = True
         _flag(reported, parts, done)
-    return blobs
+    big = [mine for mine in pieces if len(mine) >= min_pixels]
+    if big and callable(posteriors):
+        posteriors = posteriors()
+    return [_blob(mine, b, y, row, stripe, posteriors) for mine in big]
 
 
 def _regions(

@@ -306,7 +306,8 @@ def _cut_along(
 
 def _item_markers(dist: np.ndarray, neck_ratio: float, min_core_cells: float) -> np.ndarray:
     """Markers 1..n of the items in a distance transform [cells] (0 elsewhere)."""
-    levels = [lv for lv in LEVELS_CELLS if lv <= max(neck_ratio * float(dist.max()), 1.0)]
+    top_level = max(neck_ratio * float(dist.max()), 1.0)
+    levels = [lv for lv in LEVELS_CELLS if lv <= top_level]
     labels, peaks, parents = [], [], []
     for k, level in enumerate(levels):
         lab, n = ndimage.label(dist >= level, structure=_EIGHT)
@@ -319,10 +320,6 @@ def _item_markers(dist: np.ndarray, neck_ratio: float, min_core_cells: float) ->
         labels.append(lab)
         peaks.append(peak)
         parents.append(parent)
-    children = [
-        [np.flatnonzero(parents[k + 1] == c) for c in range(len(peaks[k]))]
-        for k in range(len(levels) - 1)
-    ]
 
     def items(k: int, c: int) -> list[tuple[int, int]]:
         """The item parts (level index, label) of part c of level k (an item itself)."""
@@ -330,7 +327,7 @@ def _item_markers(dist: np.ndarray, neck_ratio: float, min_core_cells: float) ->
             return [(k, c)]
         wide = [
             q
-            for q in children[k][c]
+            for q in np.flatnonzero(parents[k + 1] == c)  # its parts at the next level
             if q > 0
             and peaks[k + 1][q] >= min_core_cells
             and levels[k + 1] <= neck_ratio * peaks[k + 1][q]

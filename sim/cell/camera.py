@@ -1,23 +1,35 @@
 """Off-screen frames of the cell's belt camera, seen through a real lens.
 
-`BeltCamera` renders the MJCF camera `belt_camera` with reused `mujoco.Renderer`s (run under
-`MUJOCO_GL=egl`; `sim.cell.rendering` refuses a back-end that cannot render) and passes the
-pinhole render through `perception.camera.lens.LensDistorter`, so the frames carry the
-distortion of a real wide lens. MuJoCo's pinhole has square pixels, the principal point at the
-image centre and the vertical field of view `fovy`; since barrel distortion shows rays from
-outside that field, the pinhole render is made on a larger canvas with the same focal length
-(the camera's fovy is widened for that render only).
+`BeltCamera` renders the MJCF camera `belt_camera` through MuJoCo's low-level calls
+(`SceneRenderer`: run under `MUJOCO_GL=egl`; `sim.cell.rendering` refuses a back-end that cannot
+render) and passes the pinhole render through `perception.camera.lens.LensDistorter`, so the
+frames carry the distortion of a real wide lens. MuJoCo's pinhole has square pixels, the
+principal point at the image centre and the vertical field of view `fovy`; since barrel
+distortion shows rays from outside that field, the pinhole render is made on a larger canvas
+with the same focal length (the camera's fovy is widened for that render only). Every pass of
+every camera of a cell renders in one `SceneRenderer` (`sim.cell.cell.Cell.belt_camera`): one
+OpenGL context and one MuJoCo render context per sample count, made once, each pass on its own
+canvas at the off-screen buffer's corner.
 
-Two passes make a frame with depth, each drawing only what its output holds. The depth pass is
-MuJoCo's segmentation render, which turns multisampling off (`glDisable(GL_MULTISAMPLE)`): its
-depth is that of each pixel's centre whatever the context's sample count, so it runs on a
-context of one sample and skips clearing and resolving four (the same depth:
-`tests/test_camera.py`). The colour pass has the camera's multisampling (`samples`: the
-model's unless given; the perception's frames take `PERCEPTION_SAMPLES`); it leaves out the
-skybox when the depth pass found geometry nearer than the skybox at every pixel (the belt camera
-looks down at the belt and the floor), since the skybox is drawn only where nothing opaque lies
-nearer. (The depth pass sees transparent geoms too: one with nothing but sky behind it would
-hide that sky from the test; in the cell the belt and the floor lie behind everything.)
+A frame's depth is MuJoCo's segmentation render's (as `mujoco.Renderer` gives it), which turns
+multisampling off (`glDisable(GL_MULTISAMPLE)`): the depth of each pixel's centre whatever the
+context's sample count (the same depth on one sample and on four: `tests/test_camera.py`). The
+colour pass has the camera's multisampling (`samples`: the model's unless given; the
+perception's frames take `PERCEPTION_SAMPLES`, one sample). It leaves out the skybox when the
+depth shows geometry nearer than the skybox at every pixel (the belt camera looks down at the
+belt and the floor), since the skybox is drawn only where nothing opaque lies nearer. (The
+depth holds transparent geoms too: one with nothing but sky behind it would hide that sky from
+the test; in the cell the belt and the floor lie behind everything.)
+
+On one sample, one colour pass gives the colour and most of the depth (`mjr_readPixels` reads
+both buffers): its depth buffer holds, at each pixel, the nearest of the opaque geoms'
+fragments, exactly as the segmentation pass's does (the same geometry, transforms and depth
+test; shading does not move a fragment), while MuJoCo draws transparent geoms without writing
+depth. So a segmentation pass of the transparent geoms alone, when the scene holds any, adds
+theirs: the nearer of the two buffers at each pixel is the segmentation pass's buffer, bit for
+bit (checked on every frame of the camera episodes; `tests/test_camera.py`). The colour pass
+leaves the skybox out, and is drawn again with it in the rare frame whose depth shows the sky.
+With multisampling the depth is still its own segmentation pass, drawn first.
 
 `BeltCamera.window` gives a `CameraWindow`: the camera reading out only a window of its
 frames (an industrial camera's region of interest), rendered from the part of the pinhole
@@ -50,7 +62,7 @@ from perception.camera.lens import (
     window_source,
 )
 from perception.camera.pipeline import CameraPipeline
-from sim.cell.rendering import check_backend
+from sim.cell.rendering import check_backend, gl_context
 from sim.errors import InvalidInput, ModelFileError
 from sim.paths import CAMERA_CALIBRATION_JSON
 
@@ -180,6 +192,231 @@ def renderer_with_samples(
         quality.offsamples = own
 
 
+CULL_MARGIN_PX = 8.0
+"""A geom is left out of a camera's scene only when its bounding sphere lies at least this far
+[px] outside the canvas's edges (the projection's rounding is far smaller)."""
+_SPHERE, _ELLIPSOID = int(mujoco.mjtGeom.mjGEOM_SPHERE), int(mujoco.mjtGeom.mjGEOM_ELLIPSOID)
+_CAPSULE, _CYLINDER = int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_CYLINDER)
+_BOX = int(mujoco.mjtGeom.mjGEOM_BOX)
+
+
+def bounding_radii(model: mujoco.MjModel) -> np.ndarray:
+    """(ngeom,) radius [m] of a sphere about each geom's centre holding every vertex MuJoCo
+    draws of it, from its size now (the item pool resizes geoms at run time); inf for the
+    types not bounded here (planes, meshes, height fields), which are never left out."""
+    size, kind = model.geom_size, model.geom_type
+    return np.select(
+        [
+            (kind == _SPHERE) | (kind == _ELLIPSOID),
+            kind == _CAPSULE,
+            kind == _CYLINDER,
+            kind == _BOX,
+        ],
+        [
+            size.max(axis=1),
+            size[:, 0] + size[:, 1],
+            np.hypot(size[:, 0], size[:, 1]),
+            np.sqrt(np.einsum("ij,ij->i", size, size)),
+        ],
+        np.inf,
+    )
+
+
+def geoms_out_of_view(
+    model: mujoco.MjModel, data: mujoco.MjData, cam: int, canvas: tuple[int, int], focal_px: float
+) -> np.ndarray:
+    """Ids of the geoms whose bounding sphere (`bounding_radii`) lies wholly outside the view of
+    camera `cam` on a centred pinhole canvas (width, height) [px] of focal length `focal_px`
+    [px], the canvas widened by `CULL_MARGIN_PX` on every side: no pixel of it shows them."""
+    rot = data.cam_xmat[cam].reshape(3, 3)  # camera axes: x right, y up, looking along -z
+    local = (data.geom_xpos - data.cam_xpos[cam]) @ rot
+    ahead = -local[:, 2]
+    radius = bounding_radii(model)
+    outside = np.zeros(model.ngeom, dtype=bool)
+    for axis, extent in ((0, canvas[0]), (1, canvas[1])):
+        slope = (0.5 * extent + CULL_MARGIN_PX) / focal_px
+        # Signed distance beyond the side plane |x| = slope * depth, times its normal's length.
+        beyond = np.abs(local[:, axis]) - slope * ahead
+        outside |= beyond > radius * math.sqrt(1.0 + slope * slope)
+    return np.flatnonzero(outside)
+
+
+class SceneRenderer:
+    """MuJoCo's classic renderer driven through its low-level calls for a model's belt cameras:
+    one scene, one MuJoCo render context per sample count (made when first needed, its
+    off-screen buffer as large as the model's `visual/global/offwidth` x `offheight`), all in
+    the process's OpenGL context (`sim.cell.rendering.gl_context`). Every pass of every frame
+    of the cameras sharing it renders there, each on its own canvas (a viewport at the buffer's
+    corner), as `mujoco.Renderer` would render them each on its own context: the same scene
+    flags, options and depth conversion, and so the same pixels.
+
+    A frame's scene is built once for both of its passes (`update`), and leaves out the geoms
+    no pixel of the canvas shows (`geoms_out_of_view`) when nothing couples one geom's pixels
+    to another's: no light casts shadows and no material reflects. Each geom's pixels then
+    come from its own fragments only (depth tested against the others'; the transparent ones,
+    sorted by a stable sort on their distance, keep their order), so the frame is the same.
+
+    Args:
+        model: The compiled cell.
+    """
+
+    def __init__(self, model: mujoco.MjModel):
+        self.model = model
+        self.scene = mujoco.MjvScene(model, maxgeom=10000)
+        self._defaults = self.scene.flags.copy()
+        self._option = mujoco.MjvOption()
+        self._camera = mujoco.MjvCamera()
+        self._camera.type = mujoco.mjtCamera.mjCAMERA_FIXED
+        self._contexts: dict[int, mujoco.MjrContext] = {}
+        hidden = np.flatnonzero(self._option.geomgroup == 0)
+        coupled = bool(np.any(model.light_castshadow)) or bool(np.any(model.mat_reflectance > 0))
+        self._hide_group = None if coupled or not len(hidden) else int(hidden[-1])
+        self._gl = gl_context()
+
+    def update(
+        self, data: mujoco.MjData, cam: int, canvas: tuple[int, int], focal_px: float
+    ) -> None:
+        """Build the scene of camera `cam` on a centred pinhole canvas (width, height) [px] of
+        focal length `focal_px` [px] (its fovy is the model's only while the scene is built)."""
+        model = self.model
+        fovy = float(model.cam_fovy[cam])
+        model.cam_fovy[cam] = math.degrees(2.0 * math.atan(0.5 * canvas[1] / focal_px))
+        groups, out = model.geom_group, np.zeros(0, dtype=np.intp)
+        if self._hide_group is not None:
+            out = geoms_out_of_view(model, data, cam, canvas, focal_px)
+        own = groups[out].copy()
+        try:
+            groups[out] = self._hide_group
+            self._camera.fixedcamid = cam
+            everything = mujoco.mjtCatBit.mjCAT_ALL.value
+            mujoco.mjv_updateScene(model, data, self._option, None, self._camera, everything,
+                                   self.scene)  # fmt: skip
+        finally:
+            groups[out] = own
+            model.cam_fovy[cam] = fovy
+
+    def depth(self, canvas: tuple[int, int]) -> np.ndarray:
+        """The scene's depth (height, width) float32 [m along the optical axis] on `canvas`:
+        MuJoCo's segmentation render on one sample, converted as `mujoco.Renderer` does."""
+        flags = self.scene.flags
+        flags[:] = self._defaults
+        flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = True
+        raw = np.empty((canvas[1], canvas[0]), dtype=np.float32)
+        self._render(canvas, 0, None, raw)
+        return _metric_depth(self.model, self.scene, raw)[::-1].copy()
+
+    def colour_and_depth(self, canvas: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+        """The scene's colour image (height, width, 3) uint8 on one sample without the skybox,
+        and its depth (height, width) float32 [m along the optical axis] as `depth` gives it,
+        from one colour pass and, when the scene holds transparent geoms, a segmentation pass
+        of them alone (see the module docstring)."""
+        flags = self.scene.flags
+        flags[:] = self._defaults
+        flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = False
+        rgb = np.empty((canvas[1], canvas[0], 3), dtype=np.uint8)
+        raw = np.empty((canvas[1], canvas[0]), dtype=np.float32)
+        self._render(canvas, 0, rgb, raw)
+        self._add_transparent_depth(canvas, raw)
+        return rgb[::-1].copy(), _metric_depth(self.model, self.scene, raw)[::-1].copy()
+
+    def _add_transparent_depth(self, canvas: tuple[int, int], raw: np.ndarray) -> None:
+        """Raise the depth buffer `raw` read after a colour pass (reversed z: larger is
+        nearer) to that of the transparent geoms, which the colour pass draws without writing
+        depth: the buffer of a segmentation pass of them alone (MuJoCo marked them during the
+        colour pass; the opaque ones are left out by their segmentation id)."""
+        geoms = self.scene.geoms
+        opaque = [k for k in range(self.scene.ngeom) if not geoms[k].transparent]
+        if len(opaque) == self.scene.ngeom:
+            return
+        ids = [geoms[k].segid for k in opaque]
+        flags = self.scene.flags
+        flags[:] = self._defaults
+        flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = True
+        seen = np.empty_like(raw)
+        try:
+            for k in opaque:
+                geoms[k].segid = -1
+            self._render(canvas, 0, None, seen)
+        finally:
+            for k, segid in zip(opaque, ids, strict=True):
+                geoms[k].segid = segid
+        np.maximum(raw, seen, out=raw)
+
+    def colour(self, canvas: tuple[int, int], samples: int, skybox: bool) -> np.ndarray:
+        """The scene's colour image (height, width, 3) uint8 on `canvas` at `samples`
+        multisamples per pixel, with the skybox or without."""
+        flags = self.scene.flags
+        flags[:] = self._defaults
+        flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = bool(skybox)
+        rgb = np.empty((canvas[1], canvas[0], 3), dtype=np.uint8)
+        self._render(canvas, samples, rgb, None)
+        return rgb[::-1].copy()
+
+    def _render(self, canvas, samples: int, rgb, depth) -> None:
+        """Render the scene on `canvas` at the buffer's corner and read it into `rgb`/`depth`."""
+        self._gl.make_current()
+        context = self._context(samples, canvas)
+        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, context)
+        rect = mujoco.MjrRect(0, 0, int(canvas[0]), int(canvas[1]))
+        mujoco.mjr_render(rect, self.scene, context)
+        mujoco.mjr_readPixels(rgb, depth, rect, context)
+
+    def _context(self, samples: int, canvas) -> mujoco.MjrContext:
+        """The render context of `samples` multisamples, (re)made when missing or when its
+        buffer is smaller than `canvas` (the model's off-screen size grows to hold it)."""
+        context = self._contexts.get(samples)
+        if context is not None and context.offWidth >= canvas[0] and context.offHeight >= canvas[1]:
+            return context
+        if context is not None:
+            context.free()
+        vis, quality = self.model.vis.global_, self.model.vis.quality
+        vis.offwidth, vis.offheight = max(vis.offwidth, canvas[0]), max(vis.offheight, canvas[1])
+        own = quality.offsamples
+        quality.offsamples = int(samples)
+        try:
+            context = mujoco.MjrContext(self.model, mujoco.mjtFontScale.mjFONTSCALE_150.value)
+        finally:
+            quality.offsamples = own
+        context.readDepthMap = mujoco.mjtDepthMap.mjDEPTH_ZEROFAR
+        self._contexts[samples] = context
+        return context
+
+    def close(self) -> None:
+        """Frees the render contexts (the OpenGL context is the thread's), in that context."""
+        if self._contexts:
+            self._gl.make_current()
+        for context in self._contexts.values():
+            context.free()
+        self._contexts.clear()
+
+    def __del__(self) -> None:
+        # Freed in their own OpenGL context, never in whichever is current; at interpreter
+        # exit, when EGL may be gone, they are left to the process's end.
+        try:
+            self.close()
+        except Exception:  # a finaliser never raises
+            pass
+
+
+def _metric_depth(model: mujoco.MjModel, scene: mujoco.MjvScene, raw: np.ndarray) -> np.ndarray:
+    """Depth [m along the optical axis] float32 of a reversed-z depth buffer `raw` read with
+    `mjDEPTH_ZEROFAR`: `mujoco.Renderer.render`'s conversion, operation for operation (float32
+    coefficients, float64 arithmetic), so the same bits."""
+    extent = model.stat.extent
+    zfar = np.float32(model.vis.map.zfar * extent)
+    znear = np.float32(model.vis.map.znear * extent)
+    out_64 = raw.astype(np.float64)
+    if scene.camera[0].orthographic:
+        out_64 = zfar - out_64 * (zfar - znear)
+    else:
+        c_coef = -(zfar + znear) / (zfar - znear)
+        d_coef = -(np.float32(2) * zfar * znear) / (zfar - znear)
+        c_coef = np.float32(-0.5) * c_coef - np.float32(0.5)
+        d_coef = np.float32(-0.5) * d_coef
+        out_64 = d_coef / (out_64 + c_coef)
+    return out_64.astype(np.float32)
+
+
 class BeltCamera:
     """Renders distorted frames (height, width, 3) uint8 of the belt camera.
 
@@ -191,6 +428,9 @@ class BeltCamera:
         name: The MJCF camera's name.
         samples: Multisamples per pixel of the colour frames (0: one sample at the pixel's
             centre); None: the model's (`visual/quality/offsamples`).
+        renderer: The `SceneRenderer` of `model` to render in, shared with other cameras of
+            the model (`sim.cell.cell.Cell.belt_camera`); None: the camera's own, closed with
+            it.
     """
 
     def __init__(
@@ -201,6 +441,7 @@ class BeltCamera:
         lens: LensModel | None = ZED_HD_LEFT,
         name: str = CAMERA_NAME,
         samples: int | None = None,
+        renderer: SceneRenderer | None = None,
     ):
         if not (16 <= width <= 4096 and 16 <= height <= 4096):
             raise InvalidInput("camera resolution", "16..4096 px each", (width, height))
@@ -223,7 +464,10 @@ class BeltCamera:
         """(3, 3) intrinsics of the pinhole canvas the frames are distorted from [px]."""
         check_backend()  # once per process: a missing back-end refused in one line
         self.samples = int(samples)
-        self._passes = _RenderPasses(model, self._cam, src_size, self.camera_matrix[1, 1],
+        self._own_renderer = renderer is None
+        self.renderer = SceneRenderer(model) if renderer is None else renderer
+        """The `SceneRenderer` every pass of the camera and of its windows renders in."""
+        self._passes = _RenderPasses(self.renderer, self._cam, src_size, self.camera_matrix[1, 1],
                                      samples, distorter)  # fmt: skip
         self._windows: dict[tuple[int, int, int, int], CameraWindow] = {}
 
@@ -246,10 +490,9 @@ class BeltCamera:
         return window
 
     def close(self) -> None:
-        """Frees the renderers' GL contexts (its windows' too)."""
-        self._passes.close()
-        for window in self._windows.values():
-            window.close()
+        """Frees the camera's own renderer (not one lent to it); forgets its windows."""
+        if self._own_renderer:
+            self.renderer.close()
         self._windows.clear()
 
     def __enter__(self) -> BeltCamera:
@@ -262,10 +505,10 @@ class BeltCamera:
 class _RenderPasses:
     """The two passes of a frame with depth on one pinhole canvas (see the module docstring):
     the depth pass (MuJoCo's segmentation render, one sample) and the colour pass (`samples`),
-    then the lens's distortion.
+    both of one scene (`SceneRenderer.update`), then the lens's distortion.
 
     Args:
-        model: The compiled cell.
+        renderer: The `SceneRenderer` to render in.
         cam: The camera's id.
         canvas: The pinhole canvas (width, height) [px], centred on the optical axis.
         focal_px: Its focal length [px].
@@ -273,51 +516,34 @@ class _RenderPasses:
         distorter: The lens's distortion onto the output (None: the canvas is the output).
     """
 
-    def __init__(self, model, cam: int, canvas, focal_px: float, samples: int, distorter):
-        self.model, self._cam, self._distorter = model, cam, distorter
+    def __init__(self, renderer, cam: int, canvas, focal_px: float, samples: int, distorter):
+        self._renderer, self._cam, self._distorter = renderer, cam, distorter
         self._canvas_size = (int(canvas[0]), int(canvas[1]))
-        self._fovy = math.degrees(2.0 * math.atan(0.5 * canvas[1] / focal_px))
-        vis = model.vis.global_
+        vis = renderer.model.vis.global_  # the off-screen buffer holds the canvas
         vis.offwidth = max(vis.offwidth, self._canvas_size[0])
         vis.offheight = max(vis.offheight, self._canvas_size[1])
-        self._renderer = renderer_with_samples(model, *self._canvas_size, samples)
-        self._depth_renderer: mujoco.Renderer | None = None  # made for the first depth frame
-        self._sky_depth_m = skybox_depth(model, focal_px, self._canvas_size)
+        self._focal_px, self._samples = float(focal_px), int(samples)
+        self._sky_depth_m = skybox_depth(renderer.model, focal_px, self._canvas_size)
 
     def render(self, data: mujoco.MjData, depth: bool) -> tuple[np.ndarray, np.ndarray | None]:
         """(colour (h, w, 3) uint8, depth (h, w) float32 [m] or None) of the current state."""
-        fovy = float(self.model.cam_fovy[self._cam])
-        self.model.cam_fovy[self._cam] = self._fovy
-        try:
-            z = self._depth_pass(data) if depth else None
-            sky_seen = z is None or bool(np.any(z >= self._sky_depth_m))
-            renderer = self._renderer
-            renderer.update_scene(data, camera=self._cam)
-            renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = sky_seen
-            rgb = renderer.render()
-        finally:
-            self.model.cam_fovy[self._cam] = fovy
+        renderer, canvas, samples = self._renderer, self._canvas_size, self._samples
+        renderer.update(data, self._cam, canvas, self._focal_px)
+        if not depth:
+            rgb, z = renderer.colour(canvas, samples, True), None
+        elif samples == 0:  # one pass gives both (the module docstring)
+            rgb, z = renderer.colour_and_depth(canvas)
+            if np.any(z >= self._sky_depth_m):
+                rgb = renderer.colour(canvas, samples, True)
+        else:
+            z = renderer.depth(canvas)
+            rgb = renderer.colour(canvas, samples, bool(np.any(z >= self._sky_depth_m)))
         if self._distorter is None:
             return rgb, z
         rgb = self._distorter.apply(rgb)
         if z is not None:
             z = self._distorter.apply(z, cv2.INTER_NEAREST)
         return rgb, z
-
-    def _depth_pass(self, data: mujoco.MjData) -> np.ndarray:
-        """The pinhole canvas's depth (height, width) float32 [m along the optical axis]."""
-        if self._depth_renderer is None:
-            self._depth_renderer = renderer_with_samples(self.model, *self._canvas_size, 0)
-            self._depth_renderer.enable_depth_rendering()
-        renderer = self._depth_renderer
-        renderer.update_scene(data, camera=self._cam)
-        return renderer.render()
-
-    def close(self) -> None:
-        """Frees the renderers' GL contexts."""
-        self._renderer.close()
-        if self._depth_renderer is not None:
-            self._depth_renderer.close()
 
 
 class CameraWindow:
@@ -353,7 +579,7 @@ class CameraWindow:
         distorter = LensDistorter(
             camera.camera_matrix, lens, camera.size, part_matrix, canvas, (rows, cols)
         )
-        self._passes = _RenderPasses(camera.model, camera._cam, canvas, part_matrix[1, 1],
+        self._passes = _RenderPasses(camera.renderer, camera._cam, canvas, part_matrix[1, 1],
                                      camera.samples, distorter)  # fmt: skip
 
     def render_rgbd(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
@@ -362,8 +588,7 @@ class CameraWindow:
         return self._passes.render(data, depth=True)
 
     def close(self) -> None:
-        """Frees the renderers' GL contexts."""
-        self._passes.close()
+        """Nothing to free: the window renders in its camera's renderer."""
 
 
 def camera_pipeline(

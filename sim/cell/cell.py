@@ -87,6 +87,7 @@ class Cell:
         whose largest item is larger than `item_radius` wakes them that much earlier, a cup
         larger than the scene's by its extra radius."""
         self._cameras: dict = {}  # belt camera name -> its renderer (sim.cell.camera)
+        self._scene_renderer = None  # the one every belt camera of the cell renders in
 
     @property
     def robot(self) -> RobotView:
@@ -162,7 +163,8 @@ class Cell:
 
     def belt_camera(self, size: tuple[int, int], name: str | None = None):
         """A belt camera's renderer at `size` [px] (the perception's multisampling), created
-        once and kept for later episodes.
+        once and kept for later episodes; every camera of the cell renders in one
+        `sim.cell.camera.SceneRenderer` (one render context, one scene).
 
         Args:
             size: Frame size (width, height) [px].
@@ -172,14 +174,15 @@ class Cell:
         Returns:
             The `sim.cell.camera.BeltCamera`: one per camera name and cell.
         """
-        from sim.cell.camera import CAMERA_NAME, PERCEPTION_SAMPLES, BeltCamera
+        from sim.cell.camera import CAMERA_NAME, PERCEPTION_SAMPLES, BeltCamera, SceneRenderer
 
         name = CAMERA_NAME if name is None else name
         camera = self._cameras.get(name)
         if camera is None or camera.size != tuple(size):
-            if camera is not None:
-                camera.close()  # one renderer (GL context) per camera and cell
+            if self._scene_renderer is None:
+                self._scene_renderer = SceneRenderer(self.model)
             self._cameras[name] = BeltCamera(
-                self.model, *size, name=name, samples=PERCEPTION_SAMPLES
-            )
+                self.model, *size, name=name, samples=PERCEPTION_SAMPLES,
+                renderer=self._scene_renderer,
+            )  # fmt: skip
         return self._cameras[name]

@@ -28,6 +28,8 @@ import numpy as np
 
 from sim.errors import InvalidInput
 
+_KERNEL = np.ones((3, 3), np.uint8)
+
 
 @dataclass(frozen=True)
 class StereoDepthNoise:
@@ -87,10 +89,9 @@ class StereoDepthNoise:
         white = rng.standard_normal(z.shape, dtype=np.float32)
         w = self.white_share
         error = np.sqrt(1.0 - w) * smooth + np.sqrt(w) * white
-        out = z + self.sigma(np.where(valid, z, 0.0)) * error
-        kernel = np.ones((3, 3), np.uint8)
-        filled = np.where(valid, z, 0.0).astype(np.float32)
-        step = cv2.dilate(filled, kernel) - cv2.erode(filled, kernel)
+        filled = np.where(valid, z, 0.0).astype(np.float32)  # float32 already: a copy
+        out = z + self.sigma(filled) * error
+        step = cv2.dilate(filled, _KERNEL) - cv2.erode(filled, _KERNEL)
         edge = step > self.edge_step_m
         holes = edge & (rng.random(z.shape, dtype=np.float32) < self.edge_hole_share)
         out[holes | ~valid] = np.nan

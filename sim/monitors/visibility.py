@@ -166,7 +166,10 @@ class VisibilityWatch:
         fractions: dict[int, float] = {}
         first_line = math.inf
         for render in self.renders:
-            seen, _ = self.fractions(render, render.pixel_counts(data), held)
+            seen: dict[int, float] = {}
+            # A camera no item is near sees none: its render would be counted for nothing.
+            if len(self._near(render, held)[2]):
+                seen, _ = self.fractions(render, render.pixel_counts(data), held, areas=False)
             for item_id, fraction in seen.items():
                 fractions[item_id] = max(fraction, fractions.get(item_id, 0.0))
             first_line = min(first_line, float(camera_pose(self.model, data, render.name)[1][0]))
@@ -176,7 +179,7 @@ class VisibilityWatch:
         return Sighting(fractions, passed)
 
     def fractions(
-        self, render, counts: np.ndarray, held: np.ndarray = NONE_HELD
+        self, render, counts: np.ndarray, held: np.ndarray = NONE_HELD, areas: bool = True
     ) -> tuple[dict[int, float], dict[int, float]]:
         """The visible fraction of each item near camera `render` and the pixels its whole top
         area would cover, by flow id.
@@ -185,27 +188,39 @@ class VisibilityWatch:
             render: The camera's segmentation render (its name, its intrinsics).
             counts: (pool slots,) the pixels of each slot's item in the camera's frame.
             held: The pool slots the cups hold.
+            areas: Measure every item's area; False: only those of the items seen (an item
+                with no pixel in the frame has the fraction 0 whatever its area, and no area
+                in the second dict).
 
         Returns:
             (fractions in [0, 1], areas [px]).
         """
-        data = self.items.current()
-        rot, eye = camera_pose(self.model, data, render.name)
+        rot, eye, near = self._near(render, held)
+        k = render.camera_matrix
+        fractions, sizes = {}, {}
+        for slot in near.tolist():
+            item_id = int(self.pool.item_ids[slot])
+            if not areas and counts[slot] == 0:
+                fractions[item_id] = 0.0
+                continue
+            area = self.silhouette_px(slot, rot, eye, k)
+            sizes[item_id] = area
+            fractions[item_id] = min(1.0, counts[slot] / area) if area > 0.0 else 0.0
+        return fractions, sizes
+
+    def _near(self, render, held: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(rotation (3, 3), position (3,) [m] of camera `render.name`, the pool slots on the
+        belt near enough to show in its render): an item further along the belt than the
+        render's half-height (as a slope) times the camera's height above it, plus its
+        bounding radius, cannot show in it."""
+        rot, eye = camera_pose(self.model, self.items.current(), render.name)
         active = self._on_belt(held)
         centres = self.items.positions(active)
         k = render.camera_matrix
-        # An item further along the belt than the render's half-height (as a slope) times the
-        # camera's height above it, plus its bounding radius, cannot show in it.
         slope = (k[1, 2] + 1.0) / k[1, 1]
         reach = slope * (eye[2] - centres[:, 2])
         reach += self.model.geom_rbound[self.pool.active_geom[active]]
-        fractions, areas = {}, {}
-        for slot in active[np.abs(centres[:, 0] - eye[0]) <= reach].tolist():
-            item_id = int(self.pool.item_ids[slot])
-            area = self.silhouette_px(slot, rot, eye, k)
-            areas[item_id] = area
-            fractions[item_id] = min(1.0, counts[slot] / area) if area > 0.0 else 0.0
-        return fractions, areas
+        return rot, eye, active[np.abs(centres[:, 0] - eye[0]) <= reach]
 
     def _on_belt(self, held: np.ndarray) -> np.ndarray:
         """The active slots no cup holds."""

@@ -336,16 +336,11 @@ class CameraPerception:
 
     def _completed_items(self, t: float) -> list[Detection]:
         out = []
-        # Fixed-lag smoothing: an item is reported once all its rows are in, so the rows after
-        # it inform its class as well as those before (forward-backward over the HMM window).
-        smoothed = self.hmm.smoothed_window()[-WINDOW_ROWS:]
-        posteriors = self.posteriors.copy()
-        posteriors[WINDOW_ROWS - len(smoothed) :] = smoothed
         # Regions that still touch the newest row are still growing; older ones were reported.
         blobs = item_blobs(
             self.pixels,
             self.pixel_y,
-            posteriors,
+            self._smoothed_posteriors,
             pixel_height=self.pixel_height,
             split=ITEM_SPLIT,
             complete_row=COMPLETE_ROW,
@@ -379,6 +374,16 @@ class CameraPerception:
                 )
             )
         return out
+
+    def _smoothed_posteriors(self) -> np.ndarray:
+        """(WINDOW_ROWS, stripes, N) the window's class posteriors, smoothed where the HMMs'
+        window reaches: fixed-lag smoothing, an item is reported once all its rows are in, so
+        the rows after it inform its class as well as those before (forward-backward over the
+        HMM window). Asked for only when an item is found."""
+        smoothed = self.hmm.smoothed_window(last=WINDOW_ROWS)
+        posteriors = self.posteriors.copy()
+        posteriors[WINDOW_ROWS - len(smoothed) :] = smoothed
+        return posteriors
 
     def _window_pixels(self) -> tuple[np.ndarray, ...]:
         """The window's item pixels in `item_blobs`' order (row by row, stripe by stripe):
