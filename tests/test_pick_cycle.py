@@ -127,13 +127,13 @@ def test_a_chain_without_corners_plans_each_segment_once(gen, monkeypatch):
     ]
     unblended = plan_chain(start, waypoints, gen, blend=False)
     labels = []
-    plan = gen.plan
+    plan_many = gen.plan_many
 
-    def counted(start, goal, label="", *args):
-        labels.append(label)
-        return plan(start, goal, label, *args)
+    def counted(requests):
+        labels.extend(label for _, _, label, *_ in requests)
+        return plan_many(requests)
 
-    monkeypatch.setattr(gen, "plan", counted)
+    monkeypatch.setattr(gen, "plan_many", counted)
     chain = plan_chain(start, waypoints, gen, blend=True)
     assert labels == ["lift", "transfer"]
     assert [s.duration for s in chain.segments] == [s.duration for s in unblended.segments]

@@ -12,7 +12,7 @@ import pytest
 
 from planner.errors import PlannerInputError
 from planner.motion.blending import plan_chain
-from planner.motion.kinematics import inverse_kinematics, jacobian, reachable_mask
+from planner.motion.kinematics import inverse_kinematics, jacobian, reachable_mask, row_sums
 from planner.motion.limits import MotionLimits, limits_for_payload
 from planner.motion.motor_rates import motor_rates
 from planner.motion.pick_cycle import PickPlaceConfig, pick_place_waypoints
@@ -22,6 +22,7 @@ from planner.motion.ruckig_trajectory import (
     RuckigTrajectoryGenerator,
     motor_speeds,
     motor_torques,
+    stacked_xyz,
 )
 from planner.motion.trajectory import Chain, Dwell, State
 from sim.cell.executor import lumped_dynamics
@@ -252,3 +253,95 @@ def test_ruckig_limits_are_the_per_coordinate_limits():
             tuple(limits.max_acceleration),
             tuple(limits.max_jerk),
         )
+
+
+def _reference_ratios(geom, dyn, gen, segment):
+    """`limit_ratios` as the generator first computed it: one segment, `motor_rates` and
+    `LumpedDynamics.torque` on its samples every `CHECK_DT`."""
+    _, pos, vel, acc = segment.sample_states(CHECK_DT)
+    if not np.all(reachable_mask(geom, pos[:, :3])):
+        return np.inf, np.inf
+    rates = motor_rates(geom, pos[:, :3], vel[:, :3], acc[:, :3])
+    tau = dyn.torque(rates.q, rates.qdot, rates.qddot, rates.jac, acc[:, :3])
+    return (
+        float(np.max(np.abs(rates.qdot))) / gen.limits.motor_velocity,
+        float(np.max(np.abs(tau))) / (TORQUE_MARGIN * dyn.torque_limit),
+    )
+
+
+def test_segments_checked_together_have_their_own_ratios_to_the_bit(robot):
+    """The motor checks of several segments evaluated in one pass (`limit_ratios_of`: their
+    samples stacked) give each segment exactly the ratios it has checked alone, a segment
+    leaving the workspace among them included."""
+    geom, dyn, gen = robot
+    rng = np.random.default_rng(12)
+    segments = []
+    for _ in range(30):
+        start, pick, speed, drop = _random_pair(rng, geom)
+        goal = State(np.append(pick, 0.5), [speed, 0.0, 0.0, 0.0])
+        segments.append(gen.plan_unchecked(State.at_rest(start), goal))
+        segments.append(gen.plan_unchecked(goal, State.at_rest(drop)))
+    segments.insert(
+        7, gen.plan_unchecked(State.at_rest([0.0, 0.0, 0.05]), State.at_rest([1.5, 0, 0.05]))
+    )
+    expected = [_reference_ratios(geom, dyn, gen, s) for s in segments]
+    assert gen.limit_ratios_of(segments) == expected
+    assert [gen.limit_ratios_of([s])[0] for s in segments[:9]] == expected[:9]
+
+
+def test_segments_planned_together_are_those_planned_alone(robot):
+    """`plan_many` plans each request exactly as `plan` does alone: the same re-plans, the
+    same segment (duration, limits and states to the bit), the same refusal."""
+    geom, _, gen = robot
+    rng = np.random.default_rng(13)
+    requests = []
+    for _ in range(12):
+        start, pick, speed, drop = _random_pair(rng, geom)
+        goal = State(np.append(pick, 0.5), [speed, 0.0, 0.0, 0.0])
+        requests.append((State.at_rest(start), goal, "approach", None, 1.0))
+        requests.append((goal, State.at_rest(drop), "transfer", 0.6, 1.3))
+    requests.insert(
+        3, (State.at_rest([0.0, 0.0, 0.05]), State.at_rest([1.5, 0, 0.05]), "away", None, 1.0)
+    )
+    together = gen.plan_many(requests)
+    for request, segment in zip(requests, together, strict=True):
+        try:
+            alone = gen.plan(*request)
+        except PlannerInputError as exc:
+            assert isinstance(segment, PlannerInputError) and str(segment) == str(exc)
+            continue
+        assert segment.duration == alone.duration and segment.limits == alone.limits
+        times = np.linspace(0.0, alone.duration, 57)
+        for a, b in zip(segment.states_at(times), alone.states_at(times), strict=True):
+            np.testing.assert_array_equal(a, b)
+
+
+def test_stacked_check_samples_are_each_segments_own(robot):
+    """The check samples of many segments evaluated in one pass are, segment by segment, the
+    times and states `sample_states` gives each alone (x, y and z)."""
+    geom, _, gen = robot
+    rng = np.random.default_rng(14)
+    segments = []
+    for _ in range(10):
+        start, pick, speed, drop = _random_pair(rng, geom)
+        goal = State(np.append(pick, 0.5), [speed, 0.0, 0.0, 0.0])
+        segments.append(gen.plan_unchecked(State.at_rest(start), goal, minimum_duration=0.3))
+        segments.append(gen.plan_unchecked(goal, State.at_rest(drop)))
+    tables = [s._phase_tables() for s in segments]
+    sizes, pos, vel, acc = stacked_xyz(tables, [s.duration for s in segments], CHECK_DT)
+    rows = np.cumsum(np.r_[0, sizes])
+    for k, segment in enumerate(segments):
+        _, p, v, a = segment.sample_states(CHECK_DT)
+        got = slice(rows[k], rows[k + 1])
+        np.testing.assert_array_equal(pos[got], p[:, :3])
+        np.testing.assert_array_equal(vel[got], v[:, :3])
+        np.testing.assert_array_equal(acc[got], a[:, :3])
+
+
+def test_row_sums_add_as_numpy_sums():
+    """`row_sums` (three leg-major rows added in order) is `np.sum(..., axis=-1)` of the
+    row-major array to the bit, on values of very different magnitudes."""
+    rng = np.random.default_rng(15)
+    x = rng.normal(size=(5000, 3, 3)) * 10.0 ** rng.integers(-8, 8, size=(5000, 3, 3))
+    legs = np.ascontiguousarray(x.transpose(1, 2, 0))
+    np.testing.assert_array_equal(row_sums(legs), np.sum(x, axis=-1))

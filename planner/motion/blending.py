@@ -46,6 +46,8 @@ FINE_CUTS = (0.0, 0.25, 0.5, 0.75, 1.0)
 Z_TOL = 1e-9
 """How far [m] a segment may dip below the lower of its two end heights."""
 
+_AT_REST = (0.0,) * DOF
+
 
 def _build(start, waypoints, corners, generator, checked):
     """Segments for given corner (offset, velocity) pairs; None if a path constraint fails."""
@@ -76,16 +78,91 @@ def _build(start, waypoints, corners, generator, checked):
     return segments
 
 
+def _legs(start, waypoints, corners) -> list[tuple[State, State]]:
+    """(start, goal) state of the segment into each waypoint for given corner (offset,
+    velocity) pairs, as `_build` plans them (a dwell carries the state on at its velocity)."""
+    legs, state = [], start
+    for k, wp in enumerate(waypoints):
+        if wp.velocity is None:
+            offset, vel = corners[k]
+            goal = State(wp.position + offset, vel)
+        else:
+            goal = State(wp.position, wp.velocity)
+        legs.append((state, goal))
+        state = goal
+        if wp.dwell > 0.0 and k + 1 < len(waypoints):  # (the last one's is never used)
+            state = State(state.position + state.velocity * wp.dwell, state.velocity)
+    return legs
+
+
+def _assemble(waypoints, legs, planned) -> list | None:
+    """The segments `_build` makes of the planned segment (or error) into each waypoint; None
+    where it refuses one (the first refusal in the chain's order, as `_build` meets it). Only
+    the first waypoint may have an arrival time (met from the chain's start)."""
+    segments = []
+    for wp, (state, goal), seg in zip(waypoints, legs, planned, strict=True):
+        if isinstance(seg, PlannerInputError):
+            return None
+        lo, _ = seg.position_range(2)
+        if lo < min(state.position[2], goal.position[2]) - Z_TOL:
+            return None
+        if wp.arrival_time is not None and abs(0.0 + seg.duration - wp.arrival_time) > 1e-9:
+            return None
+        segments.append(seg)
+        if wp.dwell > 0.0:
+            segments.append(Dwell(goal, wp.dwell, wp.dwell_label))
+    return segments
+
+
+def build_chains(chains, generator: RuckigTrajectoryGenerator) -> list[list | None]:
+    """`_try_build` (motor checks on) of each chain, given as (start, waypoints, corners),
+    every segment of every chain planned in one `plan_many` (their motor checks evaluated
+    together). A chain with an arrival time past its first waypoint is planned segment after
+    segment: those segments' minimum durations follow from the ones before."""
+    out: list[list | None] = [None] * len(chains)
+    together, requests = [], []
+    for i, (start, waypoints, corners) in enumerate(chains):
+        if any(wp.arrival_time is not None for wp in waypoints[1:]):
+            out[i] = _try_build(start, waypoints, corners, generator, True)
+            continue
+        first = waypoints[0].arrival_time
+        min_dur = None if first is None else first - 0.0  # as `_build` takes it
+        if min_dur is not None and min_dur < 0.0:
+            continue
+        legs = _legs(start, waypoints, corners)
+        together.append((i, waypoints, legs, len(requests)))
+        for k, (wp, (state, goal)) in enumerate(zip(waypoints, legs, strict=True)):
+            requests.append((state, goal, wp.label, min_dur if k == 0 else None, wp.slow))
+    planned = generator.plan_many(requests) if requests else []
+    for i, waypoints, legs, first in together:
+        out[i] = _assemble(waypoints, legs, planned[first : first + len(waypoints)])
+    return out
+
+
+def plan_fixed_chains(chains, generator: RuckigTrajectoryGenerator) -> list:
+    """`plan_chain` of each chain, given as (start, waypoints), whose waypoints are no
+    corners (each velocity given), all planned together (`build_chains`).
+
+    Returns:
+        Per chain, its `Chain`, or the `PlannerInputError` that `plan_chain` would raise.
+    """
+    if any(not w or any(wp.velocity is None for wp in w) for _, w in chains):
+        raise PlannerInputError("waypoints", "non-empty lists of points with velocities", None)
+    refused = PlannerInputError("waypoints", "points the robot can pass within its limits", None)
+    built = build_chains([(start, waypoints, {}) for start, waypoints in chains], generator)
+    return [refused if segments is None else Chain(segments) for segments in built]
+
+
 def _search_duration(start, plain, corners, generator, cache) -> float:
     """Duration of the chain (inf if infeasible), without building segments: the fast path.
 
-    `plain` holds the waypoints as tuples (position, velocity or None, dwell, arrival time) and
-    `corners` the corner (position, velocity) tuples. Segments are memoised on their boundary
-    states, so changing one corner re-plans only the segments it touches.
+    `start` is the start state as (position, velocity, acceleration) tuples, `plain` holds the
+    waypoints as tuples (position, velocity or None, dwell, arrival time, slow) and `corners`
+    the corner (position, velocity) tuples, all of plain floats. Segments are memoised on
+    their boundary states, so changing one corner re-plans only the segments it touches.
     """
-    state = (tuple(start.position), tuple(start.velocity), tuple(start.acceleration))
+    state = start
     t = 0.0
-    zero = (0.0,) * DOF
     for k, (pos, vel, dwell, arrival, slow) in enumerate(plain):
         if vel is None:
             pos, vel = corners[k]
@@ -95,7 +172,7 @@ def _search_duration(start, plain, corners, generator, cache) -> float:
         key = (state, pos, vel, min_dur, slow)
         hit = cache.get(key)
         if hit is None:
-            hit = generator.duration_and_lowest(state, (pos, vel, zero), 2, min_dur, slow)
+            hit = generator.duration_and_lowest(state, (pos, vel, _AT_REST), 2, min_dur, slow)
             cache[key] = hit
         dur, low = hit
         if low < min(state[0][2], pos[2]) - Z_TOL:
@@ -103,9 +180,10 @@ def _search_duration(start, plain, corners, generator, cache) -> float:
         if arrival is not None and abs(t + dur - arrival) > 1e-9:
             return np.inf
         t += dur + dwell
-        if dwell:
-            pos = tuple(p + v * dwell for p, v in zip(pos, vel, strict=True))
-        state = (pos, vel, zero)
+        if k + 1 < len(plain):  # the next segment starts where the dwell ends
+            if dwell:
+                pos = tuple(p + v * dwell for p, v in zip(pos, vel, strict=True))
+            state = (pos, vel, _AT_REST)
     return t
 
 
@@ -174,6 +252,13 @@ def search_corners(
     Returns:
         ({waypoint index: (offset (4,), velocity (4,))}, duration [s]).
     """
+    corners, duration, _ = _search(start, waypoints, generator, blend, sweeps, fractions, cuts)
+    return corners, duration
+
+
+def _search(start, waypoints, generator, blend, sweeps, fractions, cuts):
+    """`search_corners`, and the duration of the chain with every corner at rest, uncut (its
+    first candidate) [s]."""
     if not waypoints or waypoints[-1].velocity is None:
         raise PlannerInputError("waypoints", "a non-empty list ending with a given velocity", None)
     zero = {
@@ -181,42 +266,55 @@ def search_corners(
     }
     best_corners = dict(zero)
     cache: dict = {}
+    # Plain floats: the same values, far cheaper to add and hash than numpy scalars.
+    first = (tuple(start.position.tolist()), tuple(start.velocity.tolist()))
+    first += (tuple(start.acceleration.tolist()),)
     plain = [
         (
-            tuple(wp.position),
-            None if wp.velocity is None else tuple(wp.velocity),
+            tuple(wp.position.tolist()),
+            None if wp.velocity is None else tuple(wp.velocity.tolist()),
             wp.dwell,
             wp.arrival_time,
             wp.slow,
         )
         for wp in waypoints
     ]
-    as_tuples = {k: (tuple(waypoints[k].position + o), tuple(v)) for k, (o, v) in zero.items()}
-    best = _search_duration(start, plain, as_tuples, generator, cache)
+    as_tuples = {
+        k: (tuple((waypoints[k].position + o).tolist()), tuple(v.tolist()))
+        for k, (o, v) in zero.items()
+    }
+    best = rest = _search_duration(first, plain, as_tuples, generator, cache)
     if not (blend and zero):
-        return best_corners, best
+        return best_corners, best, rest
     axes = _corner_axes(start, waypoints, generator)
     max_velocity = generator.limits.max_velocity
     for _ in range(sweeps):
         before = best
         for k, (e_in, e_out, cut) in axes.items():
+            velocities = _corner_velocities(e_in, e_out, fractions, max_velocity)
             for c in cuts if np.any(cut) else (0.0,):
-                position = tuple(waypoints[k].position + c * cut)
-                for alpha in fractions:
-                    for beta in fractions:
-                        v = alpha * e_in + beta * e_out
-                        if not np.all(np.abs(v) <= max_velocity):
-                            continue
-                        trial = dict(as_tuples)
-                        trial[k] = (position, tuple(v))
-                        d = _search_duration(start, plain, trial, generator, cache)
-                        if d < best - 1e-12:
-                            best, as_tuples = d, trial
-                            best_corners = dict(best_corners)
-                            best_corners[k] = (c * cut, v)
+                position = tuple((waypoints[k].position + c * cut).tolist())
+                for v, as_floats in velocities:
+                    trial = dict(as_tuples)
+                    trial[k] = (position, as_floats)
+                    d = _search_duration(first, plain, trial, generator, cache)
+                    if d < best - 1e-12:
+                        best, as_tuples = d, trial
+                        best_corners = dict(best_corners)
+                        best_corners[k] = (c * cut, v)
         if _settled(best, before, len(axes)):
             break
-    return best_corners, best
+    return best_corners, best, rest
+
+
+def _corner_velocities(e_in, e_out, fractions, max_velocity) -> list[tuple[np.ndarray, tuple]]:
+    """The corner velocities alpha e_in + beta e_out (alpha, then beta, over `fractions`)
+    within `max_velocity` per coordinate, each as an array and as a tuple of floats."""
+    f = np.asarray(fractions, dtype=float)
+    # Each velocity as alpha * e_in + beta * e_out computes it alone, for all pairs at once.
+    grid = (f[:, None, None] * e_in + f[None, :, None] * e_out).reshape(-1, DOF)
+    allowed = np.all(np.abs(grid) <= max_velocity, axis=1)
+    return [(v, tuple(v.tolist())) for v in grid[allowed]]
 
 
 def plan_chain(
@@ -245,16 +343,21 @@ def plan_chain(
     Raises:
         PlannerInputError: no chain meets the limits (e.g. a waypoint outside the workspace).
     """
-    best_corners, _ = search_corners(start, waypoints, generator, blend, sweeps, fractions, cuts)
+    best_corners, _, zero_bound = _search(
+        start, waypoints, generator, blend, sweeps, fractions, cuts
+    )
     zero = {k: (np.zeros(DOF), np.zeros(DOF)) for k in best_corners}
-    # Without corners the blended chain is the rest-corner chain: built once, below.
-    best = _try_build(start, waypoints, best_corners, generator, True) if blend and zero else None
-    if best is not None:
-        # The rest-corner chain cannot beat its own unchecked duration: skip it when possible.
-        _, zero_bound = search_corners(start, waypoints, generator, blend=False)
-        if _duration(best) <= zero_bound:
+    if blend and zero:
+        # The rest-corner chain is planned along with the blended one (their motor checks
+        # evaluated together): the motor limits slow most blended chains past its unchecked
+        # duration, which it cannot beat, so it is nearly always needed.
+        chains = [(start, waypoints, best_corners), (start, waypoints, zero)]
+        best, rest = build_chains(chains, generator)
+        if best is not None and _duration(best) <= zero_bound:
             return Chain(best)
-    rest = _try_build(start, waypoints, zero, generator, True)
+    else:
+        # Without corners the blended chain is the rest-corner chain: built once.
+        best, rest = None, build_chains([(start, waypoints, zero)], generator)[0]
     chains = [c for c in (best, rest) if c is not None]
     if not chains:
         raise PlannerInputError("waypoints", "points the robot can pass within its limits", None)

@@ -85,17 +85,26 @@ def outline_points(obstacle: Obstacle, n: int = 9) -> np.ndarray:
     beyond a rounded corner) moved onto its nearest point of the footprint's outline, so that the
     outline's corners are always among the points (a tilted box's corners were dropped, and a
     neighbour's corner over them went unseen)."""
-    b = obstacle
+    return outline_points_of([obstacle], n)[0]
+
+
+def outline_points_of(obstacles: Sequence[Obstacle], n: int = 9) -> np.ndarray:
+    """`outline_points` of each obstacle, (k, n * n, 2) [m], computed for all at once (each
+    obstacle's points with the same operations as alone)."""
+    o = np.array([(b.x, b.y, b.heading, b.half_x, b.half_y, b.radius) for b in obstacles])
+    x, y, heading, half_x, half_y, radius = (o[:, k, None] for k in range(6))  # each (k, 1)
     u = np.linspace(-1.0, 1.0, n)
-    ga, gb = np.meshgrid(u * (b.half_x + b.radius), u * (b.half_y + b.radius))
-    a, c_ = ga.ravel(), gb.ravel()
-    core_a, core_b = np.clip(a, -b.half_x, b.half_x), np.clip(c_, -b.half_y, b.half_y)
+    k = len(o)
+    # np.meshgrid's grid, raveled: point i n + j at (u_j (half_x + r), u_i (half_y + r)).
+    a = np.broadcast_to((u * (half_x + radius))[:, None, :], (k, n, n)).reshape(k, n * n)
+    c_ = np.broadcast_to((u * (half_y + radius))[:, :, None], (k, n, n)).reshape(k, n * n)
+    core_a, core_b = np.clip(a, -half_x, half_x), np.clip(c_, -half_y, half_y)
     da, db = a - core_a, c_ - core_b
     out = np.hypot(da, db)
-    pull = np.where(out > b.radius, b.radius / np.maximum(out, 1e-300), 1.0)
+    pull = np.where(out > radius, radius / np.maximum(out, 1e-300), 1.0)
     la, lb = core_a + da * pull, core_b + db * pull
-    c, s = np.cos(b.heading), np.sin(b.heading)
-    return np.stack([b.x + c * la - s * lb, b.y + s * la + c * lb], axis=1)
+    c, s = np.cos(heading), np.sin(heading)
+    return np.stack([x + c * la - s * lb, y + s * la + c * lb], axis=2)
 
 
 @dataclass(frozen=True)

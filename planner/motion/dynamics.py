@@ -55,7 +55,14 @@ class LumpedDynamics:
             jac: Jacobians dp/dq (n, 3, 3) [m/rad].
             tcp_acc: TCP accelerations (n, 3) [m/s^2].
         """
+        arms, force = self.arms_and_force(np.cos(q), qdot, qddot, tcp_acc)
+        return arms + np.einsum("nji,nj->ni", jac, force)
+
+    def arms_and_force(self, cos_q, qdot, qddot, tcp_acc) -> tuple[np.ndarray, np.ndarray]:
+        """The two parts of `torque` = arms + J^T force: the torques [N m] of the arms' own
+        inertia, damping and weight, and the force [N] the moving mass needs, each (n, 3),
+        from the cosines of the motor angles (n, 3) and the arguments of `torque`."""
         force = self.moving_mass * (np.asarray(tcp_acc) + np.array([0.0, 0.0, GRAVITY]))
         arms = self.arm_inertia * qddot + self.damping * qdot
-        arms = arms - self.arm_moment * GRAVITY * np.cos(q)
-        return arms + np.einsum("nji,nj->ni", jac, force)
+        arms = arms - self.arm_moment * GRAVITY * cos_q
+        return arms, force

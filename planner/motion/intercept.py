@@ -25,12 +25,11 @@ from planner.motion.kinematics import DeltaGeometry, reachable_mask
 from planner.motion.pick_cycle import (
     PickPlaceConfig,
     PickPlan,
-    delay_contact,
+    delay_and_place,
     join_pick_place,
     lift_travel,
     pick_place_waypoints,
     plan_pick,
-    plan_place,
 )
 from planner.motion.ruckig_trajectory import RuckigTrajectoryGenerator
 from planner.motion.trajectory import State
@@ -53,6 +52,10 @@ FINE_DT = 0.0005
 
 MAX_LATER = 5
 """Times a plan leaving the workspace between the generator's checks is moved `SCAN_DT` later."""
+
+WINDOW_CHUNK = 176
+"""Grid times of the window scan tested at once (3.5 s of the 10 s horizon): the scan stops at
+the chunk where the item leaves the window, most often in the second."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -94,7 +97,26 @@ def window_mask(
         (seal + lift_travel, config.lift_height),
     ):
         pts.append(np.stack([xs + dx, np.full_like(xs, y), np.full_like(xs, pick_z + dz)], axis=1))
-    return np.all([reachable_mask(geom, p) for p in pts], axis=0)
+    # One workspace test for the four points of every x (each point's test is its own).
+    return np.all(reachable_mask(geom, np.concatenate(pts)).reshape(4, -1), axis=0)
+
+
+def window_span(inside_at, count: int) -> tuple[int, int] | None:
+    """(first, last) index of the first run of True in a mask of `count` entries read in
+    chunks of `WINDOW_CHUNK` (`inside_at(slice)` gives the mask there), None when it is all
+    False: what the whole mask says, read only until the run ends."""
+    first = None
+    for lo in range(0, count, WINDOW_CHUNK):
+        part = inside_at(slice(lo, lo + WINDOW_CHUNK))
+        if first is None:
+            hits = np.flatnonzero(part)
+            if not hits.size:
+                continue
+            first = lo + int(hits[0])
+        gone = np.flatnonzero(~part[first - lo if first >= lo else 0 :])
+        if gone.size:
+            return first, max(first, lo) + int(gone[0]) - 1
+    return None if first is None else (first, count - 1)
 
 
 def intercept_item(  # noqa: C901, PLR0915
@@ -135,16 +157,17 @@ def intercept_item(  # noqa: C901, PLR0915
     travel = 0.0
     if config.lift_with_belt:
         travel = lift_travel(config.lift_height, belt_speed, generator)
-    inside = window_mask(geom, x0 + belt_speed * times, y, pick_z, belt_speed, config, travel)
-    if not np.any(inside):
+    xs = x0 + belt_speed * times
+    span = window_span(
+        lambda part: window_mask(geom, xs[part], y, pick_z, belt_speed, config, travel), len(xs)
+    )
+    if span is None:
         line = np.linspace(x0 - 3.0, x0 + 3.0, 601)
         crossed = window_mask(geom, line, y, pick_z, belt_speed, config, travel)
         if np.any(crossed) and x0 > line[crossed].max():
             return _refuse("the item has already left the reachable window")
         return _refuse("the item's path never enters the reachable window")
-    first_in = int(np.argmax(inside))
-    gone = np.flatnonzero(~inside[first_in:])
-    last_in = first_in + int(gone[0]) - 1 if gone.size else len(times) - 1
+    first_in, last_in = span
 
     wps_at = lambda t: pick_place_waypoints(  # noqa: E731
         (x0 + belt_speed * t, y, pick_z), belt_speed, drop_xyz, config, axis4
@@ -184,8 +207,8 @@ def intercept_item(  # noqa: C901, PLR0915
         point = np.array([x0 + belt_speed * t, y, pick_z])
         wps = wps_at(t)
         try:
-            pick = delay_contact(pick, wps[1], generator, t)
-            plan = join_pick_place(pick, plan_place(wps, generator, config), point, belt_speed)
+            pick, place = delay_and_place(pick, wps, generator, config, t)
+            plan = join_pick_place(pick, place, point, belt_speed)
         except PlannerInputError as exc:
             return _refuse(
                 f"no pick within the motor limits meets the item inside the window ({exc})"

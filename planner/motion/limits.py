@@ -28,6 +28,7 @@ Sources:
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 from functools import cached_property
 
@@ -78,7 +79,7 @@ class MotionLimits:
     def __post_init__(self):
         for name in self.__dataclass_fields__:
             value = getattr(self, name)
-            if not (isinstance(value, int | float) and np.isfinite(value) and value > 0.0):
+            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0.0):
                 raise PlannerInputError(name, "a finite number > 0", value)
 
     @property

@@ -16,7 +16,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from planner.errors import PlannerInputError
-from planner.motion.blending import FINE_CUTS, FINE_FRACTIONS, Waypoint, plan_chain
+from planner.motion.blending import (
+    FINE_CUTS,
+    FINE_FRACTIONS,
+    Waypoint,
+    plan_chain,
+    plan_fixed_chains,
+)
 from planner.motion.limits import VACUUM_RELEASE_S, VACUUM_SEAL_S
 from planner.motion.ruckig_trajectory import RuckigTrajectoryGenerator
 from planner.motion.trajectory import Chain, State
@@ -176,31 +182,68 @@ def delay_contact(
         PlannerInputError: `contact_time` is earlier than `pick`'s contact, or neither stretch
             stays within the limits.
     """
-    earliest = pick.phase_start("seal")
-    if contact_time < earliest - 1e-9:
-        raise PlannerInputError("contact_time", f">= {earliest:.4f} s (the earliest)", contact_time)
-    if contact_time <= earliest + 1e-12:
+    stretch = _Stretch.of(pick, contact_time)
+    if stretch is None:
         return pick
-    labels = [s.label for s in pick.segments]
-    k = labels.index("descend")
-    if k == 0:
-        raise PlannerInputError("pick", "a chain with an approach before its descent", labels)
-    delay = contact_time - earliest
-    approach = pick.segments[k - 1]
-    corner = approach.at_time(approach.duration)
-    start = State(*approach.at_time(0.0))
-    t_corner = pick.phase_start(approach.label) + approach.duration
-    later = approach.duration + delay
-    above = Waypoint(corner[0], corner[1], label=approach.label, arrival_time=later)
-    try:
-        longer = plan_chain(start, [above], generator, blend=False)
-        return Chain(pick.segments[: k - 1] + longer.segments + pick.segments[k:])
-    except PlannerInputError:
-        pass
-    down = State(corner[0], corner[1])
-    wait = replace(descend, arrival_time=contact_time - t_corner)
-    tail = plan_chain(down, [wait], generator, blend=False)
-    return Chain(pick.segments[:k] + tail.segments)
+    [longer] = plan_fixed_chains([stretch.chain], generator)
+    return stretch.apply(pick, descend, generator, contact_time, longer)
+
+
+@dataclass(frozen=True, eq=False)
+class _Stretch:
+    """The approach of a pick stretched to touch down later (`delay_contact`).
+
+    Attributes:
+        k: Index of the descent among the pick's segments.
+        chain: (start, [the point above the item, reached `later`]) of the stretched approach.
+        corner: State (position, velocity) at the point above the item.
+        t_corner: When the pick reaches it [s].
+    """
+
+    k: int
+    chain: tuple
+    corner: tuple
+    t_corner: float
+
+    @classmethod
+    def of(cls, pick: Chain, contact_time: float) -> _Stretch | None:
+        """The stretch of `pick` to touch down at `contact_time` [s]; None when it touches
+        down then already.
+
+        Raises:
+            PlannerInputError: `contact_time` is earlier than `pick`'s contact, or `pick` has
+                no approach before its descent.
+        """
+        earliest = pick.phase_start("seal")
+        if contact_time < earliest - 1e-9:
+            raise PlannerInputError(
+                "contact_time", f">= {earliest:.4f} s (the earliest)", contact_time
+            )
+        if contact_time <= earliest + 1e-12:
+            return None
+        labels = [s.label for s in pick.segments]
+        k = labels.index("descend")
+        if k == 0:
+            raise PlannerInputError("pick", "a chain with an approach before its descent", labels)
+        delay = contact_time - earliest
+        approach = pick.segments[k - 1]
+        corner = approach.at_time(approach.duration)
+        start = State(*approach.at_time(0.0))
+        t_corner = pick.phase_start(approach.label) + approach.duration
+        later = approach.duration + delay
+        above = Waypoint(corner[0], corner[1], label=approach.label, arrival_time=later)
+        return cls(k, (start, [above]), corner, t_corner)
+
+    def apply(self, pick, descend, generator, contact_time, longer) -> Chain:
+        """`pick` with the stretched approach `longer` (a `Chain`, or the error planning it
+        raised), else with its descent stretched instead."""
+        k = self.k
+        if not isinstance(longer, PlannerInputError):
+            return Chain(pick.segments[: k - 1] + longer.segments + pick.segments[k:])
+        down = State(self.corner[0], self.corner[1])
+        wait = replace(descend, arrival_time=contact_time - self.t_corner)
+        tail = plan_chain(down, [wait], generator, blend=False)
+        return Chain(pick.segments[:k] + tail.segments)
 
 
 def lift_travel(
@@ -227,6 +270,12 @@ def plan_place(
     moves x at exactly the belt's velocity (the z move sets the duration), so the held item
     rises straight up relative to the belt.
     """
+    start, place = _place_waypoints(waypoints, generator, config)
+    return plan_chain(start, place, generator, blend=config.blend)
+
+
+def _place_waypoints(waypoints, generator, config) -> tuple[State, list[Waypoint]]:
+    """The start state and waypoints of `plan_place`'s chain."""
     start = _seal_end(waypoints[1])
     place = list(waypoints[2:])
     vb = float(waypoints[1].velocity[0])
@@ -237,7 +286,40 @@ def plan_place(
         place[0] = replace(
             lift, position=lift.position + along, velocity=np.array([vb, 0.0, 0.0, 0.0])
         )
-    return plan_chain(start, place, generator, blend=config.blend)
+    return start, place
+
+
+def delay_and_place(
+    pick: Chain,
+    waypoints: Sequence[Waypoint],
+    generator: RuckigTrajectoryGenerator,
+    config: PickPlaceConfig,
+    contact_time: float,
+) -> tuple[Chain, Chain]:
+    """`delay_contact(pick, waypoints[1], generator, contact_time)` and `plan_place(waypoints,
+    generator, config)`, the stretched approach and the place chain planned together (their
+    motor checks evaluated in one pass): neither depends on the other.
+
+    Raises:
+        PlannerInputError: as `delay_contact`, or else `plan_place`, raises it.
+    """
+    stretch = _Stretch.of(pick, contact_time)
+    try:
+        start, place = _place_waypoints(waypoints, generator, config)
+    except PlannerInputError:
+        place = None
+    if place is None or any(wp.velocity is None for wp in place):
+        # Corners to search, or a place that cannot be planned: one after the other.
+        delayed = delay_contact(pick, waypoints[1], generator, contact_time)
+        return delayed, plan_place(waypoints, generator, config)
+    chains = [(start, place)] + ([stretch.chain] if stretch is not None else [])
+    planned = plan_fixed_chains(chains, generator)
+    delayed = pick
+    if stretch is not None:
+        delayed = stretch.apply(pick, waypoints[1], generator, contact_time, planned[1])
+    if isinstance(planned[0], PlannerInputError):
+        raise planned[0]
+    return delayed, planned[0]
 
 
 def join_pick_place(pick: Chain, place: Chain, pick_xyz, belt_velocity: float) -> PickPlan:

@@ -28,7 +28,7 @@ from planner.motion.clearance import (
     TOUCH_MARGIN_XY,
     Obstacle,
     footprint_distances,
-    outline_points,
+    outline_points_of,
     path_conflicts,
 )
 from planner.motion.intercept import Intercept, intercept_item
@@ -203,13 +203,15 @@ class PickController:
     def slot_near(self, x: float, y: float) -> int | None:
         """Pool slot of the item on the belt nearest (x, y) now, within `NEAR_M`, or None."""
         items = self.cell.items
-        best, best_d = None, NEAR_M
-        for slot in items.active_slots():
-            px, py, pz = items.position(slot)
-            d = float(np.hypot(px - x, py - y))
-            if d < best_d and pz > -0.05:
-                best, best_d = int(slot), d
-        return best
+        slots = items.active_slots()
+        centres = items.positions(slots)
+        d = np.hypot(centres[:, 0] - x, centres[:, 1] - y)
+        # The first of the nearest (as a scan keeping the strictly nearer one would find).
+        d = np.where((d < NEAR_M) & (centres[:, 2] > -0.05), d, np.inf)
+        if not d.size:
+            return None
+        k = int(np.argmin(d))
+        return int(slots[k]) if d[k] < np.inf else None
 
     def item_shape(self, slot: int | None) -> tuple[float, float]:
         """(top height [m], heading [rad]) of the item in `slot` (`slot_near` a detection) now.
@@ -257,14 +259,11 @@ class PickController:
         (the same stand-in for a stereo camera as `item_shape`)."""
         items = self.cell.items
         belt = self.cell.pool.belt.geometry
-        out = []
-        for slot in items.active_slots():
-            centre = items.position(slot)
-            # Items over the belt only: one just let go of over a bin is falling into it.
-            if slot == exclude or not belt.on_belt(centre[:2]) or centre[2] < belt.top_z - 0.05:
-                continue
-            out.append((int(slot), self.obstacle_of(int(slot))))
-        return out
+        slots = items.active_slots()
+        centres = items.positions(slots)
+        # Items over the belt only: one just let go of over a bin is falling into it.
+        over = belt.on_belt(centres[:, :2]) & ~(centres[:, 2] < belt.top_z - 0.05)
+        return [(int(s), self.obstacle_of(int(s))) for s in slots[over] if s != exclude]
 
     def obstacle_of(self, slot: int) -> Obstacle:
         """The item in `slot` as the cup's obstacle: its outline seen from above and its top."""
@@ -274,7 +273,7 @@ class PickController:
         cx, cy = (float(v) for v in pos[:2])
         rot = mat.reshape(3, 3)
         size = model.geom_size[geom]
-        top = self.top_of(slot)
+        top = self._top(geom, pos, mat)
         if model.geom_type[geom] == mujoco.mjtGeom.mjGEOM_BOX:
             # Its own x-y rectangle, grown by its thickness when tilted (a conservative outline
             # of the projection).
@@ -317,19 +316,19 @@ class PickController:
         if not neighbours:
             return []
         own = self.obstacle_of(target)
-        points = outline_points(own)
         items = self.cell.items
         z = items.position(target)[2]
         obstacles = [o for _, o in neighbours]
+        outlines = outline_points_of([own, *obstacles])  # (1 + k, m, 2), each as alone
+        points, stacked = outlines[0], outlines[1:].reshape(-1, 2)
         near = footprint_distances(obstacles, points, np.zeros(len(points))).min(axis=1)
-        theirs = [outline_points(o) for o in obstacles]
-        starts = np.cumsum([0] + [len(t) for t in theirs[:-1]])
-        stacked = np.concatenate(theirs)
+        starts = np.arange(len(obstacles)) * outlines.shape[1]
         back = footprint_distances([own], stacked, np.zeros(len(stacked)))[0]
         near = np.minimum(near, np.minimum.reduceat(back, starts))
+        heights = items.positions(np.array([slot for slot, _ in neighbours]))[:, 2] - z
         return [
-            (slot, float(items.position(slot)[2] - z), float(distance))
-            for (slot, _), distance in zip(neighbours, near, strict=True)
+            (slot, float(dz), float(distance))
+            for (slot, _), dz, distance in zip(neighbours, heights, near, strict=True)
         ]
 
     def _neighbours_forbid(
@@ -366,9 +365,12 @@ class PickController:
 
     def top_of(self, slot: int) -> float:
         """Highest point [m] of the item in `slot` as it lies now (a can may have toppled)."""
-        model = self.cell.model
         geom = self.cell.pool.geom_id(slot)
-        pos, mat = self.cell.items.geom_pose(slot)
+        return self._top(geom, *self.cell.items.geom_pose(slot))
+
+    def _top(self, geom: int, pos: np.ndarray, mat: np.ndarray) -> float:
+        """`top_of` the item whose geom `geom` lies at `pos` [m] turned by `mat` (row-major)."""
+        model = self.cell.model
         z = float(pos[2])
         up = mat.reshape(3, 3)[2]  # world z in the geom's axes
         size = model.geom_size[geom]
