@@ -35,11 +35,7 @@ from sim.monitors.energy import ActuatorLog, EnergyMeter
 from sim.monitors.visibility import SCALE, VisibilityWatch, belt_slope
 from sim.render.segmentation import shared_segmentation
 from sim.results.metrics import EpisodeMetrics
-from sim.sensing.perception import (
-    CameraPerception,
-    TruthPerception,
-    line_camera_perception,
-)
+from sim.sensing.truth import TruthPerception
 
 if TYPE_CHECKING:
     from sim.episode.loop import Episode
@@ -288,6 +284,10 @@ def perception(config: EpisodeConfig, cell: Cell, flow: Flow):
     speed, period = config.belt_speed_mps, config.observation_period_s
     if config.perception == "truth":
         return TruthPerception(cell.items, flow, speed, period)
+    # The camera's modules (rendering, the HMMs, the item classifier) are imported only here:
+    # a truth episode's start does without them.
+    from sim.sensing.perception import CameraPerception, line_camera_perception
+
     if config.camera.per_robot and len(cell.robots) > 1:
         from sim.cell.camera import camera_name
 

@@ -47,7 +47,8 @@ from sim.flow.catalogue import load_catalogue
 from sim.flow.config import BELT_HALF_WIDTH, X_CAMERA
 from sim.flow.ground_truth import yaw_from_xmat
 from sim.monitors.visibility import VISIBLE_SHARE
-from sim.sensing.perception import ITEM_SPLIT, ON_BELT_TOL_M
+from sim.sensing.perception import ITEM_SPLIT
+from sim.sensing.truth import ON_BELT_TOL_M
 
 DENSITIES = (6.0, 12.0, 18.0, 24.0)
 """Items per metre of belt of the table's flows."""

@@ -41,9 +41,9 @@ from sim.flow.ground_truth import flow_rows, yaw_from_xmat
 from sim.sensing.perception import (
     COMPLETE_ROW,
     ITEM_SPLIT,
-    ON_BELT_TOL_M,
     WINDOW_ROWS,
 )
+from sim.sensing.truth import ON_BELT_TOL_M
 
 GROW_M = 0.003
 """A found pixel belongs to a true item when it lies within this of its outline [m]: the

@@ -1,10 +1,8 @@
-"""What the cell sees of the belt once per observation period: detections for the tracker.
+"""What the camera sees of the belt once per observation period: detections for the tracker.
 
-Two sources with one interface, `observe(t) -> list[Detection]`:
+The camera's source of detections, with the interface of `sim.sensing.truth.TruthPerception`
+(`observe(t) -> list[Detection]`):
 
-- `TruthPerception` (`--perception truth`, the fast path): no rendering; every period, each
-  item past the camera line is reported where the simulation has it, with its true class as
-  a certainty (perfect perception: an item that slips on the belt is still tracked exactly).
 - `CameraPerception`: the belt camera's frame and its registered depth map (a stereo camera's
   output) are rendered (`sim.cell.camera.BeltCamera`, real lens distortion; only the window the
   row's band is seen in, `CameraWindow`, but every `WHOLE_FRAME_EVERY`-th frame), turned into a
@@ -33,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from perception.codes import EMPTY_CODE, N_STATES, VOID
+from perception.codes import EMPTY_CODE, VOID
 from perception.errors import PerceptionError
 from perception.hmm.online import OnlineStripeHmms
 from perception.items.blobs import item_blobs
@@ -42,20 +40,14 @@ from perception.items.features import item_features
 from perception.items.split import SplitSettings
 from sim.cell.camera import FRAME_SIZE
 from sim.cell.depth_noise import ZED_CLASS, StereoDepthNoise
-from sim.cell.items import Items
 from sim.errors import InvalidInput
-from sim.flow.config import BELT_HALF_WIDTH, X_CAMERA
-from sim.flow.generator import Flow
+from sim.flow.config import X_CAMERA
 from sim.paths import REPO_ROOT
 from sim.sensing.item_classifier import trained_item_classifier
 from sim.sensing.tracking import Detection
 
 log = logging.getLogger(__name__)
 
-ON_BELT_TOL_M = 0.04
-"""An item whose centre is higher than its resting height plus this is not on the belt [m]: held
-by the cup or thrown. An item lying partly over a flat neighbour (a crushed can, 1-2 cm) is
-still on the belt."""
 HMM_CACHE_DIR = REPO_ROOT / "runs" / "cache"
 _HMM_INPUTS = (
     "sim/data/items.toml",
@@ -117,41 +109,6 @@ class ReportedItem:
     hmm_probs: np.ndarray
     hmm_prior: np.ndarray
     classifier_probs: np.ndarray | None
-
-
-def one_hot(class_id: int, n_states: int = N_STATES) -> tuple[float, ...]:
-    """Class probabilities (void, *materials) of a certain class."""
-    probs = [0.0] * n_states
-    probs[int(class_id) - 1] = 1.0
-    return tuple(probs)
-
-
-class TruthPerception:
-    """True items as they cross the camera line (no rendering)."""
-
-    name = "truth"
-
-    def __init__(self, items: Items, flow: Flow, belt_speed: float, period_s: float):
-        self.items, self.pool, self.flow = items, items.pool, flow
-        self.n_states = items.pool.catalogue.materials.n_states
-        self.rows = self.unobserved = 0
-
-    def observe(self, t: float) -> list[Detection]:
-        """Every item on the belt past the camera line, where the simulation has it now."""
-        self.rows += 1
-        out = []
-        for slot in self.items.active_slots():
-            item_id = int(self.pool.item_ids[slot])
-            x, y, z = self.items.position(slot)
-            resting = -0.05 < z < self.pool.item_type(int(slot)).rest_height + ON_BELT_TOL_M
-            if X_CAMERA <= x and resting and abs(y) <= BELT_HALF_WIDTH:
-                cls = int(self.flow.class_id[item_id])
-                probs = one_hot(cls, self.n_states)
-                out.append(Detection(t, float(x), float(y), probs, true_id=item_id))
-        return out
-
-    def close(self) -> None:
-        """Nothing to free."""
 
 
 def hmm_cache_path(catalogue=None, mix: dict | None = None, coupled: bool = False) -> Path:
