@@ -74,7 +74,7 @@ def make_cell(
         data,
         belt,
         pool,
-        SuctionCup(model, pool, config),
+        SuctionCup(model, pool, config, measure_load=True),
         Bins(model, Items(model, data, pool)),
     )
 
@@ -244,11 +244,11 @@ def test_a_toppled_standing_can_is_picked_by_its_side():
     assert len(run.landings) == 1 and run.landings[0].correct
 
 
-def one_kg_run(radius: float | None) -> tuple[Cell, PickRun]:
+def one_kg_run(radius: float | None, measure_load: bool = True) -> tuple[Cell, PickRun]:
     cell = make_cell(1.5)
     if radius is not None:  # an undersized cup: same vacuum, smaller lip
         cell.model.geom_size[cell.cup.geom_id, 0] = radius
-        cell.cup = SuctionCup(cell.model, cell.pool)
+        cell.cup = SuctionCup(cell.model, cell.pool, measure_load=measure_load)
     slot = spawn(cell, "carton_box_small", yaw=0.0)
     make_payload(cell, slot, PAYLOAD_KG)
     return cell, pick_and_place(cell, slot, "plastic", payload=PAYLOAD_KG, hold=0.3)
@@ -281,6 +281,18 @@ def test_undersized_cup_loses_one_kilogram_exactly_as_the_budget_predicts(ratio)
         assert run.events[1].time == pytest.approx(expected, abs=0.005)
     else:
         assert kinds == ["sealed", "released"]
+
+
+@pytest.mark.parametrize("ratio", [0.97, 0.999, 1.001])
+def test_the_load_worked_out_only_near_the_budget_drops_as_every_steps(ratio):
+    """An episode's cup computes the held item's load only when its force could reach the
+    budget: the same events at the same times as a cup measuring every step's load."""
+    _, probe = one_kg_run(None)
+    budget = ratio * probe.planned_load[:, 1].max()
+    radius = math.sqrt(budget / (math.pi * SuctionConfig().vacuum))
+    _, measured = one_kg_run(radius, measure_load=True)
+    _, lean = one_kg_run(radius, measure_load=False)
+    assert lean.events == measured.events
 
 
 @pytest.mark.parametrize(("diameter", "held"), [(0.03, False), (0.08, True)])

@@ -97,7 +97,8 @@ class SuctionCup:
 
     Call `update(data)` after every physics step (or control period) and switch the vacuum
     with `vacuum_on` / `vacuum_off`. `prefix` names the robot whose cup this is ("" for the
-    robot's own names).
+    robot's own names); `measure_load` has every step's load of a held item measured
+    (`peak_load`), which the cup otherwise works out only when it could exceed the budget.
     """
 
     def __init__(
@@ -107,9 +108,14 @@ class SuctionCup:
         config: SuctionConfig | None = None,
         *,
         prefix: str = "",
+        measure_load: bool = False,
     ):
         self.model, self.pool = model, pool
         self.config = config or SuctionConfig()
+        self.measure_load = bool(measure_load)
+        """Compute the held item's load every step (`last_load`, `peak_load`); else only when
+        its force could reach the budget (the drops are the same)."""
+        self.last_load = self.peak_load = 0.0
         self.prefix = prefix
         self.body_id = model.body(prefix + CUP_BODY).id
         self.site_id = model.site(prefix + CUP_SITE).id
@@ -128,13 +134,15 @@ class SuctionCup:
         self._held: int | None = None
         self._release_at: float | None = None
         self.events: list[SuctionEvent] = []
-        self.last_load = 0.0
-        self.peak_load = 0.0
         self._force = np.zeros(6)
         # [m/s^2] (read once: the option never changes)
         self._gravity = tuple(model.opt.gravity.tolist())
         self._budget = self.force_budget  # [N], read every step while holding
+        # A load below this cannot reach the budget however it splits into pull-off and shear
+        # (F_n + F_t / mu <= |F| (1 + 1 / mu)), with a margin for the rounding [N].
+        self._safe_force = self._budget / (1.0 + 1.0 / self.config.lip_friction) * (1.0 - 1e-9)
         self._parts: tuple[int, int, int, float, int] | None = None  # `_held_parts`' last
+        self._data_views = None  # views of the data's arrays read every step (`_views`)
 
     @property
     def area(self) -> float:
@@ -187,10 +195,13 @@ class SuctionCup:
             if self._release_at is not None and t >= self._release_at - 1e-9:
                 events.append(self._drop(data, "released", t))
             else:
-                load = self.load(data, self._held)
-                self.last_load, self.peak_load = load, max(self.peak_load, load)
-                if load > self._budget:
-                    events.append(self._drop(data, "lost", t, load))
+                fx, fy, fz = self.cup_force(data, self._held)
+                near = fx * fx + fy * fy + fz * fz >= self._safe_force * self._safe_force
+                if near or self.measure_load:
+                    load = self._load_of(data, self._held, fx, fy, fz)
+                    self.last_load, self.peak_load = load, max(self.peak_load, load)
+                    if load > self._budget:
+                        events.append(self._drop(data, "lost", t, load))
         elif self._vacuum:
             slot, sealing = self._touched_slot(data), self._sealing
             if slot is None:  # a short break keeps the build-up
@@ -292,6 +303,14 @@ class SuctionCup:
             self._parts = parts
         return parts
 
+    def _views(self, data: mujoco.MjData) -> tuple:
+        """Views of `data`'s arrays read every step while holding (made once per data)."""
+        views = self._data_views
+        if views is None or views[0] is not data:
+            views = (data, data.qacc, data.site_xmat, data.site_xpos, data.xpos)
+            self._data_views = views
+        return views
+
     def cup_force(self, data: mujoco.MjData, slot: int) -> tuple[float, float, float]:
         """Force of the cup on the item in `slot` [N, world]: m (a - g) - its other contacts.
 
@@ -300,7 +319,7 @@ class SuctionCup:
         step), and only those with anything but the lip (the item still on the belt,
         touching a neighbour) are read from MuJoCo."""
         _, _, dof, mass, geom = self._held_parts(slot)
-        ax, ay, az = data.qacc[dof : dof + 3].tolist()
+        ax, ay, az = self._views(data)[1][dof : dof + 3].tolist()
         gx, gy, gz = self._gravity
         fx, fy, fz = mass * (ax - gx), mass * (ay - gy), mass * (az - gz)
         n = data.ncon
@@ -325,10 +344,14 @@ class SuctionCup:
 
     def load(self, data: mujoco.MjData, slot: int) -> float:
         """Equivalent pull-off load on the seal, F_n + F_t / mu_lip [N] (against the budget)."""
-        fx, fy, fz = self.cup_force(data, slot)
-        ax, ay, az = data.site_xmat[self.site_id, 2::3].tolist()  # the lip's axis in the world
-        lx, ly, lz = data.site_xpos[self.site_id].tolist()
-        cx, cy, cz = data.xpos[self._held_parts(slot)[1]].tolist()
+        return self._load_of(data, slot, *self.cup_force(data, slot))
+
+    def _load_of(self, data: mujoco.MjData, slot: int, fx: float, fy: float, fz: float) -> float:
+        """`load` of the cup's force (fx, fy, fz) [N] on the item in `slot`."""
+        _, site_xmat, site_xpos, xpos = self._views(data)[1:]
+        ax, ay, az = site_xmat[self.site_id, 2::3].tolist()  # the lip's axis in the world
+        lx, ly, lz = site_xpos[self.site_id].tolist()
+        cx, cy, cz = xpos[self._held_parts(slot)[1]].tolist()
         if ax * (cx - lx) + ay * (cy - ly) + az * (cz - lz) < 0:
             ax, ay, az = -ax, -ay, -az  # unit vector from the lip into the item
         along = fx * ax + fy * ay + fz * az

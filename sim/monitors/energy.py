@@ -78,6 +78,9 @@ class ActuatorLog:
 
     def __init__(self, data: mujoco.MjData):
         self.data = data
+        # The arrays read every step, bound once (an attribute of MjData makes a new view).
+        self._force_now, self._speed_now = data.actuator_force, data.actuator_velocity
+        self._asleep_now = data.tree_asleep
         n = self.BUFFER_ROWS
         self.force = np.empty((n, len(data.actuator_force)))
         self.speed = np.empty((n, len(data.actuator_velocity)))
@@ -95,11 +98,11 @@ class ActuatorLog:
 
     def record(self, duration_s: float) -> None:
         """Record the step (or block of idle steps) just made, which covered `duration_s` [s]."""
-        k, data = self.rows, self.data
-        self.force[k] = data.actuator_force
-        self.speed[k] = data.actuator_velocity
+        k = self.rows
+        self.force[k] = self._force_now
+        self.speed[k] = self._speed_now
         if self.tree_asleep is not None:
-            self.tree_asleep[k] = data.tree_asleep
+            self.tree_asleep[k] = self._asleep_now
         self.duration[k] = duration_s
         self.rows = k + 1
         if self.rows == self.BUFFER_ROWS:
