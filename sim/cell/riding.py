@@ -70,6 +70,10 @@ PATH_MARGIN_M = 0.03
 """Margin around the cup (and an item hanging from it) within which a rider wakes [m]."""
 
 
+WAKE_SCAN_PLANES = 8
+"""x planes of the reach grid tested at a time by `wake_line`."""
+
+
 def wake_line(reachable, item_radius: float, z_range=(-0.02, 0.3)) -> float:
     """x [m] upstream of which nothing the robot holds or moves can reach the belt's items.
 
@@ -81,9 +85,16 @@ def wake_line(reachable, item_radius: float, z_range=(-0.02, 0.3)) -> float:
     xs = np.arange(-1.5, 0.0, 0.005)
     ys = np.linspace(-0.6, 0.6, 61)
     zs = np.linspace(z_range[0], z_range[1], 16)
-    grid = np.stack(np.meshgrid(xs, ys, zs, indexing="ij"), axis=-1).reshape(-1, 3)
-    ok = reachable(grid)
-    x_min = float(grid[ok, 0].min()) if np.any(ok) else 0.0
+    grid = np.stack(np.meshgrid(xs, ys, zs, indexing="ij"), axis=-1).reshape(len(xs), -1, 3)
+    x_min = 0.0
+    # The grid's x planes in ascending blocks, up to the first block holding a reachable point:
+    # the least x of the whole grid's reachable points lies in it.
+    for start in range(0, len(xs), WAKE_SCAN_PLANES):
+        block = grid[start : start + WAKE_SCAN_PLANES].reshape(-1, 3)
+        ok = reachable(block)
+        if np.any(ok):
+            x_min = float(block[ok, 0].min())
+            break
     return x_min - item_radius - WAKE_LEAD_M
 
 
