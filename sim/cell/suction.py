@@ -195,7 +195,8 @@ class SuctionCup:
             if self._release_at is not None and t >= self._release_at - 1e-9:
                 events.append(self._drop(data, "released", t))
             else:
-                fx, fy, fz = self.cup_force(data, self._held)
+                _, _, dof, mass, geom = self._parts  # the item sealed on (`_seal`)
+                fx, fy, fz = self._force_on(data, dof, mass, geom)
                 near = fx * fx + fy * fy + fz * fz >= self._safe_force * self._safe_force
                 if near or self.measure_load:
                     load = self._load_of(data, self._held, fx, fy, fz)
@@ -285,6 +286,7 @@ class SuctionCup:
         self.model.eq_data[eq, 6:10] = relquat
         data.eq_active[eq] = 1
         self._held, self._sealing, self.last_load = slot, None, 0.0
+        self._held_parts(slot)  # read once for the steps it is held
 
     def _drop(self, data: mujoco.MjData, kind: str, t: float, load: float = 0.0) -> SuctionEvent:
         slot = self._held
@@ -319,6 +321,12 @@ class SuctionCup:
         step), and only those with anything but the lip (the item still on the belt,
         touching a neighbour) are read from MuJoCo."""
         _, _, dof, mass, geom = self._held_parts(slot)
+        return self._force_on(data, dof, mass, geom)
+
+    def _force_on(
+        self, data: mujoco.MjData, dof: int, mass: float, geom: int
+    ) -> tuple[float, float, float]:
+        """`cup_force` on the item of first dof `dof`, mass `mass` [kg] and geom `geom`."""
         ax, ay, az = self._views(data)[1][dof : dof + 3].tolist()
         gx, gy, gz = self._gravity
         fx, fy, fz = mass * (ax - gx), mass * (ay - gy), mass * (az - gz)

@@ -70,10 +70,13 @@ def out_of_reach(episode: Episode, now: ItemsNow, held: np.ndarray) -> bool:
     Returns whether any was."""
     items, metrics, tracker = episode.cell.items, episode.metrics, episode.tracker
     active, pos = now.slots, now.positions
+    x_end = items.pool.belt.geometry.x_discharge
+    if not len(active) or pos[:, 0].max() <= min(episode.x_discard, x_end):
+        return False  # every item short of both lines
     passed = (pos[:, 0] > episode.x_discard) & (pos[:, 2] > BELOW_BELT_Z)
     discarded = passed & ~held_mask(active, held)
     # Past the belt's end (e.g. pushed along), of those still in play.
-    beyond = ~discarded & (pos[:, 0] > items.pool.belt.geometry.x_discharge)
+    beyond = ~discarded & (pos[:, 0] > x_end)
     gone = (*active[discarded].tolist(), *active[beyond].tolist())
     for slot in gone:
         item_id = items.park(slot)
