@@ -255,3 +255,40 @@ def test_a_window_is_the_whole_frame_cut_to_it(cell_with_items, fixture_model):
             assert np.ptp(crop_depth) > 0.005  # items stand out of the belt in the window
     with BeltCamera(*cell_with_items[:1], 640, 360) as camera, pytest.raises(InvalidInput):
         camera.window(slice(300, 400), slice(0, 10))
+
+
+def test_lens_maps_are_kept_between_processes_under_what_makes_them(tmp_path, monkeypatch):
+    """`cached_distorter` keeps a frame's lens maps in `LENS_MAPS_DIR` under the digest of what
+    they depend on: a later camera reads the same maps byte for byte, another lens or window
+    makes its own, and a damaged file is made again."""
+    from perception.camera.lens import (
+        ZED_HD_LEFT,
+        LensDistorter,
+        LensModel,
+        source_canvas,
+        window_source,
+    )
+    from sim.cell import camera
+
+    monkeypatch.setattr(camera, "LENS_MAPS_DIR", tmp_path)
+    matrix = np.array([[311.77, 0.0, 319.5], [0.0, 311.77, 179.5], [0.0, 0.0, 1.0]])
+    src_matrix, src_size = source_canvas(matrix, ZED_HD_LEFT, (640, 360))
+    args = (matrix, ZED_HD_LEFT, (640, 360), src_matrix, src_size)
+    made = LensDistorter(*args)
+    first = camera.cached_distorter(*args)
+    (kept,) = tmp_path.glob("lens_maps-*.npz")
+    again = camera.cached_distorter(*args)
+    for distorter in (first, again):
+        assert distorter._map1.tobytes() == made._map1.tobytes()
+        assert distorter._map2.tobytes() == made._map2.tobytes()
+    window = (slice(100, 200), slice(50, 600))
+    part_matrix, part, _ = window_source(matrix, ZED_HD_LEFT, src_matrix, window)
+    camera.cached_distorter(matrix, ZED_HD_LEFT, (640, 360), part_matrix, part, window)
+    other = LensModel(k1=-0.1)
+    camera.cached_distorter(matrix, other, (640, 360), *source_canvas(matrix, other, (640, 360)))
+    assert len(list(tmp_path.glob("lens_maps-*.npz"))) == 3
+    kept.write_bytes(b"not maps")
+    remade = camera.cached_distorter(*args)
+    assert remade._map1.tobytes() == made._map1.tobytes()
+    assert camera.cached_distorter(*args)._map2.tobytes() == made._map2.tobytes()
+    assert not list(tmp_path.glob(".*"))  # no temporary left

@@ -12,7 +12,11 @@ factory calibration file of one such camera lists them (SN*.conf, section [LEFT_
 
 from __future__ import annotations
 
+import functools
+import hashlib
+import platform
 from dataclasses import dataclass
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -139,6 +143,69 @@ def window_source(
     return matrix, (width, height), offset
 
 
+def distortion_maps(
+    camera_matrix: np.ndarray,
+    lens: LensModel,
+    size: tuple[int, int],
+    source_matrix: np.ndarray,
+    source_size: tuple[int, int],
+    window: tuple[slice, slice] | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """`cv2.remap`'s fixed-point maps of a `LensDistorter` (its arguments): (rows, columns, 2)
+    int16 source pixels and (rows, columns) uint16 interpolation table entries (`CV_16SC2`)."""
+    rows, cols = _window(size, window)
+    u, v = np.meshgrid(
+        np.arange(cols.start, cols.stop, dtype=np.float64),
+        np.arange(rows.start, rows.stop, dtype=np.float64),
+    )
+    out_h, out_w = u.shape
+    norm = _undistorted_normalised(np.stack([u.ravel(), v.ravel()], 1), camera_matrix, lens)
+    map_x = source_matrix[0, 0] * norm[:, 0] + source_matrix[0, 2]
+    map_y = source_matrix[1, 1] * norm[:, 1] + source_matrix[1, 2]
+    map1, map2 = cv2.convertMaps(
+        map_x.reshape(out_h, out_w).astype(np.float32),
+        map_y.reshape(out_h, out_w).astype(np.float32),
+        cv2.CV_16SC2,
+    )
+    return map1, map2
+
+
+def distortion_maps_key(
+    camera_matrix: np.ndarray,
+    lens: LensModel,
+    size: tuple[int, int],
+    source_matrix: np.ndarray,
+    source_size: tuple[int, int],
+    window: tuple[slice, slice] | None = None,
+) -> str:
+    """A digest (40 hex digits) of everything `distortion_maps` of these arguments depends on:
+    the arguments (the matrices' values and types), the code (this module, the OpenCV and NumPy
+    versions and OpenCV's build for this processor): maps kept under it are those it makes."""
+    rows, cols = _window(size, window)
+    digest = hashlib.sha1(_code_digest().encode())
+    for matrix in (camera_matrix, source_matrix, lens.dist_coeffs()):
+        matrix = np.ascontiguousarray(matrix)
+        digest.update(f"{matrix.dtype.str}{matrix.shape}".encode())
+        digest.update(matrix.tobytes())
+    places = (rows.start, rows.stop, cols.start, cols.stop)
+    digest.update(repr((tuple(map(int, source_size)), tuple(map(int, places)))).encode())
+    return digest.hexdigest()
+
+
+@functools.cache
+def _code_digest() -> str:
+    """Digest of the code the maps come from, read once a process."""
+    digest = hashlib.sha1(Path(__file__).read_bytes())
+    versions = (cv2.__version__, np.__version__, cv2.getCPUFeaturesLine(), platform.machine())
+    digest.update(repr((versions, _ITER_CRITERIA)).encode())
+    return digest.hexdigest()
+
+
+def _window(size: tuple[int, int], window: tuple[slice, slice] | None) -> tuple[slice, slice]:
+    """The (rows, columns) of a distorted image of `size` (width, height) a window produces."""
+    return (slice(0, int(size[1])), slice(0, int(size[0]))) if window is None else window
+
+
 class LensDistorter:
     """Turns pinhole renders into the distorted images of a camera with `lens`.
 
@@ -150,6 +217,7 @@ class LensDistorter:
         source_size: Pinhole render (width, height) [px].
         window: (rows, columns) slices of the distorted image to produce (default: all of
             it); the output is then that window.
+        maps: `distortion_maps` of these arguments, made earlier (a cache's); None: made now.
     """
 
     def __init__(
@@ -160,26 +228,22 @@ class LensDistorter:
         source_matrix: np.ndarray,
         source_size: tuple[int, int],
         window: tuple[slice, slice] | None = None,
+        maps: tuple[np.ndarray, np.ndarray] | None = None,
     ):
         width, height = size
         if width < 16 or height < 16:
             raise PerceptionInputError("size", "width and height >= 16 px", size)
         self.size = (int(width), int(height))
         self.source_size = (int(source_size[0]), int(source_size[1]))
-        rows, cols = (slice(0, height), slice(0, width)) if window is None else window
-        u, v = np.meshgrid(
-            np.arange(cols.start, cols.stop, dtype=np.float64),
-            np.arange(rows.start, rows.stop, dtype=np.float64),
-        )
-        out_h, out_w = u.shape
-        norm = _undistorted_normalised(np.stack([u.ravel(), v.ravel()], 1), camera_matrix, lens)
-        map_x = source_matrix[0, 0] * norm[:, 0] + source_matrix[0, 2]
-        map_y = source_matrix[1, 1] * norm[:, 1] + source_matrix[1, 2]
-        self._map1, self._map2 = cv2.convertMaps(
-            map_x.reshape(out_h, out_w).astype(np.float32),
-            map_y.reshape(out_h, out_w).astype(np.float32),
-            cv2.CV_16SC2,
-        )
+        if maps is None:
+            maps = distortion_maps(camera_matrix, lens, size, source_matrix, source_size, window)
+        rows, cols = _window(size, window)
+        shape = (rows.stop - rows.start, cols.stop - cols.start)
+        map1, map2 = maps
+        fits = map1.shape == (*shape, 2) and map2.shape == shape
+        if not fits or map1.dtype != np.int16 or map2.dtype != np.uint16:
+            raise PerceptionInputError("lens maps", f"CV_16SC2 maps of {shape} px", map1.shape)
+        self._map1, self._map2 = map1, map2
 
     def apply(self, pinhole: np.ndarray, interpolation: int = cv2.INTER_LINEAR) -> np.ndarray:
         """The distorted image (height, width[, channels]) of a pinhole render.

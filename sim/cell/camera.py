@@ -31,6 +31,10 @@ bit (checked on every frame of the camera episodes; `tests/test_camera.py`). The
 leaves the skybox out, and is drawn again with it in the rare frame whose depth shows the sky.
 With multisampling the depth is still its own segmentation pass, drawn first.
 
+The lens's maps of a camera's frame and of its windows (`perception.camera.lens`, 0.13 s of CPU
+for a 640 x 360 frame) are kept on disk from one process to the next (`cached_distorter`),
+under the digest of everything they depend on.
+
 `BeltCamera.window` gives a `CameraWindow`: the camera reading out only a window of its
 frames (an industrial camera's region of interest), rendered from the part of the pinhole
 canvas that window samples; the camera perception reads each frame's band this way.
@@ -46,7 +50,11 @@ shares the calibration file; its pose comes from its own markers (`camera_pipeli
 
 from __future__ import annotations
 
+import contextlib
 import math
+import os
+import zipfile
+from pathlib import Path
 
 import cv2
 import mujoco
@@ -58,13 +66,16 @@ from perception.camera.lens import (
     ZED_HD_LEFT,
     LensDistorter,
     LensModel,
+    distortion_maps,
+    distortion_maps_key,
     source_canvas,
     window_source,
 )
 from perception.camera.pipeline import CameraPipeline
+from perception.errors import PerceptionInputError
 from sim.cell.rendering import check_backend, gl_context
 from sim.errors import InvalidInput, ModelFileError
-from sim.paths import CAMERA_CALIBRATION_JSON
+from sim.paths import CACHE_DIR, CAMERA_CALIBRATION_JSON, temporary_path
 
 CAMERA_NAME = "belt_camera"
 MARKER_NAMES = ("marker_0", "marker_1", "marker_2", "marker_3")
@@ -120,8 +131,16 @@ def camera_pose(
 ) -> tuple[np.ndarray, np.ndarray]:
     """(R_world_from_opencv (3, 3), position (3,) [m]) of the camera, OpenCV axes (x right,
     y down, z forward). For tests only."""
-    cam = camera_id(model, name)
-    rot = data.cam_xmat[cam].reshape(3, 3) @ np.diag([1.0, -1.0, -1.0])
+    return camera_pose_of(data, camera_id(model, name))
+
+
+_OPENCV_AXES = np.diag([1.0, -1.0, -1.0])
+"""OpenCV's camera axes in MuJoCo's (x right, y up, looking along -z)."""
+
+
+def camera_pose_of(data: mujoco.MjData, cam: int) -> tuple[np.ndarray, np.ndarray]:
+    """`camera_pose` of the camera of id `cam` (`camera_id`), without looking its name up."""
+    rot = data.cam_xmat[cam].reshape(3, 3) @ _OPENCV_AXES
     return rot, data.cam_xpos[cam].copy()
 
 
@@ -198,6 +217,8 @@ CULL_MARGIN_PX = 8.0
 _SPHERE, _ELLIPSOID = int(mujoco.mjtGeom.mjGEOM_SPHERE), int(mujoco.mjtGeom.mjGEOM_ELLIPSOID)
 _CAPSULE, _CYLINDER = int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_CYLINDER)
 _BOX = int(mujoco.mjtGeom.mjGEOM_BOX)
+_GL_RGBA = 0x1908
+"""OpenGL's `GL_RGBA`: a render context's `readPixelFormat` for reading four bytes a pixel."""
 
 
 def bounding_radii(model: mujoco.MjModel) -> np.ndarray:
@@ -223,15 +244,22 @@ def bounding_radii(model: mujoco.MjModel) -> np.ndarray:
 
 
 def geoms_out_of_view(
-    model: mujoco.MjModel, data: mujoco.MjData, cam: int, canvas: tuple[int, int], focal_px: float
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    cam: int,
+    canvas: tuple[int, int],
+    focal_px: float,
+    radius: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Ids of the geoms whose bounding sphere (`bounding_radii`) lies wholly outside the view of
-    camera `cam` on a centred pinhole canvas (width, height) [px] of focal length `focal_px`
-    [px], the canvas widened by `CULL_MARGIN_PX` on every side: no pixel of it shows them."""
+    """Ids of the geoms whose bounding sphere (`bounding_radii`, or `radius` when the caller
+    keeps them) lies wholly outside the view of camera `cam` on a centred pinhole canvas
+    (width, height) [px] of focal length `focal_px` [px], the canvas widened by
+    `CULL_MARGIN_PX` on every side: no pixel of it shows them."""
     rot = data.cam_xmat[cam].reshape(3, 3)  # camera axes: x right, y up, looking along -z
     local = (data.geom_xpos - data.cam_xpos[cam]) @ rot
     ahead = -local[:, 2]
-    radius = bounding_radii(model)
+    if radius is None:
+        radius = bounding_radii(model)
     outside = np.zeros(model.ngeom, dtype=bool)
     for axis, extent in ((0, canvas[0]), (1, canvas[1])):
         slope = (0.5 * extent + CULL_MARGIN_PX) / focal_px
@@ -248,7 +276,9 @@ class SceneRenderer:
     the process's OpenGL context (`sim.cell.rendering.gl_context`). Every pass of every frame
     of the cameras sharing it renders there, each on its own canvas (a viewport at the buffer's
     corner), as `mujoco.Renderer` would render them each on its own context: the same scene
-    flags, options and depth conversion, and so the same pixels.
+    flags, options and depth conversion, and so the same pixels. The segmentation renders of
+    the cameras' views (`sim.render.segmentation`: the visibility monitor's, the labelled
+    frames') render there too (`segmentation`).
 
     A frame's scene is built once for both of its passes (`update`), and leaves out the geoms
     no pixel of the canvas shows (`geoms_out_of_view`) when nothing couples one geom's pixels
@@ -271,29 +301,67 @@ class SceneRenderer:
         hidden = np.flatnonzero(self._option.geomgroup == 0)
         coupled = bool(np.any(model.light_castshadow)) or bool(np.any(model.mat_reflectance > 0))
         self._hide_group = None if coupled or not len(hidden) else int(hidden[-1])
+        self._radii: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._gl = gl_context()
 
     def update(
-        self, data: mujoco.MjData, cam: int, canvas: tuple[int, int], focal_px: float
+        self,
+        data: mujoco.MjData,
+        cam: int,
+        canvas: tuple[int, int],
+        focal_px: float,
+        option: mujoco.MjvOption | None = None,
     ) -> None:
         """Build the scene of camera `cam` on a centred pinhole canvas (width, height) [px] of
-        focal length `focal_px` [px] (its fovy is the model's only while the scene is built)."""
+        focal length `focal_px` [px] (its fovy is the model's only while the scene is built),
+        with the visualisation options `option` (None: MuJoCo's defaults; the geoms out of
+        view are left out when it hides the same groups)."""
         model = self.model
+        option = self._option if option is None else option
         fovy = float(model.cam_fovy[cam])
         model.cam_fovy[cam] = math.degrees(2.0 * math.atan(0.5 * canvas[1] / focal_px))
         groups, out = model.geom_group, np.zeros(0, dtype=np.intp)
-        if self._hide_group is not None:
-            out = geoms_out_of_view(model, data, cam, canvas, focal_px)
+        hide = self._hide_group
+        if hide is not None and option.geomgroup[hide] == 0:
+            out = geoms_out_of_view(model, data, cam, canvas, focal_px, self._bounding_radii())
         own = groups[out].copy()
         try:
-            groups[out] = self._hide_group
+            groups[out] = hide
             self._camera.fixedcamid = cam
             everything = mujoco.mjtCatBit.mjCAT_ALL.value
-            mujoco.mjv_updateScene(model, data, self._option, None, self._camera, everything,
+            mujoco.mjv_updateScene(model, data, option, None, self._camera, everything,
                                    self.scene)  # fmt: skip
         finally:
             groups[out] = own
             model.cam_fovy[cam] = fovy
+
+    def _bounding_radii(self) -> np.ndarray:
+        """`bounding_radii` of the model, computed again only when its geoms' sizes or types
+        changed since (the item pool resizes geoms at run time)."""
+        model, kept = self.model, self._radii
+        if (
+            kept is None
+            or not np.array_equal(model.geom_size, kept[0])
+            or not np.array_equal(model.geom_type, kept[1])
+        ):
+            kept = self._radii = (model.geom_size.copy(), model.geom_type.copy(),
+                                  bounding_radii(model))  # fmt: skip
+        return kept[2]
+
+    def segmentation(self, canvas: tuple[int, int]) -> np.ndarray:
+        """The scene's segmentation image on `canvas`: (height, width) uint16, the scene index
+        + 1 of the geom each pixel shows (0: none), as `mujoco.Renderer`'s segmentation render
+        finds it (one sample, no skybox), rows bottom first (OpenGL's order: `[::-1]` puts the
+        top row first). A view of the four bytes a pixel read (`GL_RGBA`, read without
+        conversion, unlike `GL_RGB`), whose red and green bytes hold the index + 1 (the blue
+        one is 0 below 65536 geoms)."""
+        flags = self.scene.flags
+        flags[:] = self._defaults
+        flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = True
+        flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = False
+        rgba = np.empty((canvas[1], canvas[0], 4), dtype=np.uint8)
+        self._render(canvas, 0, rgba, None)
+        return rgba.view("<u2")[..., 0]
 
     def depth(self, canvas: tuple[int, int]) -> np.ndarray:
         """The scene's depth (height, width) float32 [m along the optical axis] on `canvas`:
@@ -353,13 +421,22 @@ class SceneRenderer:
         return rgb[::-1].copy()
 
     def _render(self, canvas, samples: int, rgb, depth) -> None:
-        """Render the scene on `canvas` at the buffer's corner and read it into `rgb`/`depth`."""
+        """Render the scene on `canvas` at the buffer's corner and read it into `rgb`/`depth`
+        (`rgb` of four channels: read as `GL_RGBA`)."""
         self._gl.make_current()
         context = self._context(samples, canvas)
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, context)
         rect = mujoco.MjrRect(0, 0, int(canvas[0]), int(canvas[1]))
         mujoco.mjr_render(rect, self.scene, context)
-        mujoco.mjr_readPixels(rgb, depth, rect, context)
+        if rgb is None or rgb.shape[-1] == 3:
+            mujoco.mjr_readPixels(rgb, depth, rect, context)
+            return
+        own = context.readPixelFormat
+        context.readPixelFormat = _GL_RGBA
+        try:
+            mujoco.mjr_readPixels(rgb, depth, rect, context)
+        finally:
+            context.readPixelFormat = own
 
     def _context(self, samples: int, canvas) -> mujoco.MjrContext:
         """The render context of `samples` multisamples, (re)made when missing or when its
@@ -417,6 +494,57 @@ def _metric_depth(model: mujoco.MjModel, scene: mujoco.MjvScene, raw: np.ndarray
     return out_64.astype(np.float32)
 
 
+LENS_MAPS_DIR = CACHE_DIR
+"""Where the lens's maps of the cameras' frames are kept from one process to the next
+(`cached_distorter`)."""
+
+
+def cached_distorter(
+    camera_matrix: np.ndarray,
+    lens: LensModel,
+    size: tuple[int, int],
+    source_matrix: np.ndarray,
+    source_size: tuple[int, int],
+    window: tuple[slice, slice] | None = None,
+) -> LensDistorter:
+    """`perception.camera.lens.LensDistorter` of these arguments, its maps (0.13 s of CPU for a
+    640 x 360 frame) read from `LENS_MAPS_DIR` when an earlier process made them: kept there
+    under the digest of everything they depend on (`distortion_maps_key`), so the maps read are
+    those it would make, byte for byte; else made now and kept (written atomically; a folder
+    that cannot be written keeps nothing)."""
+    args = (camera_matrix, lens, size, source_matrix, source_size, window)
+    path = Path(LENS_MAPS_DIR) / f"lens_maps-{distortion_maps_key(*args)[:20]}.npz"
+    maps = _read_maps(path)
+    if maps is not None:
+        with contextlib.suppress(PerceptionInputError):  # a damaged file is made again
+            return LensDistorter(*args, maps=maps)
+    maps = distortion_maps(*args)
+    _write_maps(path, maps)
+    return LensDistorter(*args, maps=maps)
+
+
+def _read_maps(path: Path) -> tuple[np.ndarray, np.ndarray] | None:
+    """The lens maps kept at `path`, None when there are none (or none readable)."""
+    try:
+        with np.load(path) as kept:
+            return kept["map1"], kept["map2"]
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
+        return None
+
+
+def _write_maps(path: Path, maps: tuple[np.ndarray, np.ndarray]) -> None:
+    """Keep the lens `maps` at `path` (through a temporary renamed over it)."""
+    temporary = temporary_path(path)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with open(temporary, "wb") as out:
+            np.savez(out, map1=maps[0], map2=maps[1])
+        os.replace(temporary, path)
+    except OSError:
+        with contextlib.suppress(OSError):
+            temporary.unlink(missing_ok=True)
+
+
 class BeltCamera:
     """Renders distorted frames (height, width, 3) uint8 of the belt camera.
 
@@ -458,7 +586,7 @@ class BeltCamera:
             distorter, src_matrix, src_size = None, self.camera_matrix, self.size
         else:
             src_matrix, src_size = source_canvas(self.camera_matrix, lens, self.size)
-            distorter = LensDistorter(self.camera_matrix, lens, self.size, src_matrix, src_size)
+            distorter = cached_distorter(self.camera_matrix, lens, self.size, src_matrix, src_size)
         self.lens = lens
         self.source_matrix = src_matrix
         """(3, 3) intrinsics of the pinhole canvas the frames are distorted from [px]."""
@@ -576,7 +704,7 @@ class CameraWindow:
         part_matrix, canvas, _ = window_source(
             camera.camera_matrix, lens, camera.source_matrix, (rows, cols)
         )
-        distorter = LensDistorter(
+        distorter = cached_distorter(
             camera.camera_matrix, lens, camera.size, part_matrix, canvas, (rows, cols)
         )
         self._passes = _RenderPasses(camera.renderer, camera._cam, canvas, part_matrix[1, 1],

@@ -370,12 +370,15 @@ def visibility_monitor(
     from sim.cell.camera import camera_pose
 
     renders = []
+    renderer = cell.belt_camera(size).renderer  # the cell's cameras' (no context of its own)
     for name in belt_cameras(cell):
         height = (
             camera_pose(cell.model, cell.items.current(), name)[1][2] - cell.belt.geometry.top_z
         )
         slope = belt_slope(float(height))
-        renders.append(shared_segmentation(cell.model, cell.pool, size, SCALE, slope, name))
+        renders.append(
+            shared_segmentation(cell.model, cell.pool, size, SCALE, slope, name, renderer)
+        )
     watch = VisibilityWatch(renders, cell.items)
     metrics.on_visibility({})
 

@@ -34,7 +34,7 @@ import cv2
 import mujoco
 import numpy as np
 
-from sim.cell.camera import camera_pose
+from sim.cell.camera import camera_id, camera_pose_of
 from sim.cell.held_slots import NONE_HELD, held_mask
 from sim.cell.items import Items
 from sim.flow.config import BELT_HALF_WIDTH
@@ -142,6 +142,26 @@ def outline(kind: int, size: np.ndarray, pos: np.ndarray, mat: np.ndarray, eye: 
     return np.vstack(points)
 
 
+def outlines(kind: int, sizes: np.ndarray, pos: np.ndarray, mats: np.ndarray) -> np.ndarray:
+    """`outline` of n boxes or n cylinders at once: world points (n, m, 3) [m], the same bit
+    for bit (each product is numpy's matmul of one geom's block, the operands laid out in
+    memory as `outline`'s are, so the same BLAS call; the rest is elementwise).
+
+    Args:
+        kind: MuJoCo geom type: box or cylinder.
+        sizes: The geoms' sizes (n, 3) [m].
+        pos: Their centres (n, 3) [m].
+        mats: Their rotations (n, 3, 3), world from geom, each row-major.
+    """
+    if kind == _BOX:
+        return pos[:, None] + (_CORNERS * sizes[:, None, :3]) @ mats.transpose(0, 2, 1)
+    if kind != _CYLINDER:
+        raise ValueError(f"no batched outline for geom type {kind}")
+    rim = sizes[:, 0, None, None] * _CIRCLE @ mats[:, :, :2].transpose(0, 2, 1)
+    axis = sizes[:, 1, None] * mats[:, :, 2]
+    return np.concatenate([(pos + axis)[:, None] + rim, (pos - axis)[:, None] + rim], axis=1)
+
+
 class VisibilityWatch:
     """The visible fraction of each item's top area at one observation of the belt cameras
     (see the module docstring).
@@ -154,6 +174,7 @@ class VisibilityWatch:
     def __init__(self, renders: Sequence[SlotRender], items: Items):
         self.renders, self.items, self.pool = tuple(renders), items, items.pool
         self.model = self.pool.model
+        self._cams = tuple(camera_id(self.model, render.name) for render in self.renders)
 
     def measure(self, held: np.ndarray = NONE_HELD) -> Sighting:
         """Render every camera's view now and measure the items near each.
@@ -163,18 +184,21 @@ class VisibilityWatch:
         """
         self.items.kinematics()
         data = self.items.current()
+        belt = self._belt(held)
         fractions: dict[int, float] = {}
         first_line = math.inf
-        for render in self.renders:
-            seen: dict[int, float] = {}
+        for render, cam in zip(self.renders, self._cams, strict=True):
+            rot, eye = camera_pose_of(data, cam)
+            near = self._near_of(render, eye, belt)
             # A camera no item is near sees none: its render would be counted for nothing.
-            if len(self._near(render, held)[2]):
-                seen, _ = self.fractions(render, render.pixel_counts(data), held, areas=False)
-            for item_id, fraction in seen.items():
-                fractions[item_id] = max(fraction, fractions.get(item_id, 0.0))
-            first_line = min(first_line, float(camera_pose(self.model, data, render.name)[1][0]))
-        active = self._on_belt(held)
-        past = self.items.positions(active)[:, 0] >= first_line
+            if len(near):
+                counts = render.pixel_counts(data)
+                seen, _ = self._fractions(render, counts, (rot, eye, near), areas=False)
+                for item_id, fraction in seen.items():
+                    fractions[item_id] = max(fraction, fractions.get(item_id, 0.0))
+            first_line = min(first_line, float(eye[0]))
+        active, centres, _ = belt
+        past = centres[:, 0] >= first_line
         passed = tuple(int(i) for i in self.pool.item_ids[active[past]])
         return Sighting(fractions, passed)
 
@@ -195,15 +219,25 @@ class VisibilityWatch:
         Returns:
             (fractions in [0, 1], areas [px]).
         """
-        rot, eye, near = self._near(render, held)
-        k = render.camera_matrix
+        return self._fractions(render, counts, self._near(render, held), areas)
+
+    def _fractions(
+        self, render, counts: np.ndarray, view: tuple, areas: bool
+    ) -> tuple[dict[int, float], dict[int, float]]:
+        """`fractions` of the items near camera `render` seen from where it is: `view` is
+        `_near`'s (rotation, position, slots near)."""
+        rot, eye, near = view
+        measured = near if areas else near[counts[near] != 0]
+        silhouettes = self.silhouettes_px(measured, rot, eye, render.camera_matrix)
+        area_of = dict(zip(measured.tolist(), silhouettes, strict=True))
+        item_ids = self.pool.item_ids
         fractions, sizes = {}, {}
         for slot in near.tolist():
-            item_id = int(self.pool.item_ids[slot])
-            if not areas and counts[slot] == 0:
+            item_id = int(item_ids[slot])
+            area = area_of.get(slot)
+            if area is None:  # no pixel in the frame: 0 whatever its area
                 fractions[item_id] = 0.0
                 continue
-            area = self.silhouette_px(slot, rot, eye, k)
             sizes[item_id] = area
             fractions[item_id] = min(1.0, counts[slot] / area) if area > 0.0 else 0.0
         return fractions, sizes
@@ -213,14 +247,26 @@ class VisibilityWatch:
         belt near enough to show in its render): an item further along the belt than the
         render's half-height (as a slope) times the camera's height above it, plus its
         bounding radius, cannot show in it."""
-        rot, eye = camera_pose(self.model, self.items.current(), render.name)
+        rot, eye = camera_pose_of(self.items.current(), camera_id(self.model, render.name))
+        return rot, eye, self._near_of(render, eye, self._belt(held))
+
+    def _belt(self, held: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(the active slots no cup holds, their centres [m] (n, 3), their geoms' bounding
+        radii [m] (n,)), read once for every camera."""
         active = self._on_belt(held)
         centres = self.items.positions(active)
+        return active, centres, self.model.geom_rbound[self.pool.active_geom[active]]
+
+    @staticmethod
+    def _near_of(render, eye: np.ndarray, belt: tuple) -> np.ndarray:
+        """The slots of `belt` (`_belt`) near enough to show in camera `render` at `eye`
+        (`_near`)."""
+        active, centres, rbound = belt
         k = render.camera_matrix
         slope = (k[1, 2] + 1.0) / k[1, 1]
         reach = slope * (eye[2] - centres[:, 2])
-        reach += self.model.geom_rbound[self.pool.active_geom[active]]
-        return rot, eye, active[np.abs(centres[:, 0] - eye[0]) <= reach]
+        reach += rbound
+        return active[np.abs(centres[:, 0] - eye[0]) <= reach]
 
     def _on_belt(self, held: np.ndarray) -> np.ndarray:
         """The active slots no cup holds."""
@@ -233,22 +279,44 @@ class VisibilityWatch:
         """The area [px] of the silhouette of the item in `slot` (its geom and its label
         sleeve) in a render of intrinsics `camera_matrix` by the camera at `eye` [m] with
         rotation `rot` (world from camera, OpenCV axes)."""
+        return self.silhouettes_px(np.array([slot]), rot, eye, camera_matrix)[0]
+
+    def silhouettes_px(
+        self, slots: np.ndarray, rot: np.ndarray, eye: np.ndarray, camera_matrix: np.ndarray
+    ) -> list[float]:
+        """`silhouette_px` of the items in `slots` (n,), computed together (`outlines`)."""
+        model, data, pool = self.model, self.items.current(), self.pool
+        geoms = pool.active_geom[slots]
+        mats = data.geom_xmat[geoms].reshape(-1, 3, 3)
+        items = self._geom_hulls(geoms, data.geom_xpos[geoms], mats, rot, eye, camera_matrix)
+        labels = pool.label_ids[slots]
+        shown = (model.geom_rgba[labels, 3] > 0.0).tolist()
+        sleeved = [k for k, item in enumerate(items) if item is not None and shown[k]]
+        sleeves = dict.fromkeys(sleeved)
+        if sleeved:
+            frames = [self.label_frame(int(slots[k])) for k in sleeved]
+            pos, mats = np.array([f[0] for f in frames]), np.array([f[1] for f in frames])
+            points = outlines(_CYLINDER, model.geom_size[labels[sleeved]], pos, mats)
+            sleeves.update(zip(sleeved, _hulls(points, rot, eye, camera_matrix), strict=True))
+        return [_union_area(item, sleeves.get(k, False)) for k, item in enumerate(items)]
+
+    def _geom_hulls(self, geoms, pos, mats, rot, eye, k) -> list:
+        """`_hull` of the outline of each geom of `geoms` (n,) at `pos` (n, 3) [m] with
+        rotations `mats` (n, 3, 3): boxes and cylinders together, capsules one by one."""
         model = self.model
-        pos, xmat = self.items.geom_pose(slot)
-        mat = np.asarray(xmat).reshape(3, 3)
-        geom = int(self.pool.active_geom[slot])
-        item = _hull(outline(int(model.geom_type[geom]), model.geom_size[geom], pos, mat, eye),
-                     rot, eye, camera_matrix)  # fmt: skip
-        label = int(self.pool.label_ids[slot])
-        if item is None or model.geom_rgba[label, 3] <= 0.0:
-            return 0.0 if item is None else float(cv2.contourArea(item))
-        sleeve = outline(_CYLINDER, model.geom_size[label], *self.label_frame(slot), eye)
-        label_hull = _hull(sleeve, rot, eye, camera_matrix)
-        if label_hull is None:
-            return 0.0
-        # The union of two convex silhouettes: both areas less their overlap.
-        overlap, _ = cv2.intersectConvexConvex(item, label_hull)
-        return float(cv2.contourArea(item) + cv2.contourArea(label_hull) - overlap)
+        kinds = model.geom_type[geoms]
+        hulls: list = [None] * len(geoms)
+        for kind in np.unique(kinds).tolist():
+            which = np.flatnonzero(kinds == kind)
+            if kind in (_BOX, _CYLINDER):
+                points = outlines(kind, model.geom_size[geoms[which]], pos[which], mats[which])
+                for j, hull in zip(which.tolist(), _hulls(points, rot, eye, k), strict=True):
+                    hulls[j] = hull
+                continue
+            for j in which.tolist():
+                points = outline(kind, model.geom_size[geoms[j]], pos[j], mats[j], eye)
+                hulls[j] = _hull(points, rot, eye, k)
+        return hulls
 
     def label_frame(self, slot: int) -> tuple[np.ndarray, np.ndarray]:
         """(centre [m] (3,), rotation (3, 3)) of the label sleeve of the item in `slot` as
@@ -289,3 +357,27 @@ def _hull(points: np.ndarray, rot: np.ndarray, eye: np.ndarray, k: np.ndarray):
         return None
     pixels = camera[:, :2] / camera[:, 2:] * (k[0, 0], k[1, 1]) + (k[0, 2], k[1, 2])
     return cv2.convexHull(pixels.astype(np.float32))
+
+
+def _union_area(item, sleeve) -> float:
+    """The area [px] of the union of an item's hull and its sleeve's (`_hull`s): 0 when either
+    is None (behind the camera), the item's alone when the sleeve is False (not drawn)."""
+    if item is None or sleeve is None:
+        return 0.0
+    if sleeve is False:
+        return float(cv2.contourArea(item))
+    # The union of two convex silhouettes: both areas less their overlap.
+    overlap, _ = cv2.intersectConvexConvex(item, sleeve)
+    return float(cv2.contourArea(item) + cv2.contourArea(sleeve) - overlap)
+
+
+def _hulls(points: np.ndarray, rot: np.ndarray, eye: np.ndarray, k: np.ndarray) -> list:
+    """`_hull` of each of n point sets (n, m, 3) [m], projected together (the same bits: each
+    product one set's matmul, the rest elementwise)."""
+    camera = (points - eye) @ rot
+    behind = np.any(camera[:, :, 2] <= 1e-6, axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):  # behind: no hull, whatever it is
+        pixels = camera[:, :, :2] / camera[:, :, 2:] * (k[0, 0], k[1, 1]) + (k[0, 2], k[1, 2])
+    pixels = pixels.astype(np.float32)
+    hidden = behind.tolist()
+    return [None if out else cv2.convexHull(p) for out, p in zip(hidden, pixels, strict=True)]

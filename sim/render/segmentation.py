@@ -20,6 +20,13 @@ along the middle of the view). Two uses:
 - the visibility monitor (`sim.monitors.visibility`): `pixel_counts`, the pixels of each item
   inside the camera's distorted frame (`in_frame`) of a render at half scale cropped to the
   belt, without the static geoms and without building the image of slots.
+
+It renders through a `sim.cell.camera.SceneRenderer`, the one of the cell's belt cameras when
+given one (no OpenGL or MuJoCo render context of its own): a scene built for its canvas that
+leaves out the geoms out of view, drawn with the segmentation flags on the renderer's context of
+one sample, its pixels read as RGBA (`SceneRenderer.segmentation`). Each pixel shows the geom
+that `mujoco.Renderer`'s segmentation render of the whole scene shows there
+(`tests/test_visibility.py`).
 """
 
 from __future__ import annotations
@@ -31,9 +38,14 @@ import mujoco
 import numpy as np
 
 from perception.camera.lens import ZED_HD_LEFT, LensModel, source_canvas
-from sim.cell.camera import CAMERA_NAME, FRAME_SIZE, camera_id, true_camera_matrix
+from sim.cell.camera import (
+    CAMERA_NAME,
+    FRAME_SIZE,
+    SceneRenderer,
+    camera_id,
+    true_camera_matrix,
+)
 from sim.cell.item_pool import ItemPool
-from sim.cell.rendering import check_backend
 from sim.errors import InvalidInput
 
 NO_ITEM = -1
@@ -66,6 +78,8 @@ class BeltSegmentation:
         static: Draw the world body's geoms (belt, rails, frame, camera box); False leaves
             them out (half the cost): nothing static lies between a camera and an item on the
             belt, so no item's pixels change.
+        renderer: The `SceneRenderer` of `model` to render in, shared with the cell's belt
+            cameras (`sim.cell.cell.Cell.belt_camera`); None: its own, closed with it.
 
     Attributes:
         name: The camera's name.
@@ -84,6 +98,7 @@ class BeltSegmentation:
         max_slope: float | None = None,
         name: str = CAMERA_NAME,
         static: bool = True,
+        renderer: SceneRenderer | None = None,
     ):
         if not 0.0 < scale <= 1.0:
             raise InvalidInput("segmentation scale", "a share in (0, 1]", scale)
@@ -106,15 +121,17 @@ class BeltSegmentation:
         self.camera_matrix = np.array(
             [[focal, 0.0, (width - 1) / 2.0], [0.0, focal, (height - 1) / 2.0], [0.0, 0.0, 1.0]]
         )
-        self._cam = camera_id(model, name)
-        self._fovy = math.degrees(2.0 * math.atan(0.5 * height / focal))
+        self._cam, self._focal = camera_id(model, name), focal
         self._slots = slot_of_geom(model, pool)
         self.in_frame = self._frame_mask()
         self._inside = np.flatnonzero(self.in_frame.ravel())
+        # The same pixels in the order the renderer reads them (rows bottom first).
+        self._inside_read = np.flatnonzero(self.in_frame[::-1].ravel())
         vis = model.vis.global_
         vis.offwidth, vis.offheight = max(vis.offwidth, width), max(vis.offheight, height)
-        check_backend()
-        self._renderer = _flat_renderer(model, width, height)
+        self._own_renderer = renderer is None
+        self.renderer = SceneRenderer(model) if renderer is None else renderer
+        """The `SceneRenderer` the segmentation renders in (a cell's is its belt cameras')."""
         self._maps: tuple[np.ndarray, np.ndarray] | None = None
 
     def render(self, data: mujoco.MjData) -> np.ndarray:
@@ -123,7 +140,7 @@ class BeltSegmentation:
         Args:
             data: The cell's state, its kinematics current (`Items.kinematics()`).
         """
-        ids = self._render_ids(data)
+        ids = self._render_ids(data)[::-1]
         present = np.flatnonzero(np.bincount(ids.ravel(), minlength=1))
         lookup = np.full(int(present[-1]) + 1, NO_ITEM, dtype=np.int16)
         lookup[present] = self._slots_of(present)
@@ -135,7 +152,7 @@ class BeltSegmentation:
         Args:
             data: The cell's state, its kinematics current (`Items.kinematics()`).
         """
-        ids = self._render_ids(data).ravel()[self._inside]
+        ids = self._render_ids(data).reshape(-1).take(self._inside_read)
         by_id = np.bincount(ids)
         present = np.flatnonzero(by_id)
         slots = self._slots_of(present)
@@ -150,20 +167,15 @@ class BeltSegmentation:
         return np.bincount(inside + 1, minlength=self.pool.size + 1)[1:]
 
     def _render_ids(self, data: mujoco.MjData) -> np.ndarray:
-        """(height, width) uint16: the scene index + 1 of the geom each pixel shows (0: none)."""
-        renderer, fovy = self._renderer, float(self.model.cam_fovy[self._cam])
-        self.model.cam_fovy[self._cam] = self._fovy
-        try:
-            renderer.update_scene(data, camera=self._cam, scene_option=self._option)
-            rgb = renderer.render()
-        finally:
-            self.model.cam_fovy[self._cam] = fovy
-        # Index + 1 in the red and green bytes (the blue one is 0 below 65536 geoms).
-        return rgb[..., 0] | (rgb[..., 1].astype(np.uint16) << 8)
+        """(height, width) uint16, rows bottom first: the scene index + 1 of the geom each
+        pixel shows (0: none; `SceneRenderer.segmentation`), the scene built now."""
+        renderer = self.renderer
+        renderer.update(data, self._cam, self.size, self._focal, self._option)
+        return renderer.segmentation(self.size)
 
     def _slots_of(self, ids: np.ndarray) -> np.ndarray:
         """The pool slots (int16) of the scene's geoms of index + 1 `ids` (`NO_ITEM`: none)."""
-        geoms = self._renderer.scene.geoms
+        geoms = self.renderer.scene.geoms
         out = np.full(len(ids), NO_ITEM, dtype=np.int16)
         for k, index in enumerate(ids.tolist()):
             if index > 0:
@@ -222,31 +234,15 @@ class BeltSegmentation:
         return inside.reshape(height, width)
 
     def close(self) -> None:
-        """Frees the renderer's GL context."""
-        self._renderer.close()
+        """Frees the segmentation's own renderer (not one lent to it)."""
+        if self._own_renderer:
+            self.renderer.close()
 
     def __enter__(self) -> BeltSegmentation:
         return self
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-
-
-def _flat_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
-    """A renderer of one sample per pixel whose colour frames are segmentation images: the
-    scene drawn with the segmentation flags and no skybox (where no geom lies the background
-    reads 0)."""
-    quality = model.vis.quality
-    own = quality.offsamples
-    quality.offsamples = 0
-    try:
-        renderer = mujoco.Renderer(model, height, width)
-    finally:
-        quality.offsamples = own
-    flags = renderer.scene.flags
-    flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = True
-    flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = False
-    return renderer
 
 
 _SHARED: dict[str, BeltSegmentation] = {}
@@ -259,6 +255,7 @@ def shared_segmentation(
     scale: float,
     max_slope: float | None,
     name: str = CAMERA_NAME,
+    renderer: SceneRenderer | None = None,
 ) -> BeltSegmentation:
     """This process's segmentation render of camera `name` of `model` at these settings,
     without the static geoms, made once and kept for later episodes (as `Cell.belt_camera`
@@ -271,6 +268,8 @@ def shared_segmentation(
         scale: Pixels rendered per canvas pixel, (0, 1].
         max_slope: The largest |x / z| of a ray kept across the belt (None: every column).
         name: The camera's name.
+        renderer: The `SceneRenderer` to render in (the cell's belt cameras'); None: the
+            kept render's, or one of its own for a new one.
     """
     if any(seg.model is not model for seg in _SHARED.values()):
         for seg in _SHARED.values():
@@ -278,10 +277,12 @@ def shared_segmentation(
         _SHARED.clear()
     seg = _SHARED.get(name)
     settings = (tuple(size), ZED_HD_LEFT, float(scale), max_slope, False)
-    if seg is None or seg.settings != settings:
+    stale = seg is None or seg.settings != settings
+    if stale or (renderer is not None and seg.renderer is not renderer):
         if seg is not None:
             seg.close()
         seg = _SHARED[name] = BeltSegmentation(
-            model, pool, size, scale=scale, max_slope=max_slope, name=name, static=False
-        )
+            model, pool, size, scale=scale, max_slope=max_slope, name=name, static=False,
+            renderer=renderer,
+        )  # fmt: skip
     return seg
