@@ -168,9 +168,9 @@ def main() -> int:
 
     overrides = dict(seed=args.seed, items=args.items, duration_s=args.duration)
     overrides |= dict(perception=args.perception, robots=args.robots)
-    if args.per_robot_camera:
-        overrides["camera"] = {"per_robot": True}
     config = episode_config.load(None, **overrides)
+    if args.per_robot_camera:
+        config = config.replace(camera=episode_config.Camera(per_robot=True))
     result = run_episode(config)
     total = time.perf_counter() - START_WALL
     cpu = time.process_time() - START_CPU
