@@ -180,6 +180,11 @@ def main() -> int:
         f"{args.robots} robot(s): {sim_s:.1f} s simulated in {total:.1f} s wall, {cpu:.1f} s "
         f"CPU ({sim_s / cpu:.1f}x real time by CPU), the whole process"
     )
+    if total > 1.1 * cpu:
+        print(f"  (wall time {total / cpu:.2f}x the CPU time: other work shared the cores, so the")
+        print(
+            "  stages below, timed by the wall clock, are not this episode's alone; run it again)"
+        )
     for stage, seconds in stage_table(result.timings, total):
         print(f"  {stage:46s} {seconds:6.2f} s  {100 * seconds / total:5.1f} %")
     from sim.episode.runner import config_cell
