@@ -12,7 +12,10 @@ The output folder is checked before the first episode (`check_out_dir`): it must
 and writable, and an `episodes.csv` already there must be this sweep's. The sweep's identity
 (`SweepConfig.identity`, a hash of its resolved grid, seeds aside) is recorded in `sweep.json`
 beside it; an `episodes.csv` of another sweep is refused, never merged. (A folder written before
-`sweep.json` existed is accepted when every row belongs to this grid.) Leftover temporaries of a
+`sweep.json` existed is accepted when every row belongs to this grid.) Every row carries the
+digest of the code its episode ran on (`code_digest`, `sim.results.code_digest`); a folder
+holding a row of another digest, or of none, is refused as well (`check_code`), unless the
+caller mixes code knowingly (`mix_code`, `--mix-code`). Leftover temporaries of a
 killed sweep are removed when it starts again. A refusal raised in a worker process reaches the
 parent intact (refusals pickle) and stops the sweep with its one line. A run's folder (its
 manifest.json of kind "run") is refused too: its row would pass for one of the sweep's.
