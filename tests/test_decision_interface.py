@@ -68,10 +68,10 @@ def test_registry_builds_every_planner_and_refuses_unknown_names_and_options():
     for name in PLANNERS:
         assert make_planner(name).name == name
     with pytest.raises(PlannerInputError) as err:
-        make_planner("random")
+        make_planner("randomly")
     assert err.value.allowed == (
-        "qlearning | rollout | lookahead | learned | proximity | fifo | greedy | oracle | "
-        "module:Class "
+        "qlearning | rollout | lookahead | learned | proximity | fifo | greedy | random | "
+        "oracle | module:Class "
         "(a class with choose() and reset())"
     )
     with pytest.raises(PlannerInputError) as err:

@@ -13,7 +13,7 @@ from sim.errors import InvalidInput
 from sim.experiments import reproduce, reproduce_hmm, reproduce_tables
 from sim.experiments.reproduce import END_MARKER, Run, start_marker, write_block
 from sim.experiments.thesis_figures import mean_and_range
-from sim.results import outputs
+from sim.results import code_digest, outputs
 
 NAMES = (
     ["table_4_1", "table_4_2", "table_4_3", "table_4_3_paused", "table_4_4"]
@@ -30,9 +30,13 @@ def test_list_names_every_table_and_figure(capsys):
     listed = re.findall(r"^((?:table|figure|finding)_\w+)\s", text, flags=re.M)
     assert sorted(listed) == sorted(NAMES)
     assert "reproduce_4_5_camera (150 episodes)" in text  # the thesis's 5 seeds
-    assert "11 sweeps, 1242 episodes" in text
+    for sweep in reproduce_tables.random_sweeps():  # the random picker's rows, 5 seeds too
+        assert f"{sweep} (25 episodes)" in text
+    assert "15 sweeps, 1342 episodes" in text
     assert main(["reproduce", "--list", "--quick"]) == 0
-    assert "reproduce_4_5_camera (30 episodes)" in capsys.readouterr().out
+    quick = capsys.readouterr().out
+    assert "reproduce_4_5_camera (30 episodes)" in quick
+    assert "reproduce_4_5_random (5 episodes)" in quick
 
 
 @pytest.mark.parametrize("table", ["4_5", "4_6"])
@@ -50,6 +54,18 @@ def test_the_camera_tables_run_the_thesis_path_with_coupled_stripes(tmp_path, ta
     assert {(s.config.items, s.config.seed, s.config.duration_s) for s in camera.episodes} == truth
     text = reproduce_tables._coupling_text(camera)
     assert "coupled for camera, stripe HMMs" in text and "independent for camera, fused" in text
+
+
+def test_the_random_picker_runs_on_the_flows_and_regime_of_its_table():
+    """Each random sweep: the same configs as its table's sweep (flows, belt, pauses), but for
+    the planner."""
+    run = Run(reproduce.DEFAULT_OUT)
+    for name in reproduce_tables.random_sweeps():
+        base = name.removesuffix("_random")
+        ours = {s.config.replace(planner="proximity") for s in run.sweep(name).episodes}
+        theirs = {s.config for s in run.sweep(base).episodes if s.config.planner == "proximity"}
+        assert ours == theirs, name
+        assert {s.config.planner for s in run.sweep(name).episodes} == {"random"}
 
 
 def test_an_unknown_piece_is_refused_in_one_line(capsys, tmp_path):
@@ -109,16 +125,18 @@ def _tiny_sweeps(folder, names):
         pauses = (
             "\n[base.robot]\npick_pause_s = 0.5\nplace_pause_s = 0.5\n" if "paused" in name else ""
         )
+        random = name.endswith("_random")
+        planners = '["random"]' if random else '["qlearning", "rollout", "proximity"]'
         (folder / f"{name}.toml").write_text(
             f'[sweep]\nname = "{name}"\nspeed_factors = [{speed}]\nitems = [3]\n'
-            'planners = ["qlearning", "rollout", "proximity"]\nseeds = 3\n\n'
+            f"planners = {planners}\nseeds = 3\n\n"
             f'[base]\nperception = "truth"\nduration_s = 3.0\n{pauses}'
         )
 
 
 def test_pieces_from_tiny_sweeps_resume_and_fill_the_docs(tmp_path):
     sweeps = ["reproduce_4_5", "reproduce_4_6", "reproduce_4_5_paused", "reproduce_4_6_paused"]
-    _tiny_sweeps(tmp_path, sweeps)
+    _tiny_sweeps(tmp_path, [*sweeps, "reproduce_4_5_random"])
     docs = tmp_path / "docs" / "results.md"
     docs.parent.mkdir()
     names = ["table_4_5", "figure_4_6"]
@@ -145,8 +163,17 @@ def test_pieces_from_tiny_sweeps_resume_and_fill_the_docs(tmp_path):
         and "seeds 0 (1 per grid point)" in table
     )
     assert "qlearning (thesis's algorithm)" in table and "rollout (ours)" in table
-    assert re.search(r"^\| 3 \| [01]\.\d{3} / [01]\.\d{3} / [01]\.\d{3} \| ", table, flags=re.M)
-    assert "| 80 | - (0.842) / - / - (0.735) | - (64.0) / - / - (60.8) |" in table  # not run
+    acc = r"[01]\.\d{3}"
+    assert re.search(rf"^\| 3 \| {acc} / {acc} / {acc} / {acc} \| ", table, flags=re.M)
+    assert "random (thesis's random picker)" in table
+    assert "| 80 | - (0.842) / - / - (0.735) / - | - (64.0) / - / - (60.8) / - |" in table
+    # The first line names the commit and the code digest every episode ran on.
+    commit = r"(commit [0-9a-f]{12}( with uncommitted changes)?|no git commit)"
+    first = table.splitlines()[0]
+    assert re.search(rf"` from {commit}, code digest [0-9a-f]{{16}}: seeds 0 ", first), first
+    assert code_digest.code_digest() in first and "MIXED" not in first
+    random_rows = outputs.read_rows(tmp_path / "out" / "reproduce_4_5_random" / "episodes.csv")
+    assert [r["planner"] for r in random_rows] == ["random"]
     assert (docs.parent / "results" / "figure_4_6.png").stat().st_size > 10_000
     text = docs.read_text()
     assert "![Figure 4.6: profit](results/figure_4_6.png)" in text and text.endswith("end\n")

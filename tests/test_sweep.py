@@ -12,7 +12,7 @@ from sim.cli import main as cli
 from sim.experiments import sweep_config, thesis_report
 from sim.experiments import sweep_runner as sweep
 from sim.flow.world import WorldVariation
-from sim.results import outputs
+from sim.results import code_digest, outputs
 
 GRID = """
 [sweep]
@@ -151,7 +151,8 @@ def blank_episode(spec):
     sweep's bookkeeping is under test, not the episodes)."""
     c = spec.config
     row = {"seed": c.seed, "planner": c.planner, "speed_factor": c.speed_factor,
-           "n_items": c.items, "accuracy": 1.0, "profit_eur": 0.0}  # fmt: skip
+           "n_items": c.items, "accuracy": 1.0, "profit_eur": 0.0,
+           "code_digest": code_digest.code_digest()}  # fmt: skip
     return row, []
 
 

@@ -2,7 +2,8 @@
 
 `make_planner('qlearning', gamma=0.9)` builds a built-in manager (qlearning: the thesis's
 algorithm; rollout: our timed rollout over its reward; lookahead: our budgeted branch and
-bound; proximity, fifo, greedy; oracle: exact search over the items in view).
+bound; proximity, fifo, greedy; random: a uniform draw among the items the cup can meet, the
+thesis's "random picker"; oracle: exact search over the items in view).
 `make_planner('mymod:MyPlanner')` (or `path/to/file.py:MyPlanner`) imports the user's class
 and builds it with no arguments. A
 user's class implements `planner.decision.interface.DecisionManager`: a `choose(items, robot,
@@ -36,6 +37,7 @@ _BUILT_IN = {
     "proximity": "planner.decision.managers.proximity:ProximityPlanner",
     "fifo": "planner.decision.managers.fifo:FifoPlanner",
     "greedy": "planner.decision.managers.greedy:GreedyPlanner",
+    "random": "planner.decision.managers.random_pick:RandomPlanner",
     "oracle": "planner.decision.oracle:OraclePlanner",
 }
 PLANNERS = tuple(_BUILT_IN)
@@ -123,7 +125,11 @@ def _built_in(name: str) -> tuple[type, tuple[str, ...]]:
     cls = _load(_BUILT_IN[name])
     if name in _CONFIGS:
         return cls, tuple(f.name for f in dataclasses.fields(_load(_CONFIGS[name])))
-    extra = {"oracle": ("max_items",), "learned": ("policy_file",)}
+    extra = {
+        "oracle": ("max_items",),
+        "learned": ("policy_file",),
+        "random": ("seed", "stream"),
+    }
     return cls, extra.get(name, ())
 
 
@@ -134,7 +140,8 @@ def make_planner(spec: str, **params):
         spec: One of PLANNERS, or `module:Class` of the user's own class.
         **params: Options of that planner (qlearning, rollout, lookahead: the fields of
             QLearningConfig, RolloutConfig, LookaheadConfig; oracle: max_items; learned:
-            policy_file (a JSON written by `sortsim train`); the others, and
+            policy_file (a JSON written by `sortsim train`); random: seed and stream; the
+            others, and
             users' classes, take none).
 
     Raises:

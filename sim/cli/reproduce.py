@@ -7,10 +7,12 @@
 
 The sweeps run into `--out` (default runs/reproduce), one folder each, resumable as `sortsim
 sweep`'s (rerunning skips the episodes already there; a full run after a quick one adds the
-seeds the quick one left out). Each piece is printed, written to `<out>/<name>.md`, and put
-between its markers in `--docs` (default docs/results.md; its figures in docs/results/);
-`--no-docs` leaves the docs alone (figures in `<out>/figures/`). The logic is in
-`sim.experiments.reproduce`.
+seeds the quick one left out). A folder whose episodes ran on other code (another code digest)
+is refused in one line before any work, unless `--mix-code`; each block's first line names the
+commit and code digest its episodes ran on, and says MIXED CODE when they ran on several.
+Each piece is printed, written to `<out>/<name>.md`, and put between its markers in `--docs`
+(default docs/results.md; its figures in docs/results/); `--no-docs` leaves the docs alone
+(figures in `<out>/figures/`). The logic is in `sim.experiments.reproduce`.
 """
 
 from __future__ import annotations
@@ -46,6 +48,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="ADDRESS",
         help="run the episodes on a Ray cluster ('local' starts one; needs sortsim[cluster])",
     )
+    parser.add_argument(
+        "--mix-code",
+        action="store_true",
+        help="add to sweep folders whose episodes ran on other code (another code digest); "
+        "refused without it, and the blocks then say they mix",
+    )
     docs = parser.add_mutually_exclusive_group()
     docs.add_argument(
         "--docs", type=Path, default=None, help="the markdown file to fill (docs/results.md)"
@@ -73,7 +81,15 @@ def main(args: argparse.Namespace) -> int:
         raise InvalidInput("--docs", "an existing markdown file with reproduce markers", docs)
     figures = None if docs is None else Path(docs).parent / "results"
     link = "" if docs is None else os.path.relpath(figures, Path(docs).parent) + "/"
-    run = reproduce.Run(out, args.quick, args.workers, args.ray, figures=figures, link=link)
+    run = reproduce.Run(
+        out,
+        args.quick,
+        args.workers,
+        args.ray,
+        figures=figures,
+        link=link,
+        mix_code=args.mix_code,
+    )
     tic = time.perf_counter()
     made = reproduce.reproduce(args.only, run, docs)
     print(

@@ -3,10 +3,12 @@
 The whole config is validated before the first episode (a bad key or value stops it with one
 line naming the key, the file and the grid point, exit 2), and so are the output folder (an
 `episodes.csv` of another sweep there is refused, not merged) and, for camera perception, the
-rendering back-end. Finished episodes are appended to `<out>/episodes.csv` one row at a time;
-running the same sweep again skips them. A refusal raised while an episode runs, in whichever
-worker process, stops the sweep with its one line. At the end
-the thesis's table is printed with our means beside its numbers and the matching figures are
+rendering back-end. Finished episodes are appended to `<out>/episodes.csv` one row at a time,
+each with the digest of the code it ran on (`code_digest`); running the same sweep again skips
+them. A folder whose episodes ran on other code (another digest) is refused in one line (exit
+2, the folder untouched) unless `--mix-code` says to add to it knowingly. A refusal raised
+while an episode runs, in whichever worker process, stops the sweep with its one line. At the
+end the thesis's table is printed with our means beside its numbers and the matching figures are
 saved as PNG files in `<out>`.
 
 The folder is locked from its checks to the figures (`sim.results.locks.FolderLock`): a second
@@ -45,6 +47,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="ADDRESS",
         help="run on a Ray cluster ('local' starts one here; needs sortsim[cluster])",
     )
+    parser.add_argument(
+        "--mix-code",
+        action="store_true",
+        help="add to a folder whose episodes ran on other code (another code digest); "
+        "refused without it",
+    )
 
 
 def main(args: argparse.Namespace) -> int:
@@ -62,12 +70,12 @@ def main(args: argparse.Namespace) -> int:
         config = sweep_config.first_seeds(config, args.seeds)
     if args.ray is not None:
         sweep.require_ray(args.ray)
-    sweep.check_out_dir(config, args.out)
+    sweep.check_out_dir(config, args.out, args.mix_code)
     check_rendering(config)
     from sim.results.locks import FolderLock
 
     with FolderLock(args.out, "--out"):
-        sweep.check_out_dir(config, args.out)  # again, now that no other command can write
+        sweep.check_out_dir(config, args.out, args.mix_code)  # again, now no other can write
         return _run(args, config)
 
 
@@ -111,7 +119,9 @@ def _run(args: argparse.Namespace, config) -> int:
     # --verbose); elsewhere (logs, CI) each episode's line is printed.
     bar = Progress() if sys.stderr.isatty() and log.isEnabledFor(logging.INFO) else None
     line = log.debug if bar else log.info
-    rows = sweep.run_sweep(config, args.out, args.workers, args.ray, progress=line, bar=bar)
+    rows = sweep.run_sweep(
+        config, args.out, args.workers, args.ray, progress=line, bar=bar, mix_code=args.mix_code
+    )
     if bar:
         bar.done()
     print(f"{config.name}: {len(rows)} episodes in {args.out / 'episodes.csv'}")

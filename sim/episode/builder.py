@@ -51,13 +51,15 @@ SETTLE_S = 2.0
 _OBJECTIVES = {"value_over_distance": "v/d", "value_only": "d=1", "distance_only": "v=1"}
 
 
-def make_decision_manager(config: EpisodeConfig):
+def make_decision_manager(config: EpisodeConfig, robot: int = 0):
     """The configured planner: qlearning and rollout take the [qlearning] section's parameters
     and the observation period as their grid's row period; qlearning draws its random actions
-    from the episode's seed.
+    from the episode's seed; random draws its picks from the episode's seed, each robot of a
+    line from its own stream.
 
     Args:
         config: The episode's configuration.
+        robot: The robot's index in the line (0 for a single cell).
     """
     if config.planner in ("qlearning", "rollout"):
         q = config.qlearning
@@ -71,6 +73,8 @@ def make_decision_manager(config: EpisodeConfig):
             objective=_OBJECTIVES[q.objective],
             **options,
         )
+    if config.planner == "random":
+        return make_planner("random", seed=config.seed, stream=robot)
     return make_planner(config.planner)
 
 
@@ -261,7 +265,7 @@ def robot_stations(
             values=config.values.of_materials(cell.materials),
             energy=EnergyPrice(config.energy_price_eur_per_kwh),
         )
-        manager = planner if k == 0 else make_decision_manager(config)
+        manager = planner if k == 0 else make_decision_manager(config, robot=k)
         manager.reset()
         # How far the cup, or an item hanging from it, reaches around and below its centre
         # [m] (the riders its planned path passes within this of are woken as a pick starts).

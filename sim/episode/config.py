@@ -24,7 +24,7 @@ TOML layout (every key optional; defaults are the headline episode)::
     items = 100
     speed_factor = 1.0          # belt speed = 0.185 m/s x factor, inside 0.135..0.277 m/s
     planner = "qlearning"       # qlearning | rollout | lookahead | proximity | fifo | greedy
-                                # | oracle | module:Class
+                                # | random | oracle | module:Class
     perception = "camera"       # camera | truth
     duration_s = 90.0           # items arrive over this time [s]
     observation_period_s = 0.5  # one grid row per period [s]

@@ -24,6 +24,7 @@ from sim.cell.cell import Cell
 from sim.episode.config import EpisodeConfig
 from sim.episode.loop import Episode, make_decision_manager
 from sim.model.scene_edits import CellSettings
+from sim.results.code_digest import code_digest
 
 __all__ = [
     "Cell",
@@ -191,6 +192,7 @@ def run_episode(
         "items_per_m": config.items / (config.duration_s * config.belt_speed_mps),
         "real_time_factor": sim_s / wall if wall > 0 else 0.0,
         **episode.robot_columns(sim_s),
+        "code_digest": code_digest(),
     }
     timings = dict(episode.timings)
     # Physics: stepping, the executor's control loop, the cup and bins (everything else).

@@ -8,10 +8,14 @@ local workers or Ray) and a function that turns their rows into a markdown block
 
 1. runs the sweeps the chosen pieces need, each into `<out>/<sweep name>/` (an episode already
    in its `episodes.csv` is skipped: rerunning resumes), with the thesis's seed counts, or with
-   `QUICK_SEEDS` under `--quick`;
+   `QUICK_SEEDS` under `--quick`; a folder whose episodes ran on other code (another
+   `code_digest` in its rows, `sim.results.code_digest`) is refused in one line before any
+   work, every folder checked first, unless `--mix-code` (`Run.mix_code`) says to add to it;
 2. makes each piece from the rows of the seeds it ran (a folder holding more seeds than asked
    is read for the asked ones only), prints it, writes it to `<out>/<name>.md` and its figures
-   beside the docs (`docs/results/`, or `<out>/figures/` without docs);
+   beside the docs (`docs/results/`, or `<out>/figures/` without docs); its first line names
+   the command, the commit and code digest it ran on, and, when its episodes' rows carry
+   other digests too, says MIXED CODE with each digest's episode count (`Run.label`);
 3. writes each block into the docs file between its markers, `<!-- reproduce:NAME -->` and the
    next `<!-- /reproduce -->` (`write_block`): nothing outside the markers changes, and writing
    the same block twice changes nothing.
@@ -26,6 +30,7 @@ from __future__ import annotations
 import logging
 import re
 import time
+from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -35,7 +40,7 @@ from sim.experiments import sweep_config
 from sim.experiments import sweep_runner as runner
 from sim.experiments.reproduce_tables import Block
 from sim.paths import EXPERIMENTS_DIR, REPO_ROOT
-from sim.results import outputs
+from sim.results import code_digest, outputs
 
 log = logging.getLogger(__name__)
 
@@ -57,6 +62,10 @@ QUICK_SEEDS = {
     "reproduce_4_6_paused": 1,
     "reproduce_4_5_camera": 1,
     "reproduce_4_6_camera": 1,
+    "reproduce_4_5_random": 1,
+    "reproduce_4_6_random": 1,
+    "reproduce_4_5_paused_random": 1,
+    "reproduce_4_6_paused_random": 1,
     "reproduce_objectives": 2,
 }
 """Seeds per grid point of each sweep under `--quick` (the full run: the sweep file's, the
@@ -81,6 +90,8 @@ class Run:
         link: How the docs file reaches `figures` ("results/": docs/results/).
         command: The command line that makes a piece (its name filled in), for the labels.
         experiments: Where the sweep files are (`<name>.toml`).
+        mix_code: Add to sweep folders whose episodes ran on other code (another code digest,
+            `sim.results.code_digest`); refused without it, and the blocks then say they mix.
     """
 
     out: Path
@@ -91,7 +102,9 @@ class Run:
     link: str = ""
     command: str = "sortsim reproduce"
     experiments: Path = EXPERIMENTS_DIR
+    mix_code: bool = False
     _rows: dict[str, list[dict]] = field(default_factory=dict)
+    _sweeps: dict[str, sweep_config.SweepConfig] = field(default_factory=dict)
     seeds_of: dict[str, list[int]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -100,11 +113,22 @@ class Run:
             self.figures = self.out / "figures"
 
     def sweep(self, name: str) -> sweep_config.SweepConfig:
-        """The sweep `name` (`experiments/<name>.toml`) with this run's seeds."""
-        sweep = sweep_config.load(Path(self.experiments) / f"{name}.toml")
-        if self.quick:
-            sweep = sweep_config.first_seeds(sweep, QUICK_SEEDS.get(name, 1))
-        return sweep
+        """The sweep `name` (`experiments/<name>.toml`) with this run's seeds (read once)."""
+        if name not in self._sweeps:
+            sweep = sweep_config.load(Path(self.experiments) / f"{name}.toml")
+            if self.quick:
+                sweep = sweep_config.first_seeds(sweep, QUICK_SEEDS.get(name, 1))
+            self._sweeps[name] = sweep
+        return self._sweeps[name]
+
+    def check_folders(self, names) -> None:
+        """Refuse, before any work, a folder of the sweeps `names` that their run could not use
+        (`sweep_runner.check_out_dir`: another sweep's rows, or, without `mix_code`, rows of
+        other code)."""
+        for name in dict.fromkeys(names):
+            folder = self.out / name
+            if (folder / "episodes.csv").exists():
+                runner.check_out_dir(self.sweep(name), folder, self.mix_code)
 
     def rows(self, name: str) -> list[dict]:
         """The rows of sweep `name` for this run's seeds, the sweep run first (resuming)."""
@@ -112,10 +136,16 @@ class Run:
             sweep = self.sweep(name)
             folder = self.out / name
             _check_camera(sweep)
-            _write_manifest(sweep, folder)
+            _write_manifest(sweep, folder, self.mix_code)
             tic = time.perf_counter()
             rows = runner.run_sweep(
-                sweep, folder, self.workers, self.ray, progress=log.info, bar=None
+                sweep,
+                folder,
+                self.workers,
+                self.ray,
+                progress=log.info,
+                bar=None,
+                mix_code=self.mix_code,
             )
             keys = {spec.key for spec in sweep.episodes}
             self._rows[name] = [r for r in rows if runner.row_key(r) in keys]
@@ -132,9 +162,24 @@ class Run:
         return f"seeds {span} ({each} per grid point)"
 
     def label(self, piece: str, what: str) -> str:
-        """The block's first line: how it was made, so a quick run's numbers say so."""
+        """The block's first line: how it was made (so a quick run's numbers say so), the
+        commit and code digest it ran on and, when its episodes ran on other code too, their
+        digests (`code_digest.provenance`)."""
         cmd = f"{self.command} --only {piece}" + (" --quick" if self.quick else "")
-        return f"*Generated by `{cmd}` from the current code: {what}. Not edited by hand.*"
+        cmd += " --mix-code" if self.mix_code else ""
+        ran = code_digest.provenance(
+            self.digests(piece),
+            code_digest.code_digest(),
+            code_digest.commit_text(code_digest.code_commit()),
+        )
+        return f"*Generated by `{cmd}` from {ran}: {what}. Not edited by hand.*"
+
+    def digests(self, piece: str) -> Counter:
+        """Episodes per code digest among the rows piece `piece` reads (the rows of its sweeps
+        this run has read; none for a piece without sweeps)."""
+        piece_sweeps = pieces()[piece].sweeps if piece in pieces() else tuple(self._rows)
+        rows = [r for name in piece_sweeps for r in self._rows.get(name, [])]
+        return code_digest.digests_of(rows)
 
     def figure(self, path: Path, alt: str) -> str:
         """A markdown image link to `path` (in `figures`) from the docs file."""
@@ -167,11 +212,11 @@ def _check_camera(sweep: sweep_config.SweepConfig) -> None:
             prepare_camera(config)
 
 
-def _write_manifest(sweep: sweep_config.SweepConfig, folder: Path) -> None:
+def _write_manifest(sweep: sweep_config.SweepConfig, folder: Path, mix_code: bool) -> None:
     """The sweep's manifest.json (as `sortsim sweep` writes it), once its folder is checked."""
     from sim.results import manifest
 
-    runner.check_out_dir(sweep, folder)
+    runner.check_out_dir(sweep, folder, mix_code)
     folder.mkdir(parents=True, exist_ok=True)
     config = _manifest_config(sweep)
     seeds = [spec.config.seed for spec in sweep.episodes]
@@ -224,6 +269,7 @@ def pieces() -> dict[str, Piece]:
     paused = ("reproduce_4_5_paused", "reproduce_4_6_paused")
     physical = ("reproduce_4_5", "reproduce_4_6")
     camera = ("reproduce_4_5_camera", "reproduce_4_6_camera")
+    random = tables.random_sweeps()
     out = [
         Piece(
             "table_4_1",
@@ -270,18 +316,28 @@ def pieces() -> dict[str, Piece]:
             ("reproduce_4_3_paused",),
             tables.table_4_3_paused,
         ),
-        Piece("table_4_5", "Table 4.5: x1, physical cycle", ("reproduce_4_5",), tables.table_4_5),
-        Piece("table_4_6", "Table 4.6: x1.2, physical cycle", ("reproduce_4_6",), tables.table_4_6),
+        Piece(
+            "table_4_5",
+            "Table 4.5: x1, physical cycle; with the random picker's rows",
+            ("reproduce_4_5", "reproduce_4_5_random"),
+            tables.table_4_5,
+        ),
+        Piece(
+            "table_4_6",
+            "Table 4.6: x1.2, physical cycle; with the random picker's rows",
+            ("reproduce_4_6", "reproduce_4_6_random"),
+            tables.table_4_6,
+        ),
         Piece(
             "table_4_5_paused",
-            "Table 4.5: x1, the thesis's pauses",
-            ("reproduce_4_5_paused",),
+            "Table 4.5: x1, the thesis's pauses; with the random picker's rows",
+            ("reproduce_4_5_paused", "reproduce_4_5_paused_random"),
             tables.table_4_5_paused,
         ),
         Piece(
             "table_4_6_paused",
-            "Table 4.6: x1.2, the thesis's pauses",
-            ("reproduce_4_6_paused",),
+            "Table 4.6: x1.2, the thesis's pauses; with the random picker's rows",
+            ("reproduce_4_6_paused", "reproduce_4_6_paused_random"),
             tables.table_4_6_paused,
         ),
         Piece(
@@ -342,8 +398,9 @@ def pieces() -> dict[str, Piece]:
         Piece(
             "finding_13",
             "The thesis's +13 % profit of Q-learning over proximity: by regime, speed and "
-            "density, with the profit split into picks and value per pick",
-            physical + paused + camera,
+            "density, with the profit split into picks and value per pick; each planner "
+            "against the random picker",
+            physical + paused + camera + random,
             tables.finding_13,
         ),
     ]
@@ -427,8 +484,9 @@ def reproduce(
         {name: Block}.
 
     Raises:
-        InvalidInput: an unknown name; a docs file without a piece's markers (checked before
-            any work).
+        InvalidInput: an unknown name; a docs file without a piece's markers; a sweep folder
+            its sweep cannot use (another sweep's, or, without `run.mix_code`, of other code);
+            all checked before any work.
     """
     catalogue = pieces()
     unknown = [n for n in names if n not in catalogue]
@@ -441,6 +499,7 @@ def reproduce(
         for piece in chosen:
             write_block(text, piece.name, "")  # every marker there before any work
     outputs.check_output_dir(run.out, "--out")
+    run.check_folders(name for piece in chosen for name in piece.sweeps)
     run.out.mkdir(parents=True, exist_ok=True)
     run.figures.mkdir(parents=True, exist_ok=True)
     made = {}

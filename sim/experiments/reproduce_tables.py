@@ -5,7 +5,9 @@ returns a `Block`: markdown tables with our means over the seeds beside the thes
 (`sim/data/thesis_tables.toml`), and a reading computed from the same numbers. The decision
 managers have their own columns: `qlearning` is the thesis's algorithm as written (the thesis's
 "Our Method"), `rollout` is ours (no counterpart in the thesis), `proximity` the thesis's
-comparison picker.
+comparison picker; tables 4.5 and 4.6 and the finding add `random`, the thesis's "random
+picker" (a uniform draw among the items the cup can meet now), from sweeps of its own
+(`<sweep>_random`: the same flows, belt and regime).
 """
 
 from __future__ import annotations
@@ -43,12 +45,25 @@ HEADS = {
     "qlearning": "qlearning (thesis's algorithm)",
     "rollout": "rollout (ours)",
     "proximity": "proximity",
+    "random": "random (thesis's random picker)",
 }
+DECISION_PLANNERS = (*PLANNERS, "random")
+"""The decision managers of tables 4.5 and 4.6, in their columns' order: the tables' three and
+the thesis's "random picker" (a sweep of its own, `<sweep>_random`)."""
+COMPARISONS = (
+    ("qlearning", "proximity"),
+    ("rollout", "proximity"),
+    ("random", "proximity"),
+    ("qlearning", "random"),
+)
+"""The profit differences tables 4.5 and 4.6 give per dataset (planner, against)."""
 MATERIALS = ("paper", "plastic", "aluminium")
 KEY_NOTE = (
-    "Each cell: qlearning / rollout / proximity, ours (the thesis's). `qlearning` is the "
-    'thesis\'s Q-learning as written (its "Our Method"), `rollout` ours (no thesis '
-    "counterpart), `proximity` the thesis's comparison picker; means over the seeds."
+    "Each cell: qlearning / rollout / proximity / random, ours (the thesis's). `qlearning` is "
+    'the thesis\'s Q-learning as written (its "Our Method"), `rollout` ours (no thesis '
+    "counterpart), `proximity` the thesis's comparison picker, `random` the thesis's \"random "
+    'picker" (a uniform draw among the items the cup can meet now; the thesis gives no '
+    "numbers of it); means over the seeds."
 )
 
 
@@ -244,54 +259,73 @@ def table_4_4(run: Run) -> Block:
     return Block("\n".join([run.label("table_4_4", what), "", *lines, "", reading]))
 
 
-def _decision_table(run: Run, sweep: str, table: str, piece: str, regime: str) -> Block:
-    t = thesis_tables()[table]
-    by = groups(run.rows(sweep), "n_items", "planner")
+def _decision_rows(run: Run, sweep: str) -> list[dict]:
+    """The rows of a table 4.5/4.6 sweep and of its random picker's (`<sweep>_random`)."""
+    return run.rows(sweep) + run.rows(f"{sweep}_random")
+
+
+def _decision_cells(by: dict, n: int, t: dict) -> list[str]:
+    """Accuracy, time and profit of every decision manager at `n` items, ours (the thesis's)."""
     metrics = (
         ("accuracy", "accuracy", ".3f"),
         ("time", "sim_s", ".1f"),
         ("profit", "profit_eur", ".2f"),
     )
-    order = " / ".join(HEADS[p] for p in PLANNERS)
+    cells = []
+    for metric, key, fmt in metrics:
+        parts = []
+        for p in DECISION_PLANNERS:
+            theirs = at(t, f"{metric}_{p}", n) if p in ("qlearning", "proximity") else None
+            parts.append(cell(mean(by.get((n, p), []), key), theirs, fmt))
+        cells.append(" / ".join(parts))
+    return cells
+
+
+def _gain_reading(gains: dict[tuple[str, str], list[float]], thesis_all: list[float]) -> str:
+    """The reading under a table 4.5/4.6: each comparison's mean and range over the datasets."""
+    parts = []
+    for (p, against), g in gains.items():
+        if g:
+            parts.append(
+                f"{p} earns {statistics.fmean(g):+.1f} % against {against} on the mean "
+                f"({min(g):+.1f} to {max(g):+.1f} %, more on "
+                f"{sum(x > 0.05 for x in g)} of {len(g)} datasets)"
+            )
+    return (
+        "Reading: " + "; ".join(parts) + f"; the thesis (its Q-learning against its proximity "
+        f"picker): {statistics.fmean(thesis_all):+.1f} % "
+        f"({min(thesis_all):+.1f} to {max(thesis_all):+.1f} %)."
+    )
+
+
+def _decision_table(run: Run, sweep: str, table: str, piece: str, regime: str) -> Block:
+    t = thesis_tables()[table]
+    by = groups(_decision_rows(run, sweep), "n_items", "planner")
+    order = " / ".join(HEADS[p] for p in DECISION_PLANNERS)
     lines = [
         f"| items | accuracy: {order} | time [s] | profit [EUR] | qlearning - proximity "
-        "profit (thesis) | rollout - proximity |",
-        "|---|---|---|---|---|---|",
+        "profit (thesis) | rollout - proximity | random - proximity | qlearning - random |",
+        "|---|---|---|---|---|---|---|---|",
     ]
-    gains = {"qlearning": [], "rollout": []}
+    gains: dict[tuple[str, str], list[float]] = {c: [] for c in COMPARISONS}
     for n in item_counts(t, by):
-        cells = []
-        for metric, key, fmt in metrics:
-            parts = []
-            for p in PLANNERS:
-                theirs = at(t, f"{metric}_{p}", n) if p != "rollout" else None
-                parts.append(cell(mean(by.get((n, p), []), key), theirs, fmt))
-            cells.append(" / ".join(parts))
-        prox = mean(by.get((n, "proximity"), []), "profit_eur")
         thesis_gain = pct(at(t, "profit_qlearning", n), at(t, "profit_proximity", n))
         diffs = []
-        for p in ("qlearning", "rollout"):
-            g = pct(mean(by.get((n, p), []), "profit_eur"), prox)
+        for p, against in COMPARISONS:
+            g = pct(
+                mean(by.get((n, p), []), "profit_eur"), mean(by.get((n, against), []), "profit_eur")
+            )
             if g is not None:
-                gains[p].append(g)
-            diffs.append(signed(g) + (f" ({signed(thesis_gain)})" if p == "qlearning" else ""))
+                gains[p, against].append(g)
+            thesis = (p, against) == ("qlearning", "proximity")
+            diffs.append(signed(g) + (f" ({signed(thesis_gain)})" if thesis else ""))
+        cells = _decision_cells(by, n, t)
         lines.append(f"| {n} | " + " | ".join(cells) + " | " + " | ".join(diffs) + " |")
     thesis_all = [
         pct(a, b) for a, b in zip(t["profit_qlearning"], t["profit_proximity"], strict=True)
     ]
-    parts = []
-    for p, g in gains.items():
-        if g:
-            parts.append(
-                f"{p} earns {statistics.fmean(g):+.1f} % against proximity on the mean "
-                f"({min(g):+.1f} to {max(g):+.1f} %, more on "
-                f"{sum(x > 0.05 for x in g)} of {len(g)} datasets)"
-            )
-    reading = (
-        "Reading: " + "; ".join(parts) + f"; the thesis: {statistics.fmean(thesis_all):+.1f} % "
-        f"({min(thesis_all):+.1f} to {max(thesis_all):+.1f} %)."
-    )
-    what = run.seeds_text(sweep) + f", belt x{t['speed_factor']:g}, {regime}"
+    reading = _gain_reading(gains, thesis_all)
+    what = run.seeds_text(sweep, f"{sweep}_random") + f", belt x{t['speed_factor']:g}, {regime}"
     return Block("\n".join([run.label(piece, what), "", KEY_NOTE, "", *lines, "", reading]))
 
 
@@ -418,6 +452,13 @@ REGIMES = (
     ("camera, stripe HMMs", "reproduce_4_5_camera", "reproduce_4_6_camera", "camera_hmm"),
     ("camera, fused", "reproduce_4_5_camera", "reproduce_4_6_camera", "camera_fused"),
 )
+RANDOM_REGIMES = REGIMES[:2]
+"""The regimes the random picker ran in (truth perception; its sweeps `<sweep>_random`)."""
+
+
+def random_sweeps() -> tuple[str, ...]:
+    """The random picker's sweeps, one per regime of `RANDOM_REGIMES` and belt speed."""
+    return tuple(f"{s}_random" for r in RANDOM_REGIMES for s in r[1:3])
 
 
 def _split(rows_q: list[dict], rows_p: list[dict]) -> tuple[float, float, float, float] | None:
@@ -434,24 +475,32 @@ def _split(rows_q: list[dict], rows_p: list[dict]) -> tuple[float, float, float,
     return profit, picks, pct(vq, vp), al
 
 
-def _regime_cells(by: dict, items: list[int]) -> tuple[list[str], dict[int, float]]:
-    """The finding's cells of one regime and speed (qlearning's four, rollout's four), and
-    qlearning's profit gain per item count."""
+def _regime_cells(
+    by: dict,
+    items: list[int],
+    planners: tuple[str, ...] = ("qlearning", "rollout"),
+    against: str = "proximity",
+    fields: int = 4,
+) -> tuple[list[str], dict[int, float]]:
+    """The finding's cells of one regime and speed: for each of `planners` against `against`,
+    the first `fields` of profit (with its range over the datasets), picks, value per pick and
+    aluminium [points]; and the first planner's profit gain per item count."""
     cells, gains = [], {}
-    for planner in ("qlearning", "rollout"):
+    for planner in planners:
         got = []
         for n in items:
-            s = _split(by.get((n, planner), []), by.get((n, "proximity"), []))
+            s = _split(by.get((n, planner), []), by.get((n, against), []))
             if s is not None:
                 got.append(s)
-                if planner == "qlearning":
+                if planner == planners[0]:
                     gains[n] = s[0]
         if not got:
-            cells += ["-"] * 4
+            cells += ["-"] * fields
             continue
         avg = [statistics.fmean(s[i] for s in got) for i in range(4)]
         span = f" ({min(s[0] for s in got):+.1f} to {max(s[0] for s in got):+.1f})"
-        cells += [signed(avg[0]) + span, signed(avg[1]), signed(avg[2]), f"{avg[3]:+.1f}"]
+        row = [signed(avg[0]) + span, signed(avg[1]), signed(avg[2]), f"{avg[3]:+.1f}"]
+        cells += row[:fields]
     return cells, gains
 
 
@@ -487,9 +536,30 @@ def _per_items(per_items: dict, tables: dict) -> list[str]:
     return sub
 
 
+def _against_random(run: Run, tables: dict) -> list[str]:
+    """The finding's table against the thesis's random picker: qlearning, rollout and
+    proximity each against random, per truth regime and speed."""
+    planners = ("qlearning", "rollout", "proximity")
+    lines = [
+        "| regime | belt | "
+        + " | ".join(f"{p}: profit | picks | value per pick" for p in planners)
+        + " |",
+        "|---|---|" + "---|" * (3 * len(planners)),
+    ]
+    for regime, s45, s46, _ in RANDOM_REGIMES:
+        for sweep, table in ((s45, "4.5"), (s46, "4.6")):
+            by = groups(_decision_rows(run, sweep), "n_items", "planner")
+            cells, gains = _regime_cells(by, item_counts(tables[table], by), planners, "random", 3)
+            if gains:
+                speed = tables[table]["speed_factor"]
+                lines.append(f"| {regime} | x{speed:g} | " + " | ".join(cells) + " |")
+    return lines
+
+
 def finding_13(run: Run) -> Block:
     """The +13 %: qlearning (and rollout) against proximity by regime, speed and density, the
-    profit split into items picked and value per pick (profit = picks x value per pick)."""
+    profit split into items picked and value per pick (profit = picks x value per pick); and
+    each against the thesis's random picker."""
     tables = thesis_tables()
     lines = [
         "| regime | belt | qlearning: profit | picks | value per pick | aluminium [points] | "
@@ -511,7 +581,7 @@ def finding_13(run: Run) -> Block:
             lines.append(f"| {regime} | x{speed:g} | " + " | ".join(cells) + " |")
     lines += [_thesis_split(tables[t]) for t in ("4.5", "4.6")]
     ceiling = _value_ceiling(run.rows("reproduce_4_5"))
-    what = run.seeds_text(*{s for r in REGIMES for s in r[1:3]})
+    what = run.seeds_text(*{s for r in REGIMES for s in r[1:3]}, *random_sweeps())
     text = [
         run.label("finding_13", what),
         "",
@@ -525,6 +595,12 @@ def finding_13(run: Run) -> Block:
         "qlearning - proximity profit per dataset:",
         "",
         *_per_items(per_items, tables),
+        "",
+        'Against the thesis\'s "random picker" (a uniform draw among the items the cup can '
+        "meet now; truth perception): qlearning, rollout and proximity each against random, "
+        "profit (range), picks and value per pick, means over the datasets.",
+        "",
+        *_against_random(run, tables),
         "",
         f"The most a pick order can add by value alone at equal picks: every pick aluminium, "
         f"{ceiling:+.1f} % over the mean item's value of these flows."

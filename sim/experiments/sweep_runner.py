@@ -12,7 +12,10 @@ The output folder is checked before the first episode (`check_out_dir`): it must
 and writable, and an `episodes.csv` already there must be this sweep's. The sweep's identity
 (`SweepConfig.identity`, a hash of its resolved grid, seeds aside) is recorded in `sweep.json`
 beside it; an `episodes.csv` of another sweep is refused, never merged. (A folder written before
-`sweep.json` existed is accepted when every row belongs to this grid.) Leftover temporaries of a
+`sweep.json` existed is accepted when every row belongs to this grid.) Every row carries the
+digest of the code its episode ran on (`code_digest`, `sim.results.code_digest`); a folder
+holding a row of another digest, or of none, is refused as well (`check_code`), unless the
+caller mixes code knowingly (`mix_code`, `--mix-code`). Leftover temporaries of a
 killed sweep are removed when it starts again. A refusal raised in a worker process reaches the
 parent intact (refusals pickle) and stops the sweep with its one line. A run's folder (its
 manifest.json of kind "run") is refused too: its row would pass for one of the sweep's.
@@ -47,7 +50,7 @@ from sim.checks import check, is_integer
 from sim.errors import InvalidInput, RefusedInput
 from sim.experiments.sweep_config import EpisodeSpec, SweepConfig, episode_key, variant_values
 from sim.paths import remove_stale_temporaries
-from sim.results import outputs
+from sim.results import code_digest, outputs
 
 IDENTITY_FILE = "sweep.json"
 """The file beside `episodes.csv` that names the sweep its rows belong to."""
@@ -109,12 +112,18 @@ def _point(key: str) -> str:
     return key.rpartition("|")[0]
 
 
-def check_out_dir(sweep: SweepConfig, out_dir: Path) -> None:
+def check_out_dir(sweep: SweepConfig, out_dir: Path, mix_code: bool = False) -> None:
     """Refuse, before any work, an output folder this sweep cannot use.
+
+    Args:
+        sweep: The sweep.
+        out_dir: Its folder.
+        mix_code: Accept rows that ran on other code (`check_code`).
 
     Raises:
         InvalidInput: the folder cannot be created or written, `episodes.csv` or `sweep.json`
-            there is a folder or unreadable, or the rows there are another sweep's.
+            there is a folder or unreadable, the rows there are another sweep's, or (without
+            `mix_code`) they ran on other code.
     """
     out = Path(out_dir)
     outputs.check_output_dir(out, "--out")
@@ -126,6 +135,33 @@ def check_out_dir(sweep: SweepConfig, out_dir: Path) -> None:
     keys = _row_keys(out / "episodes.csv")
     if not keys:
         return
+    _check_same_sweep(sweep, out, keys)
+    if not mix_code:
+        check_code(out)
+
+
+def check_code(out: Path) -> None:
+    """Refuse a sweep folder whose episodes ran on other code than this process's: every row
+    of its episodes.csv must carry this code's digest (`sim.results.code_digest`), so that a
+    resumed sweep, and a block made from it, is of one code. `--mix-code` tops it up anyway.
+
+    Raises:
+        InvalidInput: One line naming the folder, this code's digest and the rows' digests.
+    """
+    ours = code_digest.code_digest()
+    counts = code_digest.digests_of(outputs.read_rows(out / "episodes.csv"))
+    others = {d: n for d, n in counts.items() if d != ours}
+    if others:
+        allowed = (
+            f"a folder whose episodes ran on this code (code digest {ours}), "
+            "or --mix-code to add to it knowingly"
+        )
+        got = f"{out}: episodes of code digest {code_digest.counts_text(others)}"
+        raise InvalidInput("--out", allowed, got)
+
+
+def _check_same_sweep(sweep: SweepConfig, out: Path, keys: list[str]) -> None:
+    """Refuse a folder whose rows (`keys`) are another sweep's."""
     recorded = _recorded_identity(out)
     ours = {_point(spec.key) for spec in sweep.episodes}
     if recorded is None:  # written before sweep.json existed: every row must be of this grid
@@ -351,10 +387,12 @@ def run_sweep(
     ray_address: str | None = None,
     progress: Callable[[str], None] | None = None,
     bar: Callable[[float, str], None] | None = None,
+    mix_code: bool = False,
 ) -> list[dict]:
     """Run the pending episodes of `sweep` into `out_dir`/episodes.csv; returns all rows.
 
-    `progress` gets a line per episode, `bar` the share of the sweep done and its ETA.
+    `progress` gets a line per episode, `bar` the share of the sweep done and its ETA;
+    `mix_code` adds to a folder whose episodes ran on other code (`check_code`).
 
     Raises:
         InvalidInput: `out_dir` is refused (`check_out_dir`), before any episode runs; or an
@@ -362,7 +400,7 @@ def run_sweep(
     """
     workers = default_workers() if workers is None else workers
     check(is_integer(workers) and workers >= 1, "--workers", "an integer >= 1", workers)
-    check_out_dir(sweep, Path(out_dir))
+    check_out_dir(sweep, Path(out_dir), mix_code)
     _start(sweep, Path(out_dir))
     csv_path = Path(out_dir) / "episodes.csv"
     picks_path = Path(out_dir) / PICKS_FILE

@@ -3,7 +3,8 @@
 In the manner of a trial folder of an experiment tracker: beside `episodes.csv` (and
 `picks.csv`), one JSON object with the fully resolved configuration (every key, defaults
 included), the seeds, the package version, the git commit of the source tree when it is a
-checkout (and whether it had uncommitted changes), the MuJoCo, Python and NumPy versions, the
+checkout (and whether it had uncommitted changes), the digest of the code that decides results
+(`sim.results.code_digest`), the MuJoCo, Python and NumPy versions, the
 machine (CPU model, cores, OS) and the command line. A sweep's is written atomically before its
 first episode runs; a run's lands with its CSVs, last of the three (`text`, written by
 `sim.results.outputs.write_together`), and names each CSV's SHA-256 under `files`
@@ -26,6 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from sim.paths import REPO_ROOT
+from sim.results.code_digest import code_digest
 from sim.results.outputs import write_atomic
 
 MANIFEST_FILE = "manifest.json"
@@ -93,6 +95,7 @@ def build(kind: str, config: Any, seeds: list[int], argv: list[str] | None = Non
         "created_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
         "sortsim_version": package_version(),
         "git": git_state(),
+        "code_digest": code_digest(),
         "mujoco_version": mujoco.__version__,
         "numpy_version": numpy.__version__,
         "python_version": platform.python_version(),

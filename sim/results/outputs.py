@@ -97,6 +97,7 @@ EPISODE_COLUMNS = (
     "min_class_confidence",
     "left_unsure",
     "items_per_m",
+    "code_digest",
 )
 PICK_COLUMNS = (
     "t_start_s",
