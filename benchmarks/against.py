@@ -126,12 +126,18 @@ def rows_without_wall(path: Path) -> list[dict]:
 
 
 def same_outputs(a: Path, b: Path) -> str:
-    """'same' when both runs' CSVs agree (wall columns aside), else what differs."""
+    """'same' when today's CSVs (`b`) agree with the reference's (`a`) on every column the
+    reference writes (wall columns aside), naming the columns today adds; else what differs."""
+    added: list[str] = []
     for name in ("episodes.csv", "picks.csv"):
         ra, rb = rows_without_wall(a / name), rows_without_wall(b / name)
-        if ra != rb:
+        columns = list(ra[0]) if ra else []
+        added += [k for k in (rb[0] if rb else {}) if k not in columns]
+        if len(ra) != len(rb) or any(
+            x != {k: y.get(k) for k in columns} for x, y in zip(ra, rb, strict=True)
+        ):
             return f"DIFFERENT {name}"
-    return "same"
+    return "same" + (f" (columns added since: {', '.join(added)})" if added else "")
 
 
 def run_case(case: Case, trees: dict[str, Path], pairs: int, scratch: Path) -> dict:
