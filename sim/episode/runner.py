@@ -24,6 +24,7 @@ from sim.cell.cell import Cell
 from sim.episode.config import EpisodeConfig
 from sim.episode.loop import Episode, make_decision_manager
 from sim.model.scene_edits import CellSettings
+from sim.results.economics import ECONOMICS_COLUMNS, per_hour_columns
 
 __all__ = [
     "Cell",
@@ -49,6 +50,11 @@ class EpisodeResult:
 
 
 _CELLS: dict[tuple[int, CellSettings, str, int, bool, tuple[float, ...], bool], object] = {}
+
+
+def _economics(config: EpisodeConfig) -> dict[str, float]:
+    """The `[economics]` settings episodes.csv records (`ECONOMICS_COLUMNS`)."""
+    return {name: getattr(config.economics, name) for name in ECONOMICS_COLUMNS}
 
 
 def planner_name(planner) -> str:
@@ -192,6 +198,7 @@ def run_episode(
         "real_time_factor": sim_s / wall if wall > 0 else 0.0,
         **episode.robot_columns(sim_s),
     }
+    row |= per_hour_columns(row, config.duration_s, config.robot_count, _economics(config))
     timings = dict(episode.timings)
     # Physics: stepping, the executor's control loop, the cup and bins (everything else).
     timings["physics"] = wall - sum(v for k, v in timings.items() if k != "physics")
