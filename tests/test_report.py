@@ -55,10 +55,12 @@ def test_groups_and_derived_metrics(tmp_path):
         tmp_path / "sweep", _rows("fifo", 80, [10.0, 12.0]) + _rows("lookahead", 80, [13.0, 13.0])
     )
     summary = summarise(read_folders([folder])[0])
-    fifo = summary[("base", "truth", 1.0, 80, "fifo")]
+    by_planner = {(p["variant"], p["perception"], p["speed"], p["items"], p["planner"]): m
+                  for p, m in summary.items()}  # fmt: skip
+    fifo = by_planner[("base", "truth", 1.0, 80, "fifo")]
     assert fifo["profit_eur"].mean == pytest.approx(11.0)
     assert fifo["picks_per_min"].mean == pytest.approx(79.0)  # 79 picked in 60 s
-    assert summary[("base", "truth", 1.0, 80, "lookahead")]["profit_eur"].half_width == 0.0
+    assert by_planner[("base", "truth", 1.0, 80, "lookahead")]["profit_eur"].half_width == 0.0
 
 
 def test_report_files(tmp_path):
@@ -73,7 +75,8 @@ def test_report_files(tmp_path):
     assert image.shape[0] > 100 and image.shape[1] > 100
     md = (tmp_path / "out" / "report.md").read_text()
     assert "| x1 | 80 | qlearning | 3 | 17.00 ± 2.48 |" in md  # variant, perception: constant
-    assert "Every episode: variant base, truth perception." in md
+    assert "Every episode: variant base, truth perception, 1 robot." in md
+    assert "Grouped by items, planner: the settings in which the episodes differ." in md
     assert "Table 4.5" in md  # the thesis's side-by-side layout
     page = (tmp_path / "out" / "report.html").read_text()
     assert page.count('src="data:image/png;base64,') == len([n for n in names if n.endswith("png")])
@@ -92,27 +95,35 @@ def test_cli_refuses_a_folder_without_episodes(tmp_path):
     assert not (tmp_path / "empty" / "report").exists()
 
 
-def test_one_purity_column_per_material_of_the_catalogue(tmp_path):
-    """A sweep of a four-material catalogue: the table has each material's purity, in the
-    CSV's order, with its mean over the seeds."""
+def test_recovery_beside_purity_per_material_of_the_catalogue(tmp_path):
+    """A sweep of a four-material catalogue: one row per material, in the CSV's order, with its
+    recovery beside its bin's purity, means over the seeds; two seeds are marked as too few."""
     path = tmp_path / "four"
     path.mkdir()
     header = "seed,planner,speed_factor,n_items,picked,profit_eur,sim_s,perception,variant,"
-    header += "purity_paper,purity_pet,purity_hdpe,purity_aluminium\n"
-    rows = "0,qlearning,1.000,100,98,25.0,100.0,camera,base,1.0000,0.9500,0.9000,\n"
-    rows += "1,qlearning,1.000,100,97,24.0,100.0,camera,base,1.0000,0.9700,0.8000,1.0000\n"
+    header += "purity_paper,purity_pet,purity_hdpe,purity_aluminium,"
+    header += "recovery_paper,recovery_pet,recovery_hdpe,recovery_aluminium\n"
+    rows = "0,qlearning,1.000,100,98,25.0,100.0,camera,base,1.0000,0.9500,0.9000,,"
+    rows += "0.9000,0.8000,0.7000,0.5000\n"
+    rows += "1,qlearning,1.000,100,97,24.0,100.0,camera,base,1.0000,0.9700,0.8000,1.0000,"
+    rows += "0.9500,0.8500,0.7500,0.7000\n"
     (path / "episodes.csv").write_text(header + rows)
     write_report([path], tmp_path / "out")
     text = (tmp_path / "out" / "report.md").read_text()
-    head = next(line for line in text.splitlines() if "| purity" in line)
-    cols = [c.strip() for c in head.strip("|").split("|")]
-    purity = [c for c in cols if c.startswith("purity")]
-    assert purity == ["purity paper", "purity pet", "purity hdpe", "purity aluminium"]
-    lines = text.splitlines()
-    row = lines[lines.index(head) + 2]  # the sorting quality's table: its first row
-    cells = [c.strip() for c in row.strip("|").split("|")]
-    assert cells[cols.index("purity pet")].startswith("0.960")
-    assert cells[cols.index("purity aluminium")] == "1.000"  # one episode had an empty bin
+    section = text.split("## Recovery and purity per material")[1].split("\n## ")[0]
+    lines = [line for line in section.splitlines() if line.startswith("|")]
+    cols = [c.strip() for c in lines[0].strip("|").split("|")]
+    assert cols[-5:] == ["material", "seeds", "entered", "recovery", "purity"]
+    cells = {
+        row[cols.index("material")]: row
+        for row in ([c.strip() for c in line.strip("|").split("|")] for line in lines[2:])
+    }
+    assert list(cells) == ["paper", "pet", "hdpe", "aluminium"]
+    assert cells["pet"][cols.index("purity")].startswith("0.960 ± ")
+    assert cells["pet"][cols.index("recovery")].startswith("0.825 ± ")
+    assert cells["aluminium"][cols.index("purity")] == "1.000"  # one episode had an empty bin
+    assert cells["aluminium"][cols.index("seeds")] == "2*"
+    assert "fewer than 3 seeds" in section
 
 
 def _sweep_rows(planner, profits, items=40, speed="1.500"):
@@ -177,7 +188,7 @@ def test_a_named_baseline_and_grid_points_it_did_not_run(tmp_path):
     comparisons, notes = paired_comparisons(read_folders([folder])[0], baseline="greedy")
     profit = [c for c in comparisons if c.metric == "profit_eur"]
     assert [(c.planner, c.baseline) for c in profit] == [("proximity", "greedy")]
-    assert profit[0].difference == pytest.approx(0.13) and profit[0].point[3] == 40
+    assert profit[0].difference == pytest.approx(0.13) and profit[0].point["items"] == 40
     assert notes == ["x1.5, 80 items: greedy did not run there."]
 
 

@@ -96,9 +96,10 @@ def test_undefined_ratios_are_empty_cells_and_the_rest_fixed_decimals():
     assert cells["purity_paper"] == "0.6667" and cells["purity_plastic"] == ""
     assert cells["recovery_aluminium"] == "0.5000"
     assert (cells["never_detected"], cells["empty_picks"]) == ("3", "1")
-    new = outputs.EPISODE_COLUMNS[-13:-1]
-    assert new[0] == "purity_paper" and new[-2:] == ("left_unsure", "items_per_m")
-    assert outputs.EPISODE_COLUMNS[-1] == "code_digest"
+    start = outputs.EPISODE_COLUMNS.index("purity_paper")
+    new = outputs.EPISODE_COLUMNS[start : start + 12]
+    assert new[-2:] == ("left_unsure", "items_per_m")
+    assert "code_digest" in outputs.EPISODE_COLUMNS
 
 
 # ----- attributing tracks to true items (camera mode's bookkeeping) ---------------------------

@@ -207,6 +207,8 @@ name = "dear_paper"
 values = { paper = 0.5 }
 """
 VARIANT_COLUMNS = ("variant.min_class_confidence", "variant.values.paper")
+ONE_ROBOT = outputs.EPISODE_COLUMNS + ("robots",)
+"""A sweep of one robot's columns: `robots` written for one robot too."""
 
 
 @pytest.fixture(scope="module")
@@ -227,7 +229,7 @@ def _header(path) -> tuple[str, ...]:
 
 def test_a_sweep_without_variants_writes_the_runs_columns(swept):
     _, out, _ = swept
-    assert _header(out / "episodes.csv") == outputs.EPISODE_COLUMNS
+    assert _header(out / "episodes.csv") == ONE_ROBOT
     assert _header(out / sweep.PICKS_FILE) == outputs.SWEEP_PICK_COLUMNS
 
 
@@ -235,7 +237,7 @@ def test_variant_settings_are_columns_with_the_values_each_episode_ran_with(swep
     """One column per key any variant sets, after the usual ones, in the file's order; each
     row holds its episode's value, the variant's own or the default (paper's 0.22 EUR)."""
     _, out = swept_variants
-    assert _header(out / "episodes.csv") == outputs.EPISODE_COLUMNS + VARIANT_COLUMNS
+    assert _header(out / "episodes.csv") == ONE_ROBOT + VARIANT_COLUMNS
     rows = {r["variant"]: r for r in outputs.read_rows(out / "episodes.csv")}
     assert [rows["unsure"][c] for c in VARIANT_COLUMNS] == ["0.5", "0.22"]
     assert [rows["dear_paper"][c] for c in VARIANT_COLUMNS] == ["0.0", "0.5"]
@@ -263,7 +265,7 @@ def test_a_folder_written_before_the_variant_columns_resumes_with_them_filled(
     outputs.write_sweep_picks(tmp_path / sweep.PICKS_FILE, first)
     monkeypatch.setattr(sweep, "run_spec", blank_episode)
     again = sweep.run_sweep(sweep_config.load(path), tmp_path, workers=1)
-    assert _header(tmp_path / "episodes.csv") == outputs.EPISODE_COLUMNS + VARIANT_COLUMNS
+    assert _header(tmp_path / "episodes.csv") == ONE_ROBOT + VARIANT_COLUMNS
     assert [[r[c] for c in VARIANT_COLUMNS] for r in again] == [["0.5", "0.22"], ["0.0", "0.5"]]
     old_picks = outputs.read_rows(tmp_path / sweep.PICKS_FILE)
     assert len(old_picks) == len(first) > 0

@@ -24,13 +24,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Write the report and list its files."""
-    from sim.experiments.report import check_baseline, read_folders, write_report
+    from sim.experiments.report import check_baseline, group_key, read_folders, write_report
+    from sim.experiments.reporting.groups import grouping_text
     from sim.results.outputs import check_output_dir
 
     out = args.out if args.out is not None else args.dirs[0] / "report"
     check_output_dir(out, "--out")
-    rows, _ = read_folders(args.dirs)  # refuse a folder without episodes before writing anything
+    # refuse a folder without episodes, or a group of unlike episodes, before writing anything
+    rows, _ = read_folders(args.dirs)
     check_baseline(rows, args.baseline)
+    print(grouping_text(group_key(row) for row in rows))
     for path in write_report(args.dirs, out, baseline=args.baseline):
         print(f"wrote {path}")
     return 0

@@ -152,18 +152,15 @@ def episode_flow(config: EpisodeConfig, cell: Cell) -> Flow:
 
 
 def episode_metrics(config: EpisodeConfig, cell: Cell, flow: Flow) -> EpisodeMetrics:
-    """The counters of an episode of `flow` (values by class and by item type)."""
-    materials = cell.materials
-    type_values = config.values.of_types(cell.catalogue)
+    """The counters of an episode of `flow` (values by class, by item type and per kg; the
+    items' masses)."""
+    masses = [t.mass for t in flow.item_types(cell.catalogue)]
     return EpisodeMetrics(
-        config.values.by_class(materials),
+        config.values.by_class(cell.materials),
         config.energy_price_eur_per_kwh,
-        materials,
-        item_values={
-            i: type_values[int(k)]
-            for i, k in enumerate(flow.type_index.tolist())
-            if int(k) in type_values
-        },
+        cell.materials,
+        item_values=config.values.of_items(cell.catalogue, flow.type_index.tolist(), masses),
+        item_masses=dict(enumerate(masses)),
     )
 
 
@@ -262,7 +259,7 @@ def robot_stations(
             ),
             window=view.window,
             bins=view.bins_tuple(),
-            values=config.values.of_materials(cell.materials),
+            values=config.values.for_planning(cell.catalogue),
             energy=EnergyPrice(config.energy_price_eur_per_kwh),
         )
         manager = planner if k == 0 else make_decision_manager(config, robot=k)

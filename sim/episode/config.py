@@ -61,6 +61,8 @@ TOML layout (every key optional; defaults are the headline episode)::
     paper = 0.22                # overrides its material's in the profit); unset: the
     plastic = 0.25              # catalogue's value_eur (thesis table 3.3 by default)
     aluminium = 0.27
+    per_kg = { aluminium = 1.2 }   # EUR/kg instead (a name has one or the other): an item
+                                # is worth its own mass x the price
     [flow]                      # the class mix of the flow (default: the thesis's for its
     class_priors = [0.29, 0.36, 0.35]   # three materials, equal shares otherwise); one entry
     transitions = [[0.46, 0.30, 0.24],  # per material in the catalogue's order
@@ -98,6 +100,12 @@ TOML layout (every key optional; defaults are the headline episode)::
     [hmm]                       # camera perception's stripe HMMs
     coupled = false             # true: each stripe's transitions use its neighbour stripes'
                                 # states at t-1 (thesis 1.3); false: five independent HMMs
+    [economics]                 # what a robot costs: the money columns only (an assumption
+    robot_capital_eur = 75000.0  # for one delta robot cell; set the plant's own figures)
+    robot_life_years = 10.0
+    hours_per_year = 4000.0
+    robot_maintenance_eur_per_year = 3000.0
+    energy_price_eur_per_kwh = 0.2   # the top-level key, given here instead (either place)
 
 The robots one by one, instead of `robots = N` (sim/episode/line_robots.py, docs/line.md;
 `--robots N` and a sweep's `robots = N` give N robots at the default spacing, robot k keeping
@@ -164,6 +172,7 @@ from sim.model.scene_edits import (
     CUP_DIAMETER_RANGE_M,
     CellSettings,
 )
+from sim.results.economics import robot_cost_per_h
 from sim.sensing.confidence import default_min_confidence
 
 BELT_SPEED_X1_MPS = SPEED_X1_MPS
@@ -277,6 +286,7 @@ RANGES: dict[str, Range] = {
         0.0, MAX_LAST_X_M, f"0..{MAX_LAST_X_M:g} m", checked_by="sim.episode.line_robots"
     ),
     "values.<material>": Range(0.0, MAX_VALUE_EUR, f"0..{MAX_VALUE_EUR:g} EUR"),
+    "values.per_kg.<material>": Range(0.0, MAX_VALUE_EUR, f"0..{MAX_VALUE_EUR:g} EUR/kg"),
     "flow.class_priors": Range(0.0, 1.0, _PROBABILITIES, entries="list", checked_by="sim.flow"),
     "flow.transitions": Range(0.0, 1.0, _PROBABILITIES, entries="rows", checked_by="sim.flow"),
     "flow.stripe_priors": Range(0.0, 1.0, _PROBABILITIES, entries="list", checked_by="sim.flow"),
@@ -389,44 +399,71 @@ def builtin_catalogue() -> CatalogueFile:
 
 @dataclass(frozen=True)
 class Values:
-    """Value of an item [EUR]: per material (thesis table 3.3 by default), or per item type of
-    the catalogue (which overrides its material's value in the profit). Names not set take
-    the catalogue's `value_eur` of their material.
+    """Value of an item [EUR]: per item of a material (thesis table 3.3 by default) or of one
+    item type of the catalogue (which overrides its material's value in the profit), or per
+    kilogram (`per_kg`, a table of EUR/kg by material or item type: an item is then worth its
+    own mass, as varied, times that price). A name has one or the other, not both. An item is
+    worth, in this order: its type's value per item, its type's per kg, its material's per kg,
+    its material's per item. Names not set take the catalogue's `value_eur` of their
+    material. The decision managers weigh a material valued per kg by its mean item: the price
+    times the catalogue's mean mass of its item types (their `weight`s; `mean_masses`).
 
     Attributes:
-        eur: (name, EUR) pairs as the `[values]` table gives them.
+        eur: (name, EUR per item) pairs as the `[values]` table gives them.
+        per_kg: (name, EUR per kg) pairs of its `per_kg` table [EUR/kg].
     """
 
     eur: tuple[tuple[str, float], ...] = ()
+    per_kg: tuple[tuple[str, float], ...] = ()
 
     def __post_init__(self) -> None:
         pairs = tuple((k, v) for k, v in self.eur)
         for name, got in pairs:
             RANGES["values.<material>"].check(f"values.{name}", got)
+        per_kg = tuple((k, v) for k, v in self.per_kg)
+        for name, got in per_kg:
+            RANGES["values.per_kg.<material>"].check(f"values.per_kg.{name}", got)
+        both = [name for name, _ in per_kg if name in dict(pairs)]
+        if both:
+            allowed = f"a value per item or per kg (values.per_kg.{both[0]}), not both"
+            raise InvalidInput(f"values.{both[0]}", allowed, dict(pairs)[both[0]])
         object.__setattr__(self, "eur", pairs)
+        object.__setattr__(self, "per_kg", per_kg)
 
     @classmethod
     def from_table(cls, table: dict[str, Any]) -> Values:
         """The `[values]` table.
 
         Args:
-            table: {material or item type name: EUR}.
+            table: {material or item type name: EUR}, and `per_kg`: {name: EUR/kg}.
 
         Returns:
             The values as given.
         """
-        return cls(tuple(table.items()))
+        per_kg = table.get("per_kg", {})
+        allowed = "a table of EUR per kg by material or item type"
+        check(isinstance(per_kg, dict), "values.per_kg", allowed, per_kg, None)
+        eur = tuple((k, v) for k, v in table.items() if k != "per_kg")
+        return cls(eur, tuple(per_kg.items()))
 
     def given(self) -> dict[str, float]:
-        """The values as set.
+        """The values per item as set.
 
         Returns:
             {material or item type name: EUR}.
         """
         return {k: float(v) for k, v in self.eur}
 
+    def given_per_kg(self) -> dict[str, float]:
+        """The values per kilogram as set.
+
+        Returns:
+            {material or item type name: EUR/kg}.
+        """
+        return {k: float(v) for k, v in self.per_kg}
+
     def of_materials(self, materials: Materials) -> tuple[float, ...]:
-        """Each material's value, the catalogue's where not set.
+        """Each material's value per item, the catalogue's where not set.
 
         Args:
             materials: The catalogue's materials.
@@ -437,6 +474,27 @@ class Values:
         given = self.given()
         return tuple(
             given.get(n, d) for n, d in zip(materials.names, materials.values_eur, strict=True)
+        )
+
+    def for_planning(self, catalogue: Catalogue) -> tuple[float, ...]:
+        """Each material's value per item as the decision managers weigh it: a material priced
+        per kg at its mean item's mass (`mean_masses`), the others as `of_materials`.
+
+        Args:
+            catalogue: The item catalogue.
+
+        Returns:
+            EUR per material, in the materials' order.
+        """
+        per_kg = self.given_per_kg()
+        if not per_kg:
+            return self.of_materials(catalogue.materials)
+        masses = mean_masses(catalogue)
+        return tuple(
+            per_kg[n] * masses[n] if n in per_kg else v
+            for n, v in zip(
+                catalogue.materials.names, self.of_materials(catalogue.materials), strict=True
+            )
         )
 
     def by_class(self, materials: Materials) -> dict[int, float]:
@@ -451,8 +509,8 @@ class Values:
         return dict(zip(materials.ids, self.of_materials(materials), strict=True))
 
     def of_types(self, catalogue: Catalogue) -> dict[int, float]:
-        """The values of the item types given a value of their own (their shape variants, a
-        crushed can of a can type, take it too).
+        """The values of the item types given a value per item of their own (their shape
+        variants, a crushed can of a can type, take it too).
 
         Args:
             catalogue: The item catalogue the names are of.
@@ -468,6 +526,32 @@ class Values:
                 out[k] = given[base]
         return out
 
+    def of_items(self, catalogue: Catalogue, types, masses) -> dict[int, float]:
+        """The values of single items that are not their material's value per item: their
+        type's own value per item, else their mass times their type's or material's price
+        per kg.
+
+        Args:
+            catalogue: The item catalogue.
+            types: Each item's base type index (`Flow.type_index`), by item id.
+            masses: Each item's mass as varied [kg], by item id.
+
+        Returns:
+            {item id: EUR} of those items.
+        """
+        by_type = self.of_types(catalogue)
+        per_kg = self.given_per_kg()
+        out = {}
+        for i, (k, mass) in enumerate(zip(types, masses, strict=True)):
+            t = catalogue.types[int(k)]
+            if int(k) in by_type:
+                out[i] = by_type[int(k)]
+            elif (t.variant_of or t.name) in per_kg:
+                out[i] = per_kg[t.variant_of or t.name] * float(mass)
+            elif t.material in per_kg:
+                out[i] = per_kg[t.material] * float(mass)
+        return out
+
     def check_names(self, catalogue: Catalogue, where: str | None) -> None:
         """Refuse a name that is neither a material nor a base item type of `catalogue`.
 
@@ -477,22 +561,50 @@ class Values:
         """
         names = set(catalogue.materials.names)
         names |= {t.name for t in catalogue.types if not t.variant_of}
+        allowed = "a material (" + ", ".join(catalogue.materials.names) + ") or item type"
         for name, _ in self.eur:
-            allowed = "a material (" + ", ".join(catalogue.materials.names) + ") or item type"
             check(name in names, f"values.{name}", allowed, None, where)
+        for name, _ in self.per_kg:
+            check(name in names, f"values.per_kg.{name}", allowed, None, where)
 
-    def table(self, materials: Materials) -> dict[str, float]:
+    def table(self, materials: Materials) -> dict[str, Any]:
         """The resolved `[values]` table.
 
         Args:
             materials: The catalogue's materials.
 
         Returns:
-            {name: EUR}: every material's value, then the item types' given.
+            {name: EUR}: every material's value per item (but those priced per kg), then the
+            item types' given; `per_kg` {name: EUR/kg} when any is set.
         """
-        out = dict(zip(materials.names, self.of_materials(materials), strict=True))
+        per_kg = self.given_per_kg()
+        out = {
+            n: v
+            for n, v in zip(materials.names, self.of_materials(materials), strict=True)
+            if n not in per_kg
+        }
         out.update({k: v for k, v in self.given().items() if k not in out})
+        if per_kg:
+            out["per_kg"] = per_kg
         return out
+
+
+def mean_masses(catalogue: Catalogue) -> dict[str, float]:
+    """Each material's mean item mass by the catalogue's weights of its base types (nominal
+    sizes) [kg].
+
+    Args:
+        catalogue: The item catalogue.
+
+    Returns:
+        {material name: kg}.
+    """
+    out = {}
+    for name in catalogue.materials.names:
+        types = [catalogue.types[k] for k in catalogue.of_material(name)]
+        total = sum(t.weight for t in types)
+        out[name] = sum(t.weight * t.mass for t in types) / total
+    return out
 
 
 @dataclass(frozen=True)
@@ -704,6 +816,69 @@ class Hmm:
         check(isinstance(v, bool), "hmm.coupled", "true | false", v, None)
 
 
+ECONOMICS_RANGES = {
+    "robot_capital_eur": (0.0, 1e9, "EUR"),
+    "robot_life_years": (1.0, 50.0, "years"),
+    "hours_per_year": (1.0, 8784.0, "h (366 days x 24 h)"),
+    "robot_maintenance_eur_per_year": (0.0, 1e8, "EUR"),
+}
+"""(lowest, highest, unit in words) of the `[economics]` numbers."""
+RANGES |= {
+    f"economics.{name}": Range(lo, hi, f"{lo:g}..{hi:g} {unit}")
+    for name, (lo, hi, unit) in ECONOMICS_RANGES.items()
+}
+RANGES["economics.energy_price_eur_per_kwh"] = RANGES["energy_price_eur_per_kwh"]
+
+
+@dataclass(frozen=True)
+class Economics:
+    """What a robot costs the plant, for the profit per hour net of the robots and the payback
+    of one more robot (`sim.results.economics`). The defaults are an assumption for one delta
+    robot cell (robot, cup, vacuum, controller and guarding: 60-90 kEUR installed), to be set
+    to the plant's own figures; they change no episode, only the money columns.
+
+    Attributes:
+        robot_capital_eur: Each robot's capital cost, installed [EUR]. The default is an
+            assumption: the middle of 60-90 kEUR for one delta robot cell (robot, cup, vacuum,
+            controller, guarding); set the plant's own quote.
+        robot_life_years: Years over which the capital is written off, straight-line, no
+            interest [years].
+        hours_per_year: Hours the line runs a year (the default: two shifts of 8 h on 250
+            days) [h/year].
+        robot_maintenance_eur_per_year: Each robot's maintenance a year (cups, belts, service
+            contract; the default about 4 % of the capital, an assumption) [EUR/year].
+        energy_price_eur_per_kwh: The motors' energy price [EUR/kWh]: the top-level
+            `energy_price_eur_per_kwh` set here (unset: that key's, 0 by default); give it in
+            one of the two places (two different prices are refused; `--energy-price`
+            overrides both). The episode records the motors' energy either way.
+    """
+
+    robot_capital_eur: float = 75000.0
+    robot_life_years: float = 10.0
+    hours_per_year: float = 4000.0
+    robot_maintenance_eur_per_year: float = 3000.0
+    energy_price_eur_per_kwh: float | None = None
+
+    def __post_init__(self) -> None:
+        for name in ECONOMICS_RANGES:
+            RANGES[f"economics.{name}"].check(f"economics.{name}", getattr(self, name))
+        price = self.energy_price_eur_per_kwh
+        if price is not None:
+            key = "economics.energy_price_eur_per_kwh"
+            RANGES[key].check(key, price)
+
+    @property
+    def robot_cost_per_h_eur(self) -> float:
+        """One robot's cost per running hour: capital over its life's hours plus maintenance
+        over the year's hours [EUR/h]."""
+        return robot_cost_per_h(
+            self.robot_capital_eur,
+            self.robot_life_years,
+            self.hours_per_year,
+            self.robot_maintenance_eur_per_year,
+        )
+
+
 @dataclass(frozen=True)
 class EpisodeConfig:
     """One episode of the sorting cell (or line); validated on construction.
@@ -759,11 +934,13 @@ class EpisodeConfig:
     cup: Cup = field(default_factory=Cup)
     belt: Belt = field(default_factory=Belt)
     hmm: Hmm = field(default_factory=Hmm)
+    economics: Economics = field(default_factory=Economics)
     catalogue_file: CatalogueFile | None = field(default=None, repr=False)
     where: str | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         self._check_settings()
+        self._take_energy_price()
         w = self.where
         r = self.robots
         if not isinstance(r, tuple | list):
@@ -821,6 +998,18 @@ class EpisodeConfig:
             _ = self.world_variation
         except InvalidInput as exc:
             raise InvalidInput(exc.field, exc.allowed, exc.got, w) from None
+
+    def _take_energy_price(self) -> None:
+        """The `[economics]` energy price as the episode's (`energy_price_eur_per_kwh`);
+        refused when the top-level key gives another."""
+        price = self.economics.energy_price_eur_per_kwh
+        if price is None:
+            return
+        top = self.energy_price_eur_per_kwh
+        allowed = f"the top-level energy_price_eur_per_kwh's {top:g}, or that key unset"
+        key = "economics.energy_price_eur_per_kwh"
+        check(top in (0.0, price), key, allowed, price, self.where)
+        object.__setattr__(self, "energy_price_eur_per_kwh", float(price))
 
     def _catalogue(self) -> Catalogue:
         """The catalogue the loaders read for `catalogue` (the built-in one for ""); refused
@@ -1073,6 +1262,7 @@ _SECTIONS = {
     "cup": Cup,
     "belt": Belt,
     "hmm": Hmm,
+    "economics": Economics,
 }
 _SCALARS = {f.name for f in dataclasses.fields(EpisodeConfig)} - set(_SECTIONS)
 _SCALARS -= {"where", "catalogue_file"}  # not keys: what the file names, read
@@ -1176,6 +1366,15 @@ def read_config_file(path: Path) -> dict[str, Any]:
     return data
 
 
+def _without_economics_price(data: dict[str, Any]) -> dict[str, Any]:
+    """`data` without its `[economics]` energy price (the other keys as they are)."""
+    economics = data.get("economics")
+    if not isinstance(economics, dict) or "energy_price_eur_per_kwh" not in economics:
+        return data
+    rest = {k: v for k, v in economics.items() if k != "energy_price_eur_per_kwh"}
+    return {**data, "economics": rest}
+
+
 def read_toml(path: Path) -> dict[str, Any]:
     """The parsed TOML of a file.
 
@@ -1231,6 +1430,8 @@ def load(path: Path | None = None, **overrides: Any) -> EpisodeConfig:
     if not changes:
         return from_dict(data, where)
     robots = changes.pop("robots", None)  # a count keeps the file's robots' pauses: replace
+    if "energy_price_eur_per_kwh" in changes:  # the option's price wins over [economics]'
+        data = _without_economics_price(data)
     try:
         config = from_dict({**data, **changes}, where)
     except InvalidInput as exc:

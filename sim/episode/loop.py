@@ -410,7 +410,7 @@ class Episode:
         item_checks.attribute(self, created, t)
 
     def robot_columns(self, sim_s: float) -> dict[str, object]:
-        """A line's episodes.csv columns (`sim.episode.stations.robot_columns`); none for one."""
+        """A line's episodes.csv columns (`sim.episode.stations.robot_columns`)."""
         coordination = self.config.coordination
         return stations.robot_columns(self.stations, self.metrics, coordination, sim_s)
 

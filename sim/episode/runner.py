@@ -25,6 +25,7 @@ from sim.episode.config import EpisodeConfig
 from sim.episode.loop import Episode, make_decision_manager
 from sim.model.scene_edits import CellSettings
 from sim.results.code_digest import code_digest
+from sim.results.economics import ECONOMICS_COLUMNS, per_hour_columns
 
 __all__ = [
     "Cell",
@@ -50,6 +51,11 @@ class EpisodeResult:
 
 
 _CELLS: dict[tuple[int, CellSettings, str, int, bool, tuple[float, ...], bool], object] = {}
+
+
+def _economics(config: EpisodeConfig) -> dict[str, float]:
+    """The `[economics]` settings episodes.csv records (`ECONOMICS_COLUMNS`)."""
+    return {name: getattr(config.economics, name) for name in ECONOMICS_COLUMNS}
 
 
 def planner_name(planner) -> str:
@@ -194,6 +200,7 @@ def run_episode(
         **episode.robot_columns(sim_s),
         "code_digest": code_digest(),
     }
+    row |= per_hour_columns(row, config.duration_s, config.robot_count, _economics(config))
     timings = dict(episode.timings)
     # Physics: stepping, the executor's control loop, the cup and bins (everything else).
     timings["physics"] = wall - sum(v for k, v in timings.items() if k != "physics")

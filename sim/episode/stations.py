@@ -168,7 +168,8 @@ def robot_columns(
     stations: list[RobotStation], metrics: EpisodeMetrics, coordination: str, sim_s: float
 ) -> dict[str, object]:
     """A line's episodes.csv columns: robots, coordination, each robot's picks, picks per
-    minute, utilisation and energy (`sim.results.outputs.line_columns`); none for one robot.
+    minute, utilisation and energy (`sim.results.outputs.line_columns`); `robots` alone for
+    one robot.
 
     Args:
         stations: Every robot's station.
@@ -177,7 +178,7 @@ def robot_columns(
         sim_s: Simulated time of the episode [s].
     """
     if len(stations) <= 1:
-        return {}
+        return {"robots": len(stations)}
     out: dict[str, object] = {"robots": len(stations), "coordination": coordination}
     for s in stations:
         out |= metrics.robot_row(s.index, sim_s, s.energy.reading()[1])

@@ -2,13 +2,19 @@
 comparisons of the planners, figures, HTML.
 
 `sortsim report DIR [DIR ...] [--out FOLDER] [--baseline NAME]` reads each folder's
-`episodes.csv` and groups the episodes by grid point: (variant, perception, belt speed factor,
-items, planner). Per group and metric it gives the mean and the half-width of its 95 %
-confidence interval (Student's t over the seeds: t(0.975, n - 1) x sd / sqrt(n); none for a
-single episode). Metrics: profit, accuracy (SP/SI), items picked, picks per minute (picked over
-the simulated minutes), wrong bins, missed, failed picks, and, where the CSV has them, the
-motors' electrical energy per pick and the bins' purity: two tables, the means and the sorting
-quality, so that each fits a page.
+`episodes.csv` (and its `manifest.json`, for the settings the CSV does not hold) and groups the
+episodes by grid point: every setting in which they differ (`sim.experiments.reporting.groups`:
+the code, catalogue, variant, perception, robots, coordination, cup, energy price, robots'
+economics, belt speed, items, feed and planner), naming those grouping columns; a group whose
+episodes differ in any other setting is refused in one line before anything is written. Per
+group and metric it gives the mean and the half-width of its 95 % confidence interval
+(Student's t over the seeds: t(0.975, n - 1) x sd / sqrt(n); none for a single episode; an
+interval from fewer than 3 seeds is marked and explained). Metrics: profit, accuracy (SP/SI),
+items picked, picks per minute (picked over the simulated minutes), wrong bins, missed, failed
+picks and, where the CSV has it, the motors' electrical energy per pick: two tables, the means
+and the sorting quality, so that each fits a page; then the recovery beside the purity per
+material, the figures per hour, and, for grid points that differ in their robots only, what
+each added robot earns and its payback (`sim.experiments.reporting.plant`).
 
 Paired comparisons: every planner of a sweep runs on the same seeds' flows, so at each grid
 point each planner is compared with a baseline (`--baseline NAME`, else the grid point's best
@@ -40,9 +46,28 @@ from pathlib import Path
 
 from planner.decision.registry import is_user_spec, user_class
 from sim.errors import InvalidInput
+from sim.experiments.reporting import plant
+from sim.experiments.reporting.groups import (
+    GridColumns,
+    Point,
+    attach_configs,
+    check_groups,
+    constant_text,
+    differing_elsewhere,
+    grouping_text,
+    point_of,
+)
+from sim.experiments.reporting.stats import (
+    Estimate,
+    estimate,
+    few_seeds_note,
+    paired_difference,
+    seeds_cell,
+)
+from sim.experiments.reporting.stats import number as _number
 from sim.results import detection_table, outputs
 
-GROUP_KEYS = ("variant", "perception", "speed_factor", "n_items", "planner")
+__all__ = ["Estimate", "estimate", "paired_difference"]
 METRICS = (
     ("profit_eur", "profit [EUR]", "{:.2f}"),
     ("accuracy", "accuracy SP/SI", "{:.3f}"),
@@ -54,10 +79,8 @@ METRICS = (
     ("energy_per_pick_j", "energy per pick [J]", "{:.0f}"),
 )
 MAIN_METRICS = ("profit_eur", "accuracy", "picked", "picks_per_min", "energy_per_pick_j")
-"""The means table's metrics; the others (wrong bins, misses, failed picks, purity) make the
-sorting quality's table."""
-PURITY_PREFIX = "purity_"
-"""Each material's bin purity (`purity_<material>`: the catalogue's materials) is a metric too."""
+"""The means table's metrics; the others (wrong bins, misses, failed picks) make the sorting
+quality's table (the purity stands beside the recovery per material: `reporting.plant`)."""
 FIGURES = (
     ("profit_eur", "profit [EUR]", "Profit"),
     ("picked", "items picked", "Items picked"),
@@ -74,48 +97,11 @@ MEANS_METHOD = "Student's t over the seeds"
 PAIRED_METHOD = "paired t-test, scipy.stats.ttest_rel"
 
 
-@dataclass(frozen=True)
-class Estimate:
-    """Mean of a metric over a group's episodes and its 95 % interval's half-width (nan: n 1)."""
-
-    mean: float
-    half_width: float
-    n: int
-
-    def text(self, fmt: str) -> str:
-        if math.isnan(self.half_width):
-            return fmt.format(self.mean)
-        return f"{fmt.format(self.mean)} ± {fmt.format(self.half_width)}"
-
-
-def estimate(values: list[float]) -> Estimate:
-    """Mean and 95 % Student-t half-width of `values` (at least one)."""
-    from scipy import stats
-
-    n = len(values)
-    mean = statistics.fmean(values)
-    if n < 2:
-        return Estimate(mean, math.nan, n)
-    half = float(stats.t.ppf(0.975, n - 1)) * statistics.stdev(values) / math.sqrt(n)
-    return Estimate(mean, half, n)
-
-
-def _number(text: str | None) -> float | None:
-    if text is None or text == "":
-        return None
-    try:
-        value = float(text)
-    except ValueError:
-        return None
-    return value if math.isfinite(value) else None
-
-
 def derived(row: dict) -> dict[str, float]:
     """The metrics of one episodes.csv row that are present (picks per minute and energy per
     pick derived from their columns)."""
     out = {}
-    keys = [key for key, _, _ in METRICS] + [k for k in row if k.startswith(PURITY_PREFIX)]
-    for key in keys:
+    for key in [key for key, _, _ in METRICS]:
         value = _number(row.get(key))
         if value is not None:
             out[key] = value
@@ -129,21 +115,31 @@ def derived(row: dict) -> dict[str, float]:
 
 
 def read_folders(folders: list[Path]) -> tuple[list[dict], list[str]]:
-    """(every episode row of the folders, the thesis table ids their sweeps name)."""
+    """(every episode row of the folders, the thesis table ids their sweeps name).
+
+    Each row carries its episode's recorded config (`reporting.groups.attach_configs`).
+
+    Raises:
+        InvalidInput: A folder without episodes, a row without its grid columns, or a group of
+            episodes that differ in a setting the report cannot group by (`check_groups`).
+    """
     rows, tables = [], []
     for folder in folders:
         folder = Path(folder)
         path = folder / "episodes.csv"
         if not path.is_file():
             raise InvalidInput("DIR", "a run or sweep folder holding episodes.csv", str(folder))
-        for number, row in enumerate(outputs.read_rows(path), start=2):
-            _check_row(row, path, number)
-            rows.append(row)
+        read = outputs.read_rows(path)
+        for line, row in enumerate(read, start=2):
+            _check_row(row, path, line)
+        attach_configs(read, folder)
+        rows += read
         table = _table_of(folder)
         if table:
             tables.append(table)
     if not rows:
         raise InvalidInput("DIR", "folders whose episodes.csv holds episodes", folders)
+    check_groups(rows)
     return rows, tables
 
 
@@ -173,22 +169,18 @@ def _table_of(folder: Path) -> str | None:
     return None
 
 
-def group_key(row: dict) -> tuple:
-    return (
-        row.get("variant") or "base",
-        row.get("perception") or "",
-        float(row["speed_factor"]),
-        int(row["n_items"]),
-        row["planner"],
-    )
+def group_key(row: dict) -> Point:
+    """The grid point of a row: every grouping setting's value (`reporting.groups.point_of`)."""
+    return point_of(row)
 
 
-def summarise(rows: list[dict]) -> dict[tuple, dict[str, Estimate]]:
+def summarise(rows: list[dict]) -> dict[Point, dict[str, Estimate]]:
     """{grid point: {metric: Estimate}} over the rows (sorted by grid point)."""
-    values: dict[tuple, dict[str, list[float]]] = defaultdict(lambda: defaultdict(list))
+    values: dict[Point, dict[str, list[float]]] = defaultdict(lambda: defaultdict(list))
     for row in rows:
+        metrics = values[group_key(row)]  # a group even when none of its metrics is present
         for key, value in derived(row).items():
-            values[group_key(row)][key].append(value)
+            metrics[key].append(value)
     return {
         group: {k: estimate(v) for k, v in metrics.items()}
         for group, metrics in sorted(values.items())
@@ -231,53 +223,9 @@ def planner_labels(specs) -> dict[str, str]:
     return {s: (label if counts[label] == 1 else s) for s, label in labels.items()}
 
 
-@dataclass(frozen=True)
-class GridColumns:
-    """Which grid-point columns a table shows: a column whose value is the same on every row
-    is said once above the tables instead (`constant_text`)."""
-
-    variant: bool
-    perception: bool
-
-    @classmethod
-    def of(cls, points) -> GridColumns:
-        """The columns that vary over `points` ((variant, perception, ...) tuples)."""
-        points = list(points)
-        return cls(len({p[0] for p in points}) > 1, len({p[1] for p in points}) > 1)
-
-    def head(self) -> list[str]:
-        """The grid point's header cells: [variant], [perception], belt, items."""
-        return ["variant"] * self.variant + ["perception"] * self.perception + ["belt", "items"]
-
-    def cells(self, point: tuple) -> list[str]:
-        """The grid point's cells of (variant, perception, speed factor, items, ...)."""
-        variant, perception, speed, items = point[:4]
-        out = [variant] * self.variant + [perception or "-"] * self.perception
-        return out + [f"x{speed:g}", str(items)]
-
-
-def constant_text(points) -> str:
-    """'Every episode: variant base, truth perception.' for the columns the tables leave out."""
-    points = list(points)
-    parts = []
-    variants = {p[0] for p in points}
-    perceptions = {p[1] for p in points}
-    if len(variants) == 1:
-        parts.append(f"variant {next(iter(variants))}")
-    if len(perceptions) == 1 and next(iter(perceptions)):
-        parts.append(f"{next(iter(perceptions))} perception")
-    return f"Every episode: {', '.join(parts)}." if parts else ""
-
-
-def metrics_present(summary: dict[tuple, dict[str, Estimate]]) -> list[tuple[str, str, str]]:
-    """(column, label, format) of the metrics some group has: `METRICS`, then every material's
-    purity in the order the episodes.csv columns gave them."""
-    present = [m for m in METRICS if any(m[0] in s for s in summary.values())]
-    purities: list[str] = []
-    for metrics in summary.values():
-        purities += [k for k in metrics if k.startswith(PURITY_PREFIX) and k not in purities]
-    labels = [(k, "purity " + k.removeprefix(PURITY_PREFIX), "{:.3f}") for k in purities]
-    return present + labels
+def metrics_present(summary: dict[Point, dict[str, Estimate]]) -> list[tuple[str, str, str]]:
+    """(column, label, format) of the metrics of `METRICS` some group has."""
+    return [m for m in METRICS if any(m[0] in s for s in summary.values())]
 
 
 def _md_table(head: list[str], rows: list[list[str]]) -> str:
@@ -287,16 +235,17 @@ def _md_table(head: list[str], rows: list[list[str]]) -> str:
 
 
 def markdown(
-    summary: dict[tuple, dict[str, Estimate]],
+    summary: dict[Point, dict[str, Estimate]],
     labels: dict[str, str] | None = None,
     which: str = "all",
 ) -> str:
     """The means ± 95 % half-widths as a markdown table.
 
     `which`: "all" (every metric present, one wide table), "main" (profit, accuracy, picks,
-    energy: `MAIN_METRICS`) or "quality" (wrong bins, misses, failed picks and the bins'
-    purity). The grid point's columns that are the same on every row are left out
-    (`GridColumns`); planners are shown by their short labels (`planner_labels`).
+    energy: `MAIN_METRICS`) or "quality" (wrong bins, misses, failed picks). The grid point's
+    settings that are the same on every row are left out but the belt and items
+    (`GridColumns`); planners are shown by their short labels (`planner_labels`); a seed count
+    under 3 is marked and explained under the table.
     """
     labels = labels or {}
     present = metrics_present(summary)
@@ -306,15 +255,18 @@ def markdown(
         present = [m for m in present if m[0] not in MAIN_METRICS]
     if not present:
         return ""
-    grid = GridColumns.of(summary) if which != "all" else GridColumns(True, True)
+    grid = GridColumns.of(summary)
     head = grid.head() + ["planner", "n"] + [m[1] for m in present]
-    rows = []
+    rows, counts = [], []
     for group, metrics in summary.items():
-        n = max(e.n for e in metrics.values())
-        cells = grid.cells(group) + [labels.get(group[4], group[4]), str(n)]
+        n = max((e.n for e in metrics.values()), default=0)
+        cells = grid.cells(group) + [labels.get(group["planner"], group["planner"])]
+        cells += [seeds_cell(n)]
         cells += [metrics[k].text(fmt) if k in metrics else "" for k, _, fmt in present]
         rows.append(cells)
-    return _md_table(head, rows)
+        counts.append(n)
+    note = few_seeds_note(counts)
+    return _md_table(head, rows) + (f"\n\n{note}" if note else "")
 
 
 @dataclass(frozen=True)
@@ -322,7 +274,7 @@ class Paired:
     """One planner against the baseline at one grid point, over the seeds both ran.
 
     Attributes:
-        point: (variant, perception, speed factor, items).
+        point: The grid point, its planner "" (`Point.replace(planner="")`).
         planner: The planner's spec (as episodes.csv has it).
         baseline: The baseline's spec.
         metric: The metric compared (`PAIRED_METRICS`).
@@ -363,33 +315,10 @@ class Paired:
         return "no difference at 95 %"
 
 
-def paired_difference(a: list[float], b: list[float]) -> tuple[float, float, float, float]:
-    """(mean difference, interval low, interval high, p) of paired samples, a minus b.
-
-    The 95 % interval is the paired Student's t one, mean ± t(0.975, n - 1) x sd / sqrt(n) of
-    the per-pair differences, and p the two-sided p-value of `scipy.stats.ttest_rel(a, b)`.
-    Differences all equal (sd 0) give an interval of no width and p 0 (1 when they are all 0);
-    one pair gives no interval (nan).
-    """
-    from scipy import stats
-
-    d = [x - y for x, y in zip(a, b, strict=True)]
-    n = len(d)
-    mean = statistics.fmean(d)
-    if n < 2:
-        return mean, math.nan, math.nan, math.nan
-    sd = statistics.stdev(d)
-    if sd == 0.0:
-        return mean, mean, mean, (1.0 if mean == 0.0 else 0.0)
-    half = float(stats.t.ppf(0.975, n - 1)) * sd / math.sqrt(n)
-    p = float(stats.ttest_rel(a, b).pvalue)
-    return mean, mean - half, mean + half, p
-
-
-def _by_seed(rows: list[dict]) -> dict[tuple, dict[str, dict[int, dict[str, float]]]]:
+def _by_seed(rows: list[dict]) -> dict[Point, dict[str, dict[int, dict[str, float]]]]:
     """{grid point without planner: {planner: {seed: metrics}}}; a seed a planner ran twice at a
     grid point (the same run read from two folders) counts once, its first row."""
-    out: dict[tuple, dict[str, dict[int, dict[str, float]]]] = defaultdict(
+    out: dict[Point, dict[str, dict[int, dict[str, float]]]] = defaultdict(
         lambda: defaultdict(dict)
     )
     for row in rows:
@@ -397,7 +326,7 @@ def _by_seed(rows: list[dict]) -> dict[tuple, dict[str, dict[int, dict[str, floa
         seed = _number(row.get("seed"))
         if seed is None:
             continue
-        out[key[:4]][key[4]].setdefault(int(seed), derived(row))
+        out[key.replace(planner="")][key["planner"]].setdefault(int(seed), derived(row))
     return out
 
 
@@ -440,8 +369,10 @@ def paired_comparisons(
     """
     labels = labels or {}
     out, notes = [], []
-    for point, runs in sorted(_by_seed(rows).items()):
-        where = f"x{point[2]:g}, {point[3]} items"
+    by_seed = _by_seed(rows)
+    grid = GridColumns.of(by_seed)
+    for point, runs in sorted(by_seed.items()):
+        where = grid.where(point)
         base = _baseline_at(runs, baseline, labels)
         if base is None:
             notes.append(f"{where}: {baseline} did not run there.")
@@ -480,6 +411,7 @@ def paired_markdown(comparisons: list[Paired], labels: dict[str, str] | None = N
     """The paired comparisons as one markdown table per metric (a '### label' heading each)."""
     labels = labels or {}
     grid = GridColumns.of(c.point for c in comparisons)
+    note = few_seeds_note(c.n for c in comparisons)
     parts = []
     for metric, title, fmt in PAIRED_METRICS:
         chosen = [c for c in comparisons if c.metric == metric]
@@ -496,11 +428,11 @@ def paired_markdown(comparisons: list[Paired], labels: dict[str, str] | None = N
             rows.append(
                 grid.cells(c.point)
                 + [labels.get(c.planner, c.planner), labels.get(c.baseline, c.baseline)]
-                + [str(c.n), c.planner_mean.text(fmt), c.baseline_mean.text(fmt)]
+                + [seeds_cell(c.n), c.planner_mean.text(fmt), c.baseline_mean.text(fmt)]
                 + [_signed(c.difference, fmt) + interval, p, c.verdict]
             )
         parts.append(f"### {title}\n\n{_md_table(head, rows)}")
-    return "\n\n".join(parts)
+    return "\n\n".join(parts + ([note] if parts and note else []))
 
 
 def paired_intro(baseline: str | None) -> str:
@@ -516,42 +448,37 @@ def paired_intro(baseline: str | None) -> str:
 
 
 def figures(
-    summary: dict[tuple, dict[str, Estimate]], labels: dict[str, str] | None = None
+    summary: dict[Point, dict[str, Estimate]], labels: dict[str, str] | None = None
 ) -> dict[str, tuple[str, bytes]]:
     """{file name: (title in words, PNG bytes)}: each of `FIGURES` against items (or belt
-    speed), one line per planner and belt speed (or items), error bars the 95 % intervals."""
+    speed), one line per planner and every other grouping setting that differs (the belt
+    speed or the items among them), error bars the 95 % intervals."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     labels = labels or {}
-    items = {g[3] for g in summary}
-    against_items = len(items) > 1
-    several_perceptions = len({g[1] for g in summary}) > 1
+    against_items = len({g["items"] for g in summary}) > 1
+    axis = "items" if against_items else "speed"
+    series_of = GridColumns(tuple(n for n in GridColumns.of(summary).names if n != axis))
     out = {}
     for metric, label, words in FIGURES:
         lines: dict[tuple, list[tuple[float, Estimate]]] = defaultdict(list)
-        for (variant, perception, speed, n_items, planner), metrics in summary.items():
-            if metric not in metrics:
-                continue
-            series = (variant, perception, planner, speed if against_items else n_items)
-            x = n_items if against_items else speed
-            lines[series].append((x, metrics[metric]))
+        for point, metrics in summary.items():
+            if metric in metrics:
+                name = labels.get(point["planner"], point["planner"])
+                lines[(name, series_of.where(point))].append((point[axis], metrics[metric]))
         if not lines:
             continue
         title = f"{words} against {'items' if against_items else 'belt speed'}"
         fig, ax = plt.subplots(figsize=(6.4, 4.0), dpi=100)
-        for (variant, perception, planner, other), points in sorted(lines.items()):
+        for (name, where), points in sorted(lines.items()):
             points.sort(key=lambda p: p[0])
             xs = [p[0] for p in points]
             ys = [p[1].mean for p in points]
             err = [0.0 if math.isnan(p[1].half_width) else p[1].half_width for p in points]
-            tag = f"x{other:g}" if against_items else f"{other} items"
-            name = labels.get(planner, planner)
-            name = name if variant == "base" else f"{variant}/{name}"
-            name += f" ({perception})" if several_perceptions else ""
-            ax.errorbar(xs, ys, yerr=err, marker="o", capsize=3, label=f"{name} {tag}")
+            ax.errorbar(xs, ys, yerr=err, marker="o", capsize=3, label=f"{name} {where}")
         ax.set_title(title)
         ax.set_xlabel("items" if against_items else "belt speed factor")
         ax.set_ylabel(label)
@@ -664,22 +591,51 @@ def check_baseline(rows: list[dict], baseline: str | None) -> None:
         raise InvalidInput("--baseline", f"a planner of the episodes: {names}", baseline)
 
 
-def sections(rows: list[dict], baseline: str | None = None) -> tuple[list[Section], dict]:
-    """The report's sections (means, sorting quality, paired comparisons) and the labels."""
-    summary = summarise(rows)
-    labels = planner_labels(g[4] for g in summary)
+def _means_text(summary: dict[Point, dict[str, Estimate]], rows: list[dict], labels) -> str:
+    """The means' paragraph: the grouping columns, the method, what every episode shares, the
+    settings that differ between groups only, the planners' short labels."""
     renamed = [f"{label} = `{spec}`" for spec, label in labels.items() if label != spec]
-    lines = [f"Means over seeds ± the half-width of the 95 % interval ({MEANS_METHOD})."]
+    lines = [grouping_text(summary)]
+    lines += [f"Means over seeds ± the half-width of the 95 % interval ({MEANS_METHOD})."]
     lines += [constant_text(summary)] if constant_text(summary) else []
+    elsewhere = differing_elsewhere(rows)
+    if elsewhere:
+        lines += [f"Between groups (never within one) the episodes also differ in "
+                  f"{', '.join(elsewhere)}."]  # fmt: skip
     lines += ["Planners: " + "; ".join(renamed) + "."] if renamed else []
-    out = [Section("Means per grid point", " ".join(lines), markdown(summary, labels, "main"))]
+    return " ".join(lines)
+
+
+def _detection(rows: list[dict], labels: dict[str, str], grid: GridColumns) -> str:
+    def group(row: dict) -> tuple[Point, list[str]]:
+        point = group_key(row)
+        return point, grid.cells(point) + [labels.get(point["planner"], point["planner"])]
+
+    return detection_table.detection_markdown(rows, labels, group, grid.head() + ["planner"])
+
+
+def sections(rows: list[dict], baseline: str | None = None) -> tuple[list[Section], dict]:
+    """The report's sections (means, sorting quality, recovery and purity, per hour, the added
+    robots, detection, paired comparisons) and the planners' labels."""
+    summary = summarise(rows)
+    labels = planner_labels(g["planner"] for g in summary)
+    main = markdown(summary, labels, "main")
+    out = [Section("Means per grid point", _means_text(summary, rows, labels), main)]
     quality = markdown(summary, labels, "quality")
     if quality:
-        text = "Counts per episode and each bin's purity (its own material's share), means."
-        out.append(Section("Sorting quality", text, quality))
-    detection = detection_table.detection_markdown(rows, labels)
-    if detection:
-        out.append(Section(detection_table.HEADING, detection_table.TEXT, detection))
+        out.append(Section("Sorting quality", "Counts per episode, means.", quality))
+    for heading, text, body in (
+        (plant.RECOVERY_HEADING, plant.RECOVERY_TEXT, plant.recovery_markdown(rows, labels)),
+        (plant.PER_HOUR_HEADING, plant.PER_HOUR_TEXT, plant.per_hour_markdown(rows, labels)),
+        (plant.ROBOTS_HEADING, plant.ROBOTS_TEXT, plant.robots_markdown(rows, labels)),
+        (
+            detection_table.HEADING,
+            detection_table.TEXT,
+            _detection(rows, labels, GridColumns.of(summary)),
+        ),
+    ):
+        if body:
+            out.append(Section(heading, text, body))
     comparisons, notes = paired_comparisons(rows, baseline, labels)
     if comparisons or notes:
         body = paired_markdown(comparisons, labels)

@@ -42,7 +42,7 @@ SUFFIX_UNITS = (
     ("_s", "s"),
     ("_m", "m"),
 )
-UNIT = re.compile(r"\[(m|s|px|Pa|EUR|deg|m/s|EUR/kWh|J|kg)\]")
+UNIT = re.compile(r"\[(m|s|px|Pa|EUR|deg|m/s|EUR/kWh|EUR/kg|EUR/year|J|kg|years|h/year)\]")
 REGENERATE = "python -m sim.experiments.settings_doc"
 UNCOMMENTED = {
     "seed": "The episode's seed: the flow (times, places, classes, items), the world's "
@@ -51,6 +51,22 @@ UNCOMMENTED = {
     "items": "Items dropped on the belt over `duration_s`.",
 }
 """Meanings of the top-level keys the config's TOML layout gives without a comment."""
+NONE_DEFAULTS = {
+    "economics.energy_price_eur_per_kwh": "the top-level `energy_price_eur_per_kwh` (0)",
+}
+"""The default of a section's key that is None, in words (else: the flow's default mix)."""
+SECTION_TEXT = {
+    "[values]": "A plant prices its bales by the kilogram: `[values] per_kg = { paper = 0.10, "
+    "plastic = 0.30, aluminium = 1.20 }` (EUR/kg; an illustration of the order of European bale "
+    "prices, which move month to month: set the plant's own). The per-item defaults are the "
+    "thesis's, far above a small item's scrap value.",
+    "[economics]": "Assumptions for one delta robot cell, to be replaced by the plant's own "
+    "figures; they change no episode, only the money columns of episodes.csv "
+    "(`robot_cost_per_h_eur` = robots x (capital / (life x hours per year) + maintenance / "
+    "hours per year): 2.625 EUR/h per robot at the defaults) and the report's payback "
+    "(`docs/report.md`).",
+}
+"""A paragraph under a section's heading (what its defaults assume)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -194,7 +210,8 @@ def _section(name: str, cls: type) -> list[Setting]:
         default = field.default
         if default is dataclasses.MISSING:
             default = field.default_factory() if callable(field.default_factory) else None
-        default_text = "the default mix (thesis's)" if default is None else _toml(default)
+        default_text = NONE_DEFAULTS.get(key, "the default mix (thesis's)")
+        default_text = default_text if default is None else _toml(default)
         allowed = refusal({name: {field.name: ...}}, key)
         meaning = docs.get(field.name, "")
         out.append(Setting(key, default_text, allowed, unit_of(key, meaning, allowed), meaning))
@@ -206,7 +223,16 @@ def _values() -> list[Setting]:
     prices = episode_config.EpisodeConfig().values.given()
     default = ", ".join(f"{k} {v:g}" for k, v in prices.items())
     allowed = refusal({"values": {"paper": ...}}, "values.paper")
-    return [Setting("values.<material or item type>", default, allowed, "EUR", doc)]
+    per_kg = refusal({"values": {"per_kg": {"paper": ...}}}, "values.per_kg.paper")
+    meaning = (
+        "Value of an item per kilogram of its own mass (as the world varied its size) [EUR/kg], "
+        "by material or item type, instead of its value per item (see above). Unset: every "
+        "item is valued per item."
+    )
+    return [
+        Setting("values.<material or item type>", default, allowed, "EUR", doc),
+        Setting("values.per_kg.<material or item type>", "unset", per_kg, "EUR/kg", meaning),
+    ]
 
 
 def _robots() -> list[Setting]:
@@ -259,6 +285,7 @@ def markdown() -> str:
     ]
     for heading, rows in settings():
         lines += [f"## {heading}", ""]
+        lines += [SECTION_TEXT[heading], ""] if heading in SECTION_TEXT else []
         lines += ["| key | default | allowed | unit | meaning |", "|---|---|---|---|---|"]
         for s in rows:
             cells = [f"`{s.key}`", s.default, s.allowed, s.unit, s.meaning]

@@ -333,7 +333,7 @@ LATER_KEYS = {
     "coordination": "coordinated",
     **{
         name: dataclasses.asdict(episode_config._SECTIONS[name]())
-        for name in ("camera", "cup", "belt", "hmm")
+        for name in ("camera", "cup", "belt", "hmm", "economics")
     },
 }
 LATER_KEYS["belt"] = {**LATER_KEYS["belt"], "infeed_hold": False}  # no hold before it existed

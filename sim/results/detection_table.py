@@ -1,7 +1,8 @@
 """The report's detection against density: how many items the camera never found as belts fill.
 
 Camera-perception episodes only (truth perception detects every item by construction). One row
-per grid point (variant, planner, belt speed, items), ordered by the belt's density
+per grid point (variant, planner, belt speed, items; a report passes its own grouping, every
+setting in which its episodes differ), ordered by the belt's density
 (`items_per_m` of episodes.csv: items over the metres of belt passing during the flow's
 arrival): items that entered, never detected and never visible (under 30 % of the top area ever
 seen: buried under other items) as shares of them, pooled over the seeds, and items picked.
@@ -10,6 +11,7 @@ seen: buried under other items) as shares of them, pooled over the seeds, and it
 from __future__ import annotations
 
 from collections import defaultdict
+from collections.abc import Callable
 
 HEADING = "Detection against density"
 TEXT = (
@@ -17,11 +19,10 @@ TEXT = (
     "ever seen by a camera: buried) as shares of the items that entered, pooled over the "
     "seeds, against the belt's items per metre."
 )
+GRID_COLUMNS = ("variant", "planner", "belt", "items")
+"""The grid point's columns by default (a report passes its own: `Grouping`)."""
 COLUMNS = (
-    "variant",
-    "planner",
-    "belt",
-    "items",
+    *GRID_COLUMNS,
     "items per metre",
     "n",
     "entered",
@@ -44,50 +45,82 @@ def _share(part: float, whole: float) -> str:
     return f"{100 * part / whole:.1f} %" if whole > 0 else "-"
 
 
-def detection_rows(rows: list[dict], labels: dict[str, str] | None = None) -> list[list[str]]:
-    """The table's cells: one row per camera grid point, densest last."""
-    labels = labels or {}
+Grouping = Callable[[dict], tuple[tuple, list[str]]]
+"""A row's group: (its key, its grid point's cells in the table)."""
+
+
+def _default_group(labels: dict[str, str]) -> Grouping:
+    def group(row: dict) -> tuple[tuple, list[str]]:
+        variant, planner = row.get("variant", ""), row.get("planner", "")
+        factor, items = row.get("speed_factor", ""), row.get("n_items", "")
+        belt = f"x{float(factor):g}" if _number(factor) is not None else str(factor)
+        return (variant, planner, factor, items), [
+            variant, labels.get(planner, planner), belt, str(items)
+        ]  # fmt: skip
+
+    return group
+
+
+def detection_rows(
+    rows: list[dict], labels: dict[str, str] | None = None, group: Grouping | None = None
+) -> list[list[str]]:
+    """The table's cells: one row per camera grid point, densest last.
+
+    Args:
+        rows: episodes.csv rows.
+        labels: {planner spec: short label}.
+        group: A row's group key and grid cells; by default (variant, planner, belt, items).
+    """
+    group = group or _default_group(labels or {})
     groups: dict[tuple, list[dict]] = defaultdict(list)
+    grid: dict[tuple, list[str]] = {}
     for row in rows:
         if row.get("perception") != "camera":
             continue
-        key = (row.get("variant", ""), row.get("planner", ""), row.get("speed_factor", ""))
-        groups[(*key, row.get("n_items", ""))].append(row)
+        key, cells = group(row)
+        groups[key].append(row)
+        grid[key] = cells
     table = []
-    for (variant, planner, factor, items), group in groups.items():
-        entered = sum(_number(r.get("entered")) or 0.0 for r in group)
-        never = sum(_number(r.get("never_detected")) or 0.0 for r in group)
-        visible = [_number(r.get("never_visible")) for r in group]
-        picked = sum(_number(r.get("picked")) or 0.0 for r in group) / len(group)
-        densities = [d for d in (_number(r.get("items_per_m")) for r in group) if d is not None]
+    for key, members in groups.items():
+        entered = sum(_number(r.get("entered")) or 0.0 for r in members)
+        never = sum(_number(r.get("never_detected")) or 0.0 for r in members)
+        visible = [_number(r.get("never_visible")) for r in members]
+        picked = sum(_number(r.get("picked")) or 0.0 for r in members) / len(members)
+        densities = [d for d in (_number(r.get("items_per_m")) for r in members) if d is not None]
         density = sum(densities) / len(densities) if densities else None
         buried = _share(sum(visible), entered) if None not in visible else "-"
-        table.append(
-            (
-                density if density is not None else float("inf"),
-                [
-                    variant,
-                    labels.get(planner, planner),
-                    f"x{float(factor):g}" if _number(factor) is not None else str(factor),
-                    str(items),
-                    "-" if density is None else f"{density:.1f}",
-                    str(len(group)),
-                    f"{entered / len(group):.1f}",
-                    _share(never, entered),
-                    buried,
-                    f"{picked:.1f}",
-                ],
-            )
-        )
+        cells = [
+            *grid[key],
+            "-" if density is None else f"{density:.1f}",
+            str(len(members)),
+            f"{entered / len(members):.1f}",
+            _share(never, entered),
+            buried,
+            f"{picked:.1f}",
+        ]
+        table.append((density if density is not None else float("inf"), cells))
     table.sort(key=lambda entry: entry[0])
     return [cells for _, cells in table]
 
 
-def detection_markdown(rows: list[dict], labels: dict[str, str] | None = None) -> str:
-    """The section's markdown table, or "" when no episode used the camera."""
-    cells = detection_rows(rows, labels)
+def detection_markdown(
+    rows: list[dict],
+    labels: dict[str, str] | None = None,
+    group: Grouping | None = None,
+    head: list[str] | None = None,
+) -> str:
+    """The section's markdown table, or "" when no episode used the camera.
+
+    Args:
+        rows: episodes.csv rows.
+        labels: {planner spec: short label}.
+        group: A row's group key and grid cells (`detection_rows`).
+        head: The grid cells' headings (`GRID_COLUMNS` by default).
+    """
+    cells = detection_rows(rows, labels, group)
     if not cells:
         return ""
-    lines = ["| " + " | ".join(COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
+    columns = [*(head or GRID_COLUMNS), *COLUMNS[len(GRID_COLUMNS) :]]
+    lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
     lines += ["| " + " | ".join(c) + " |" for c in cells]
     return "\n".join(lines)

@@ -26,6 +26,8 @@ Definitions (thesis 4.1.4 and docs/episode.md):
   in the belt's plane).
 - `energy_cost_eur` = electrical energy [kWh] x the configured price; `net_profit_eur` =
   profit_eur - energy_cost_eur.
+- `mass_entered_kg`, `mass_recovered_kg`: the mass of the items that entered and of those in
+  the bin of their own class [kg] (each item's own mass, as the world varied its size).
 
 Sorting quality (what a plant judges a sorter by):
 
@@ -128,8 +130,10 @@ class EpisodeMetrics:
         values: Value per material class id [EUR] (2 paper, 3 plastic, 4 aluminium).
         energy_price: Price of the motors' electrical energy [EUR/kWh].
         materials: The cell's materials (the columns `picked_<name>` ... follow them).
-        item_values: Value of single items [EUR] ({item id: EUR}) where their type has its
-            own value (`[values]` of an item type); the others are worth their class's.
+        item_values: Value of single items [EUR] ({item id: EUR}) where it is not their
+            class's (an item type's own value, a price per kg; `[values]`).
+        item_masses: Each item's mass as varied [kg] ({item id: kg}), for `mass_entered_kg` and
+            `mass_recovered_kg`; None: not known (the columns are left empty).
     """
 
     def __init__(
@@ -138,8 +142,10 @@ class EpisodeMetrics:
         energy_price: float = 0.0,
         materials: Materials = THESIS_MATERIALS,
         item_values: dict[int, float] | None = None,
+        item_masses: dict[int, float] | None = None,
     ):
         self.values = dict(values)
+        self.item_masses = None if item_masses is None else dict(item_masses)
         self.materials = materials
         self.item_values = dict(item_values or {})
         self.energy_price = float(energy_price)
@@ -306,6 +312,19 @@ class EpisodeMetrics:
             "energy_cost_eur": self.energy_cost,
             "net_profit_eur": self.profit - self.energy_cost,
             **self.quality_row(),
+            **self.mass_row(),
+        }
+
+    def mass_row(self) -> dict[str, float | None]:
+        """`mass_entered_kg` (the items that entered) and `mass_recovered_kg` (those in their own
+        class's bin) [kg]; None without the items' masses."""
+        mass = self.item_masses
+        if mass is None:
+            return {"mass_entered_kg": None, "mass_recovered_kg": None}
+        own = [i for i, (t, b) in self.binned.items() if t == b]
+        return {
+            "mass_entered_kg": sum(mass[i] for i in sorted(self.entered_ids)),
+            "mass_recovered_kg": sum(mass[i] for i in sorted(own)),
         }
 
     def robot_row(self, robot: int, sim_s: float, energy_elec_j: float) -> dict[str, object]:

@@ -98,6 +98,17 @@ EPISODE_COLUMNS = (
     "left_unsure",
     "items_per_m",
     "code_digest",
+    # money as a plant counts it (sim/results/economics.py)
+    "mass_entered_kg",
+    "mass_recovered_kg",
+    "recovered_items_per_h",
+    "recovered_kg_per_h",
+    "profit_per_h_eur",
+    "robot_cost_per_h_eur",
+    "robot_capital_eur",
+    "robot_life_years",
+    "hours_per_year",
+    "robot_maintenance_eur_per_year",
 )
 PICK_COLUMNS = (
     "t_start_s",
@@ -137,9 +148,9 @@ ROBOT_COLUMNS = ("picked", "picks_per_min", "utilisation", "energy_elec_j")
 
 
 def line_columns(robots: int) -> tuple[str, ...]:
-    """The columns a line of `robots` adds to episodes.csv (none for one robot)."""
+    """The columns a line of `robots` adds to episodes.csv (`robots` alone for one robot)."""
     if robots <= 1:
-        return ()
+        return ("robots",)
     per_robot = tuple(f"robot{k}_{c}" for k in range(robots) for c in ROBOT_COLUMNS)
     return ("robots", "coordination", *per_robot)
 
@@ -176,6 +187,16 @@ _DECIMALS = {
     "net_profit_eur": 4,
     "min_class_confidence": 4,
     "items_per_m": 3,
+    "mass_entered_kg": 4,
+    "mass_recovered_kg": 4,
+    "recovered_items_per_h": 2,
+    "recovered_kg_per_h": 3,
+    "profit_per_h_eur": 4,
+    "robot_cost_per_h_eur": 4,
+    "robot_capital_eur": 2,
+    "robot_life_years": 3,
+    "hours_per_year": 1,
+    "robot_maintenance_eur_per_year": 2,
 }
 _DECIMAL_GROUPS = {"purity": 4, "recovery": 4}
 _DECIMAL_SUFFIXES = {"picks_per_min": 3, "utilisation": 4, "energy_elec_j": 2}
