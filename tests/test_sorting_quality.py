@@ -96,8 +96,10 @@ def test_undefined_ratios_are_empty_cells_and_the_rest_fixed_decimals():
     assert cells["purity_paper"] == "0.6667" and cells["purity_plastic"] == ""
     assert cells["recovery_aluminium"] == "0.5000"
     assert (cells["never_detected"], cells["empty_picks"]) == ("3", "1")
-    new = outputs.EPISODE_COLUMNS[-12:]
-    assert new[0] == "purity_paper" and new[-2:] == ("left_unsure", "items_per_m")
+    columns = outputs.EPISODE_COLUMNS
+    new = columns[columns.index("purity_paper") : columns.index("items_per_m") + 1]
+    assert len(new) == 12 and new[-2:] == ("left_unsure", "items_per_m")
+    assert columns[-2:] == ("left_on_belt", "not_arrived")  # a horizon's, after them
 
 
 # ----- attributing tracks to true items (camera mode's bookkeeping) ---------------------------

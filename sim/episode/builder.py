@@ -160,6 +160,7 @@ def episode_metrics(config: EpisodeConfig, cell: Cell, flow: Flow) -> EpisodeMet
             for i, k in enumerate(flow.type_index.tolist())
             if int(k) in type_values
         },
+        n_items=len(flow),
     )
 
 
@@ -308,7 +309,7 @@ def perception(config: EpisodeConfig, cell: Cell, flow: Flow):
             classifier=config.classifier,
             depth_noise=ZED_CLASS if config.depth_noise else None,
             seed=config.seed,
-            mix=config.flow.flow_kwargs(),
+            mix=config.mix_kwargs,
             size=config.camera.size,
             coupled=config.hmm.coupled,
         )
@@ -322,7 +323,7 @@ def perception(config: EpisodeConfig, cell: Cell, flow: Flow):
         classifier=config.classifier,
         depth_noise=ZED_CLASS if config.depth_noise else None,
         seed=config.seed,
-        mix=config.flow.flow_kwargs(),
+        mix=config.mix_kwargs,
         size=config.camera.size,
         coupled=config.hmm.coupled,
     )

@@ -97,6 +97,8 @@ EPISODE_COLUMNS = (
     "min_class_confidence",
     "left_unsure",
     "items_per_m",
+    "left_on_belt",
+    "not_arrived",
 )
 PICK_COLUMNS = (
     "t_start_s",
