@@ -119,15 +119,19 @@ def test_sortsim_run_writes_the_horizon_columns_and_its_manifest_repeats_the_run
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["config"]["belt"]["speed_mps"] == 0.25
     assert manifest["config"]["infeed"]["items_per_m"] == 6.0
+    assert "speed_factor" not in manifest["config"] and "items" not in manifest["config"]
     again = tmp_path / "again"
     assert main(["run", "-q", "--config", str(out / "manifest.json"), "--out", str(again)]) == 0
     assert (again / "episodes.csv").read_text().splitlines()[1].split(",")[:6] == (
         (out / "episodes.csv").read_text().splitlines()[1].split(",")[:6]
     )
-    # An option in one unit replaces the file's in the other.
+    # An option in one unit replaces the file's in the other; one the feed depends on works
+    # the count out again.
     faster = episode_config.load(out / "manifest.json", speed_factor=1.5, items=10)
     assert faster.belt.speed_mps is None and faster.belt_speed_mps == pytest.approx(0.2775)
     assert faster.infeed.rate is None and faster.items == 10
+    longer = episode_config.load(out / "manifest.json", duration_s=60.0, belt_speed_mps=0.2)
+    assert longer.items == 72 and longer.belt_speed_mps == 0.2  # 6 x 0.2 x 60
 
 
 @pytest.mark.parametrize(
@@ -156,6 +160,7 @@ def test_both_units_at_once_or_a_value_out_of_range_exits_2_in_one_line(
         ("speed_factor = 1.2\n[belt]\nspeed_mps = 0.2\n", "speed_factor", "0.2 m/s is x1.081"),
         ("speed_factor = 1.0\n[belt]\nspeed_mps = 0.2\n", "speed_factor", "unset when"),
         ("items = 100\n[infeed]\nitems_per_m = 18.0\n", "items", "18 gives 300 items"),
+        ("items = 300\n[infeed]\nitems_per_m = 18.0\n", "items", "unset when"),
         ("[infeed]\nitems_per_m = 18.0\nkg_per_h = 250.0\n", "infeed", "not several"),
         ("[infeed]\nitems_per_s = 6.0\n", "infeed.items_per_s", "5.55 items/s at 0.185 m/s"),
         ("[infeed]\nkg_per_h = 1000.0\n", "infeed.kg_per_h", "at most 30 items per metre"),

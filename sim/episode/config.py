@@ -830,8 +830,8 @@ class Belt:
         infeed_hold: Whether the infeed holds an item back while it would drop into one
             already there (`sim.episode.infeed`).
         speed_mps: Its speed [m/s], in the conveyor's range, instead of the top-level
-            `speed_factor` (which then follows: speed / 0.185 m/s; the two together are
-            refused unless they agree). None: `speed_factor`'s.
+            `speed_factor` (which then follows: speed / 0.185 m/s; a file giving both is
+            refused). None: `speed_factor`'s.
     """
 
     length_m: float = BELT_LENGTH_M
@@ -1251,7 +1251,10 @@ class EpisodeConfig:
 
     def to_dict(self) -> dict[str, Any]:
         """Plain dict of every setting in the TOML layout (one `robots` array of tables), for
-        manifests, reports and sweep keys; `from_dict` reads it back to an equal config.
+        manifests, reports and sweep keys; `from_dict` reads it back to an equal config. The
+        belt's speed and the feed in the unit they were given: `speed_factor` left out beside
+        `[belt] speed_mps`, `items` beside an `[infeed]` rate (so an option changing the
+        duration or the speed works them out again, `load`).
 
         Returns:
             {key: value}, tables as dicts, arrays as lists.
@@ -1264,6 +1267,10 @@ class EpisodeConfig:
         out["robots"] = [spec.table() for spec in self.robots]
         out["values"] = self.values.table(self.materials)
         out["flow"] = self.flow.table()
+        if self.belt.speed_mps is not None:
+            del out["speed_factor"]
+        if self.infeed.rate is not None:
+            del out["items"]
         return out
 
     def _one_spelling(self, changes: dict[str, Any]) -> dict[str, Any]:
@@ -1423,17 +1430,17 @@ def _from_dict(data: dict[str, Any], where: str | None) -> EpisodeConfig:
 
 
 def _check_one_spelling(data: dict[str, Any], config: EpisodeConfig, where: str | None) -> None:
-    """Refuse a file that gives the belt's speed or the feed twice, in both units, differently
-    (the config refuses any other value than the one that follows; here also the default's
-    value, written out: `speed_factor = 1.0` beside `[belt] speed_mps = 0.2`). A run's
-    manifest holds both, agreeing."""
+    """Refuse a file that gives the belt's speed or the feed twice, in both units (the config
+    itself refuses any other value than the one that follows; here also the default's value
+    written out, `speed_factor = 1.0` beside `[belt] speed_mps = 0.2`, and the one that
+    follows)."""
     v = config.belt.speed_mps
-    if "speed_factor" in data and v is not None and data["speed_factor"] != config.speed_factor:
+    if "speed_factor" in data and v is not None:
         allowed = "unset when belt.speed_mps is given (one belt speed: "
         allowed += f"{v:g} m/s is x{config.speed_factor:.4g})"
         raise InvalidInput("speed_factor", allowed, data["speed_factor"], where)
     rate = config.infeed.rate
-    if "items" in data and rate is not None and data["items"] != config.items:
+    if "items" in data and rate is not None:
         allowed = f"unset when infeed.{rate[0]} is given (one feed: {rate[1]:g} gives "
         allowed += f"{config.items} items)"
         raise InvalidInput("items", allowed, data["items"], where)
