@@ -29,7 +29,7 @@ def test_each_subcommand_has_help(name, capsys):
 
 def test_unknown_planner_is_refused_with_exit_2():
     proc = subprocess.run(
-        [sys.executable, "-m", "sim.cli.main", "run", "--planner", "random"],
+        [sys.executable, "-m", "sim.cli.main", "run", "--planner", "dice"],
         capture_output=True,
         text=True,
     )

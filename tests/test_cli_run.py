@@ -74,7 +74,7 @@ def test_video_decodes_with_frames_of_the_configured_size(run_dir):
     [
         (["--items", "0"], "items"),
         (["--speed-factor", "2"], "speed_factor"),
-        (["--planner", "random"], "planner"),
+        (["--planner", "dice"], "planner"),
         (["--perception", "lidar"], "perception"),
     ],
 )

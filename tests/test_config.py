@@ -43,7 +43,7 @@ def test_speed_factors_inside_the_conveyor_range(factor):
         ("items = 2.5\n", "items"),
         ("speed_factor = 1.6\n", "speed_factor"),
         ("speed_factor = 0.5\n", "speed_factor"),
-        ('planner = "random"\n', "planner"),
+        ('planner = "dice"\n', "planner"),
         ('perception = "lidar"\n', "perception"),
         ("[values]\npaper = -1\n", "values.paper"),
         ("[values]\nglass = 1\n", "values.glass"),

@@ -24,6 +24,13 @@ from sim.paths import DATA_DIR
 
 MATERIALS = 3  # the built-in catalogue's: paper, plastic, aluminium
 STRIPES = 5
+TABLES = {
+    "flow.mix": ("paper", "plastic", "aluminium"),
+    "flow.mix_types": ("paper_sheet_a4", "pet_bottle_0l5", "can_330_lying"),
+}
+"""The names a table of shares is given for (its first takes the end, the rest share what is
+left of 1)."""
+TOP_SPEED_MPS = 1.5 * 0.185
 
 
 def _epsilon(end: float) -> float:
@@ -53,14 +60,26 @@ def _value(r: Range, end: float, key: str) -> object:
     left of 1)."""
     if not r.entries:
         return end
+    if r.entries == "table":
+        first, *rest = TABLES[key]
+        return {first: end, **{name: (1.0 - end) / len(rest) for name in rest}}
     n = STRIPES if key.endswith("stripe_priors") else MATERIALS
     row = [end] + [(1.0 - end) / (n - 1)] * (n - 1)
     return row if r.entries == "list" else [row] * n
 
 
-def _companions(key: str, value) -> dict[str, object]:
+def _companions(key: str, value, tmp_path) -> dict[str, object]:
     """Other keys an end needs to be inside the other rules (the belt's density, the camera's
     aspect, crumpled + folded <= 1); each names the rule it satisfies."""
+    if key in ("infeed.items_per_m", "infeed.kg_per_h") and value < 1:
+        return {"duration_s": 36000.0}  # a thin feed gives at least one item over a long flow
+    if key == "infeed.items_per_s":
+        return {"belt.speed_mps": TOP_SPEED_MPS}  # the fastest feed fills the fastest belt
+    if key == "infeed.kg_per_h":
+        # The heaviest feed: items of the heaviest mass (the world uniform: none heavier) on
+        # the fastest belt.
+        path = _catalogue(tmp_path, "mass", catalogue_module.MASS_RANGE_KG[1], every=True)
+        return {"catalogue": f'"{path}"', "world": '"uniform"', "belt.speed_mps": TOP_SPEED_MPS}
     if key == "items":
         return {"duration_s": 36000.0}  # 20000 items need a long flow (items per metre)
     if key == "duration_s":
@@ -74,6 +93,8 @@ def _companions(key: str, value) -> dict[str, object]:
 
 
 def _toml(value) -> str:
+    if isinstance(value, dict):
+        return "{ " + ", ".join(f"{k} = {_toml(v)}" for k, v in value.items()) + " }"
     if isinstance(value, list):
         return "[" + ", ".join(_toml(v) for v in value) + "]"
     if isinstance(value, float):
@@ -124,7 +145,7 @@ def test_both_ends_load_and_just_outside_is_refused_naming_key_and_file(
     r = RANGES[name]
     value = _value(r, end, key)
     path = tmp_path / "config.toml"
-    path.write_text(_text({key: value, **_companions(key, value)}))
+    path.write_text(_text({key: value, **_companions(key, value, tmp_path)}))
     if is_inside:
         config = episode_config.load(path)
         if not r.entries and not key.startswith(("robot", "values")):

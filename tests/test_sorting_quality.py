@@ -96,10 +96,10 @@ def test_undefined_ratios_are_empty_cells_and_the_rest_fixed_decimals():
     assert cells["purity_paper"] == "0.6667" and cells["purity_plastic"] == ""
     assert cells["recovery_aluminium"] == "0.5000"
     assert (cells["never_detected"], cells["empty_picks"]) == ("3", "1")
-    start = outputs.EPISODE_COLUMNS.index("purity_paper")
-    new = outputs.EPISODE_COLUMNS[start : start + 12]
-    assert new[-2:] == ("left_unsure", "items_per_m")
-    assert "code_digest" in outputs.EPISODE_COLUMNS
+    columns = outputs.EPISODE_COLUMNS
+    new = columns[columns.index("purity_paper") : columns.index("items_per_m") + 1]
+    assert len(new) == 12 and new[-2:] == ("left_unsure", "items_per_m")
+    assert {"left_on_belt", "not_arrived", "code_digest"} <= set(columns)
 
 
 # ----- attributing tracks to true items (camera mode's bookkeeping) ---------------------------

@@ -119,7 +119,7 @@ duration_s = 3.0
         ("nosuchmodule:X", "ModuleNotFoundError"),
         ("myplanners:Missing", "has no class Missing"),
         ("myplanners:NoChoose", "lacks choose() or reset()"),
-        ("random", "module:Class (a class with choose() and reset())"),
+        ("dice", "module:Class (a class with choose() and reset())"),
     ],
 )
 def test_a_bad_planner_spec_is_refused_in_one_line(user_dir, spec, says):

@@ -198,7 +198,7 @@ def test_bad_settings_are_refused_by_name():
 def test_episode_config_world_keys():
     from sim.cli.run import WORLD_NUMBERS as CLI_NUMBERS
     from sim.episode import config
-    from sim.experiments.sweep_config import LATER_KEYS, settings_as_before
+    from sim.experiments.sweep_config import LATER_KEYS, LATER_TABLE_KEYS, settings_as_before
 
     assert config.WORLD_NUMBERS == CLI_NUMBERS
     assert config.load(None).world_variation == WorldVariation()
@@ -216,6 +216,10 @@ def test_episode_config_world_keys():
         .to_dict()
     )
     before = settings_as_before(before)
+    # A key added to a table later is left out of it at the value of before it existed.
+    for table, keys in LATER_TABLE_KEYS.items():
+        for key, value in keys.items():
+            assert before[table].pop(key) == value
     assert all(before[key] == value for key, value in LATER_KEYS.items())
 
 

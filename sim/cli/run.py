@@ -83,11 +83,27 @@ def add_episode_arguments(parser: argparse.ArgumentParser) -> None:
         "the flow (default 100)",
     )
     parser.add_argument(
+        "--items-per-m",
+        type=float,
+        default=None,
+        metavar="N",
+        help="the feed as items per metre of belt, 0.01..30, instead of --items: N x belt "
+        "speed x --duration items, rounded (the config's [infeed] items_per_m)",
+    )
+    parser.add_argument(
         "--speed-factor",
         type=float,
         default=None,
         help="belt speed over x1 = 0.185 m/s: any factor from 0.73 to 1.5 (0.135..0.277 m/s, "
         "the conveyor's range; the thesis ran 1, 1.2 and 1.5) (default 1)",
+    )
+    parser.add_argument(
+        "--belt-speed",
+        type=float,
+        default=None,
+        metavar="M/S",
+        help="belt speed in m/s, 0.135..0.277, instead of --speed-factor (the config's [belt] "
+        "speed_mps)",
     )
     parser.add_argument(
         "--planner",
@@ -115,6 +131,14 @@ def add_episode_arguments(parser: argparse.ArgumentParser) -> None:
         type=float,
         default=None,
         help="seconds over which the items arrive, 1..36000 (default 90)",
+    )
+    parser.add_argument(
+        "--horizon",
+        type=float,
+        default=None,
+        metavar="S",
+        help="end the run at S simulated seconds, 1..36000, counting the items still on the "
+        "belt and those not yet arrived (default: once every item has arrived and left the belt)",
     )
     parser.add_argument(
         "--energy-price",
@@ -226,6 +250,18 @@ def _detection_lines(r: dict) -> list[str]:
     return lines
 
 
+def _horizon_lines(config, r: dict) -> list[str]:
+    """The horizon's line of the summary: what it left (none without a horizon)."""
+    if config.horizon_s is None:
+        return []
+    if r["sim_s"] < config.horizon_s - 1e-6:
+        return [f"horizon                {config.horizon_s:>8g} s   (the belt was clear before it)"]
+    return [
+        f"ended at the horizon   {config.horizon_s:>8g} s   ({r['left_on_belt']} left on the "
+        f"belt, {r['not_arrived']} not yet arrived)"
+    ]
+
+
 def summary(result) -> str:
     """The one-screen summary of an episode."""
     r, c = result.episode_row, result.config
@@ -238,6 +274,7 @@ def summary(result) -> str:
         f"episode: seed {c.seed}, {c.items} items over {c.duration_s:g} s, "
         f"belt x{c.speed_factor:g} ({c.belt_speed_mps:.3f} m/s), planner {c.planner}, "
         f"perception {c.perception}",
+        *_horizon_lines(c, r),
         f"entered the belt (SI)  {r['entered']:>6}   ({per_material('entered')})",
         f"picked into bins (SP)  {r['picked']:>6}   ({per_material('picked')})",
         f"wrong bin              {r['wrong_bin']:>6}",
@@ -308,7 +345,7 @@ def check_perception(config) -> None:
     from sim.sensing.perception import hmm_cache_path
     from sim.sensing.stripe_hmms import read_cache
 
-    catalogue, mix = config.item_catalogue, config.flow.flow_kwargs()
+    catalogue, mix = config.item_catalogue, config.mix_kwargs
     cache = hmm_cache_path(catalogue, mix)
     if cache.exists():
         read_cache(cache, n_states=catalogue.materials.n_states)
@@ -579,15 +616,28 @@ def mp4_problem(path: Path) -> str | None:
     return f"the MP4 was cut short at {size} bytes{full}"
 
 
-def load_config(args: argparse.Namespace):
-    """The episode's validated config: `--config`'s TOML with the options given applied."""
-    from sim.episode import config as episode_config
+ONE_OF = (("--speed-factor", "--belt-speed"), ("--items", "--items-per-m"))
+"""Options that say the same thing in other units: one of each pair at most."""
 
+
+def load_config(args: argparse.Namespace):
+    """The episode's validated config: `--config`'s TOML with the options given applied (an
+    option in one unit replaces the file's setting in the other)."""
+    from sim.episode import config as episode_config
+    from sim.errors import InvalidInput
+
+    for pair in ONE_OF:
+        given = [o for o in pair if getattr(args, o[2:].replace("-", "_")) is not None]
+        if len(given) > 1:
+            raise InvalidInput(pair[1], f"one of {' or '.join(pair)}, not both", None)
     return episode_config.load(
         args.config,
         seed=args.seed,
         items=args.items,
+        items_per_m=args.items_per_m,
         speed_factor=args.speed_factor,
+        belt_speed_mps=args.belt_speed,
+        horizon_s=args.horizon,
         planner=args.planner,
         perception=args.perception,
         duration_s=args.duration,

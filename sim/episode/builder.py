@@ -161,6 +161,7 @@ def episode_metrics(config: EpisodeConfig, cell: Cell, flow: Flow) -> EpisodeMet
         cell.materials,
         item_values=config.values.of_items(cell.catalogue, flow.type_index.tolist(), masses),
         item_masses=dict(enumerate(masses)),
+        n_items=len(flow),
     )
 
 
@@ -309,7 +310,7 @@ def perception(config: EpisodeConfig, cell: Cell, flow: Flow):
             classifier=config.classifier,
             depth_noise=ZED_CLASS if config.depth_noise else None,
             seed=config.seed,
-            mix=config.flow.flow_kwargs(),
+            mix=config.mix_kwargs,
             size=config.camera.size,
             coupled=config.hmm.coupled,
         )
@@ -323,7 +324,7 @@ def perception(config: EpisodeConfig, cell: Cell, flow: Flow):
         classifier=config.classifier,
         depth_noise=ZED_CLASS if config.depth_noise else None,
         seed=config.seed,
-        mix=config.flow.flow_kwargs(),
+        mix=config.mix_kwargs,
         size=config.camera.size,
         coupled=config.hmm.coupled,
     )

@@ -22,11 +22,16 @@ TOML layout (every key optional; defaults are the headline episode)::
 
     seed = 0
     items = 100
-    speed_factor = 1.0          # belt speed = 0.185 m/s x factor, inside 0.135..0.277 m/s
+    speed_factor = 1.0          # belt speed = 0.185 m/s x factor, inside 0.135..0.277 m/s;
+                                # or [belt] speed_mps (below), not both
     planner = "qlearning"       # qlearning | rollout | lookahead | proximity | fifo | greedy
                                 # | random | oracle | module:Class
     perception = "camera"       # camera | truth
     duration_s = 90.0           # items arrive over this time [s]
+    horizon_s = 90.0            # the run ends at this time [s], the items still on the belt
+                                # and those not yet arrived counted (left_on_belt,
+                                # not_arrived); unset: once every item has arrived and left
+                                # the belt
     observation_period_s = 0.5  # one grid row per period [s]
     item_riding = "path"        # path | settled | contact (see sim/cell/riding.py)
     energy_price_eur_per_kwh = 0.0  # > 0: every planner nets each pick's motor energy cost
@@ -69,6 +74,11 @@ TOML layout (every key optional; defaults are the headline episode)::
                    [0.22, 0.50, 0.28],
                    [0.20, 0.28, 0.52]]
     stripe_priors = [0.16, 0.22, 0.24, 0.22, 0.16]
+    mix = { paper = 0.40, plastic = 0.35, aluminium = 0.25 }  # or the mix as shares: by
+                                # material (every one named), or by base item type of the
+                                # catalogue (mix_types = { paper_sheet_a4 = 0.1, ... }, types
+                                # not named not drawn), not both, nor with class_priors: the
+                                # transitions are matched to the shares (sim/flow/mix.py)
     [qlearning]                 # the thesis's Q-learning (also read by rollout); seeded by seed
     gamma = 0.9
     iterations = 50
@@ -93,6 +103,7 @@ TOML layout (every key optional; defaults are the headline episode)::
     diameter_m = 0.06           # lip diameter 0.02..0.12 m (recompiles the cell's model)
     vacuum_pa = 80000.0         # vacuum below atmosphere, 1000..101325 Pa; holds area x vacuum
     [belt]
+    speed_mps = 0.2             # belt speed [m/s], 0.135..0.277, instead of speed_factor
     length_m = 4.5              # 4..20 m from the infeed; the discharge end moves (recompiles)
     infeed_hold = true          # an item that would drop into one already on the belt is held
                                 # back (sim/episode/infeed.py); false: every result to the bit
@@ -106,6 +117,11 @@ TOML layout (every key optional; defaults are the headline episode)::
     hours_per_year = 4000.0
     robot_maintenance_eur_per_year = 3000.0
     energy_price_eur_per_kwh = 0.2   # the top-level key, given here instead (either place)
+    [infeed]                    # the feed in plant units instead of items (one key of three;
+    items_per_m = 18.0          # sim/episode/feed_rate.py): items per metre of belt, or
+    # items_per_s = 3.6         # items per second, or kilograms per hour at the catalogue's
+    # kg_per_h = 250.0          # mean item mass under the mix; items = the rate over
+                                # duration_s (18 x belt speed x duration_s), rounded
 
 The robots one by one, instead of `robots = N` (sim/episode/line_robots.py, docs/line.md;
 `--robots N` and a sweep's `robots = N` give N robots at the default spacing, robot k keeping
@@ -144,6 +160,8 @@ from planner.decision.robot_materials import class_ids_of
 from planner.motion.belt_speeds import SPEED_RANGE_MPS, SPEED_TOLERANCE_MPS, SPEED_X1_MPS
 from sim.cell.camera import FRAME_SIZE
 from sim.checks import check, is_integer, is_number
+from sim.episode import feed_rate
+from sim.episode.feed_rate import FEED_KEYS
 from sim.episode.line_robots import (
     MAX_PAUSE_S,
     MAX_ROBOTS,
@@ -155,12 +173,14 @@ from sim.episode.line_robots import (
     robot_specs,
 )
 from sim.errors import InvalidInput, RefusedInput
-from sim.flow.catalogue import DEFAULT_CATALOGUE, Catalogue, load_catalogue
+from sim.flow import mix as flow_mix
+from sim.flow.catalogue import DEFAULT_CATALOGUE, MASS_RANGE_KG, Catalogue, load_catalogue
 from sim.flow.config import (
     LINE_MAX_ITEMS_PER_METRE,
     MAX_ITEMS_PER_METRE,
     STRIPE_WIDTH,
     FlowConfig,
+    default_transitions,
 )
 from sim.flow.generator import EDGE_MARGIN_M
 from sim.flow.world import WORLD_LIMITS, WorldVariation, check_varied
@@ -191,6 +211,17 @@ MAX_ENERGY_PRICE = 1e6
 """Highest energy price accepted [EUR/kWh] (far above any tariff: a stress test's price)."""
 MAX_VALUE_EUR = 1e6
 """Highest value of an item [EUR]."""
+DEFAULT_ITEMS = 100
+"""`items` when neither it nor an `[infeed]` rate is given."""
+DEFAULT_SPEED_FACTOR = 1.0
+"""`speed_factor` when neither it nor `[belt] speed_mps` is given."""
+MIN_FEED_RATE = 0.01
+"""Smallest feed rate of an `[infeed]` key (items/m, items/s, kg/h)."""
+MAX_ITEMS_PER_S = LINE_MAX_ITEMS_PER_METRE * 1.5 * SPEED_X1_MPS
+"""Fastest item rate: the densest belt at the belt's top speed (x1.5) [items/s]."""
+MAX_KG_PER_H = round(MAX_ITEMS_PER_S * feed_rate.SECONDS_PER_HOUR * MASS_RANGE_KG[1], 3)
+"""Largest mass rate: the fastest item rate of the heaviest items a catalogue may hold
+[kg/h] (the catalogue's mean item mass decides: the belt's loading is checked with it)."""
 
 
 @dataclass(frozen=True)
@@ -209,7 +240,8 @@ class Range:
         slack: How far below `lo` and above `hi` a value is still taken, for the rounding of
             another unit (the belt's speed, checked in m/s) [the key's unit].
         entries: "": one number; "list": a list of them (probabilities summing to 1);
-            "rows": a list of such lists.
+            "rows": a list of such lists; "table": a table of them by name (shares summing
+            to 1).
         checked_by: The module whose check enforces it, when not this one's.
     """
 
@@ -269,6 +301,7 @@ RANGES: dict[str, Range] = {
         slack=(1e-9 / _X1, (SPEED_RANGE_MPS[1] + _SPEED_TOLERANCE_MPS) / _X1 - 1.5),
     ),
     "duration_s": Range(1.0, 36000.0, "1..36000 s"),
+    "horizon_s": Range(1.0, 36000.0, "1..36000 s"),
     "observation_period_s": Range(0.05, 5.0, "0.05..5 s"),
     "energy_price_eur_per_kwh": Range(0.0, MAX_ENERGY_PRICE, f"0..{MAX_ENERGY_PRICE:g} EUR/kWh"),
     "min_class_confidence": Range(0.0, 1.0, "a probability in [0, 1]"),
@@ -290,6 +323,8 @@ RANGES: dict[str, Range] = {
     "flow.class_priors": Range(0.0, 1.0, _PROBABILITIES, entries="list", checked_by="sim.flow"),
     "flow.transitions": Range(0.0, 1.0, _PROBABILITIES, entries="rows", checked_by="sim.flow"),
     "flow.stripe_priors": Range(0.0, 1.0, _PROBABILITIES, entries="list", checked_by="sim.flow"),
+    "flow.mix": Range(0.0, 1.0, "shares in [0, 1] summing to 1", entries="table"),
+    "flow.mix_types": Range(0.0, 1.0, "shares in [0, 1] summing to 1", entries="table"),
     "qlearning.gamma": Range(0.0, 1.0, "[0, 1)", hi_open=True),
     "qlearning.iterations": Range(1, 10000, "1..10000", integer=True),
     "qlearning.batch_rows": Range(1, 1000, "1..1000", integer=True),
@@ -607,6 +642,10 @@ def mean_masses(catalogue: Catalogue) -> dict[str, float]:
     return out
 
 
+MIX_KEYS = ("mix", "mix_types")
+"""The `[flow]` keys giving the mix as shares (`sim.flow.mix`): by material, by item type."""
+
+
 @dataclass(frozen=True)
 class FlowMix:
     """The flow's class mix (`sim.flow.config.FlowConfig`): None takes the default for the
@@ -616,11 +655,20 @@ class FlowMix:
         class_priors: P(class) of a stripe's first item, one per material.
         transitions: P(next class | previous class) within a stripe, one row per material.
         stripe_priors: P(stripe) of an item, 5 entries.
+        mix: The share of each material among the items, every material of the catalogue
+            named, shares summing to 1: the transitions (given or default) are matched to
+            them and each stripe's first item is drawn from them (`sim.flow.mix`).
+        mix_types: The share of each base item type of the catalogue among the items
+            (summing to 1; a type not named is not drawn): the materials' shares are their
+            types' sums, matched as `mix`'s, and the types are drawn within their material
+            by their shares.
     """
 
     class_priors: tuple[float, ...] | None = None
     transitions: tuple[tuple[float, ...], ...] | None = None
     stripe_priors: tuple[float, ...] | None = None
+    mix: tuple[tuple[str, float], ...] | None = None
+    mix_types: tuple[tuple[str, float], ...] | None = None
 
     def __post_init__(self) -> None:
         for name in ("class_priors", "stripe_priors"):
@@ -637,15 +685,99 @@ class FlowMix:
         check(ok, "flow.transitions", "a list of rows of probabilities", v, None)
         if v is not None:
             object.__setattr__(self, "transitions", tuple(tuple(float(x) for x in r) for r in v))
+        for name in MIX_KEYS:
+            self._check_shares(name)
+        both = self.mix is not None and self.mix_types is not None
+        check(not both, "flow.mix_types", "unset when flow.mix is given (one mix)", None, None)
+        given = self.mix is not None or self.mix_types is not None
+        allowed = "unset when flow.mix or flow.mix_types is given (a stripe's first item is "
+        allowed += "drawn from the mix)"
+        clash = given and self.class_priors is not None
+        check(not clash, "flow.class_priors", allowed, self.class_priors, None)
 
-    def flow_kwargs(self) -> dict[str, Any]:
-        """The `FlowConfig` keywords set here.
+    def _check_shares(self, name: str) -> None:
+        """Refuse a mix that is not a table of shares in [0, 1] summing to 1; keep it as
+        (name, share) pairs."""
+        v = getattr(self, name)
+        if v is None:
+            return
+        if isinstance(v, dict):
+            v = tuple(v.items())
+        ok = isinstance(v, tuple) and all(
+            isinstance(p, tuple) and len(p) == 2 and isinstance(p[0], str) and is_number(p[1])
+            for p in v
+        )
+        example = {
+            "mix": "{ paper = 0.4, plastic = 0.35, aluminium = 0.25 }",
+            "mix_types": "{ paper_sheet_a4 = 0.4, pet_bottle_0l5 = 0.35, can_330_lying = 0.25 }",
+        }[name]
+        ok = ok and bool(v)
+        check(ok, f"flow.{name}", f"a table of shares by name, e.g. {example}", v, None)
+        shares = dict(v)
+        r = RANGES[f"flow.{name}"]
+        fine = all(r.allows(x) for x in shares.values()) and abs(sum(shares.values()) - 1) <= 1e-6
+        check(fine, f"flow.{name}", r.allowed, shares, None)
+        object.__setattr__(self, name, tuple((k, float(x)) for k, x in v))
+
+    def check_names(self, catalogue: Catalogue, where: str | None) -> None:
+        """Refuse a `mix` that does not name every material of `catalogue` (and nothing else),
+        a `mix_types` naming anything but its base item types.
+
+        Args:
+            catalogue: The episode's item catalogue.
+            where: The config file, named by the refusal.
+        """
+        names = catalogue.materials.names
+        if self.mix is not None:
+            given = [k for k, _ in self.mix]
+            ok = sorted(given) == sorted(names)
+            allowed = "one share per material of the catalogue: " + ", ".join(names)
+            check(ok, "flow.mix", allowed, given, where)
+        if self.mix_types is not None:
+            bases = [t.name for t in catalogue.types if not t.variant_of]
+            for name, _ in self.mix_types:
+                allowed = "a base item type of the catalogue (" + ", ".join(bases) + ")"
+                check(name in bases, f"flow.mix_types.{name}", allowed, None, where)
+
+    def flow_kwargs(self, catalogue: Catalogue | None = None) -> dict[str, Any]:
+        """The `FlowConfig` keywords of this mix.
+
+        Args:
+            catalogue: The episode's item catalogue (needed with `mix` or `mix_types`).
 
         Returns:
-            {keyword: value} of the fields not None.
+            {keyword: value} of the fields set; with `mix` or `mix_types`, the class priors
+            (the shares), the transitions matched to them (`sim.flow.mix`) and, of
+            `mix_types`, the item types' weights.
         """
         names = ("class_priors", "transitions", "stripe_priors")
-        return {n: getattr(self, n) for n in names if getattr(self, n) is not None}
+        out = {n: getattr(self, n) for n in names if getattr(self, n) is not None}
+        if self.mix is None and self.mix_types is None:
+            return out
+        materials = catalogue.materials
+        if self.mix is not None:
+            shares = [dict(self.mix)[n] for n in materials.names]
+        else:
+            shares, weights = flow_mix.shares_of_types(catalogue, dict(self.mix_types))
+            out["type_weights"] = tuple(float(w) for w in weights)
+        field = "flow.mix" if self.mix is not None else "flow.mix_types"
+        base = self.transitions or default_transitions(materials.count)
+        out["class_priors"] = tuple(float(x) for x in shares)
+        out["transitions"] = flow_mix.matched_transitions(base, shares, field)
+        return out
+
+    def table(self) -> dict[str, Any]:
+        """The `[flow]` table as given (for a manifest: read back to an equal mix).
+
+        Returns:
+            {key: value} of the fields set, lists and tables as TOML has them.
+        """
+        out: dict[str, Any] = {}
+        for f in dataclasses.fields(self):
+            v = getattr(self, f.name)
+            if v is not None:
+                out[f.name] = dict(v) if f.name in MIX_KEYS else _plain(v)
+        return out
 
 
 @dataclass(frozen=True)
@@ -718,6 +850,28 @@ RANGES |= {
     "belt.length_m": Range(
         *BELT_LENGTH_RANGE_M, f"{BELT_LENGTH_RANGE_M[0]}..{BELT_LENGTH_RANGE_M[1]} m"
     ),
+    "belt.speed_mps": Range(
+        *SPEED_RANGE_MPS,
+        f"{SPEED_RANGE_MPS[0]}..{SPEED_RANGE_MPS[1]} m/s (the conveyor's range)",
+        slack=(1e-9, _SPEED_TOLERANCE_MPS),
+    ),
+    "infeed.items_per_m": Range(
+        MIN_FEED_RATE,
+        LINE_MAX_ITEMS_PER_METRE,
+        f"{MIN_FEED_RATE:g}..{LINE_MAX_ITEMS_PER_METRE:g} items per metre of belt",
+    ),
+    "infeed.items_per_s": Range(
+        MIN_FEED_RATE,
+        MAX_ITEMS_PER_S,
+        f"{MIN_FEED_RATE:g}..{MAX_ITEMS_PER_S:g} items/s ({LINE_MAX_ITEMS_PER_METRE:g} per "
+        "metre of belt at its top speed)",
+    ),
+    "infeed.kg_per_h": Range(
+        MIN_FEED_RATE,
+        MAX_KG_PER_H,
+        f"{MIN_FEED_RATE:g}..{MAX_KG_PER_H:g} kg/h ({MAX_ITEMS_PER_S:g} items/s of "
+        f"{MASS_RANGE_KG[1]:g} kg)",
+    ),
 }
 
 
@@ -787,15 +941,57 @@ class Belt:
             cell is compiled with it; its discharge end moves, the camera and the robot stay).
         infeed_hold: Whether the infeed holds an item back while it would drop into one
             already there (`sim.episode.infeed`).
+        speed_mps: Its speed [m/s], in the conveyor's range, instead of the top-level
+            `speed_factor` (which then follows: speed / 0.185 m/s; a file giving both is
+            refused). None: `speed_factor`'s.
     """
 
     length_m: float = BELT_LENGTH_M
     infeed_hold: bool = True
+    speed_mps: float | None = None
 
     def __post_init__(self) -> None:
         RANGES["belt.length_m"].check("belt.length_m", self.length_m)
         v = self.infeed_hold
         check(isinstance(v, bool), "belt.infeed_hold", "true | false", v, None)
+        if self.speed_mps is not None:
+            RANGES["belt.speed_mps"].check("belt.speed_mps", self.speed_mps)
+            object.__setattr__(self, "speed_mps", float(self.speed_mps))
+
+
+@dataclass(frozen=True)
+class InfeedRate:
+    """The feed in a plant's units, instead of `items` (`sim.episode.feed_rate`): at most one
+    key; the item count is the rate over `duration_s`, rounded to the nearest item.
+
+    Attributes:
+        items_per_m: Items per metre of belt [items/m]: items = this x belt speed x
+            duration_s.
+        items_per_s: Items per second [items/s]: items = this x duration_s.
+        kg_per_h: Kilograms per hour [kg/h]: items = this / 3600 / the mean item mass x
+            duration_s, the mean of the catalogue's masses under the flow's mix
+            (`sim.flow.mix.mean_item_mass_kg`).
+    """
+
+    items_per_m: float | None = None
+    items_per_s: float | None = None
+    kg_per_h: float | None = None
+
+    def __post_init__(self) -> None:
+        given = [k for k in FEED_KEYS if getattr(self, k) is not None]
+        allowed = "one of " + ", ".join(FEED_KEYS) + " (a rate), not several"
+        check(len(given) <= 1, "infeed", allowed, given, None)
+        for key in given:
+            RANGES[f"infeed.{key}"].check(f"infeed.{key}", getattr(self, key))
+            object.__setattr__(self, key, float(getattr(self, key)))
+
+    @property
+    def rate(self) -> tuple[str, float] | None:
+        """The rate given, as (key, value in its unit); None: the feed is `items`."""
+        for key in FEED_KEYS:
+            if getattr(self, key) is not None:
+                return key, getattr(self, key)
+        return None
 
 
 @dataclass(frozen=True)
@@ -906,6 +1102,7 @@ class EpisodeConfig:
     planner: str = "qlearning"
     perception: str = "camera"
     duration_s: float = 90.0
+    horizon_s: float | None = None
     observation_period_s: float = 0.5
     item_riding: str = "path"
     energy_price_eur_per_kwh: float = 0.0
@@ -935,6 +1132,7 @@ class EpisodeConfig:
     belt: Belt = field(default_factory=Belt)
     hmm: Hmm = field(default_factory=Hmm)
     economics: Economics = field(default_factory=Economics)
+    infeed: InfeedRate = field(default_factory=InfeedRate)
     catalogue_file: CatalogueFile | None = field(default=None, repr=False)
     where: str | None = field(default=None, compare=False, repr=False)
 
@@ -958,7 +1156,47 @@ class EpisodeConfig:
         # compare equal by what they run with, and a manifest's table reads back the same.
         resolved = Values.from_table(self.values.table(catalogue.materials))
         object.__setattr__(self, "values", resolved)
+        self.flow.check_names(catalogue, w)
+        try:
+            _ = self.mix_kwargs  # the transitions matched to a mix, refused here if they cannot be
+        except InvalidInput as exc:
+            raise InvalidInput(exc.field, exc.allowed, exc.got, w) from None
+        self._resolve_belt_speed()
+        self._resolve_feed()
         self._check_flow()
+
+    def _resolve_belt_speed(self) -> None:
+        """`speed_factor` of a `[belt] speed_mps`: the speed over x1 (a factor given too is
+        refused unless it is that one)."""
+        v = self.belt.speed_mps
+        if v is None:
+            return
+        derived = v / BELT_SPEED_X1_MPS
+        f = self.speed_factor
+        allowed = (
+            f"unset when belt.speed_mps is given (one belt speed: {v:g} m/s is x{derived:.4g})"
+        )
+        check(f in (DEFAULT_SPEED_FACTOR, derived), "speed_factor", allowed, f, self.where)
+        object.__setattr__(self, "speed_factor", derived)
+
+    def _resolve_feed(self) -> None:
+        """`items` of an `[infeed]` rate: the rate over `duration_s` (`sim.episode.feed_rate`),
+        refused past the densest belt or outside 1..`MAX_ITEMS` items (an `items` given too is
+        refused unless it is that count)."""
+        rate = self.infeed.rate
+        if rate is None:
+            return
+        key, value = rate
+        w, v, most = self.where, self.belt_speed_mps, self.max_items_per_metre
+        per_m = feed_rate.items_per_metre(key, value, v, self.mean_item_mass_kg)
+        allowed = f"at most {most:g} items per metre of belt ({most * v:g} items/s at {v:g} m/s)"
+        check(per_m <= most * (1 + 1e-9), f"infeed.{key}", allowed, value, w)
+        count = feed_rate.item_count(per_m, v, float(self.duration_s), most)
+        allowed = f"a feed of 1..{MAX_ITEMS} items over duration_s ({self.duration_s:g} s)"
+        check(1 <= count <= MAX_ITEMS, f"infeed.{key}", allowed, value, w)
+        allowed = f"unset when infeed.{key} is given (one feed: {value:g} gives {count} items)"
+        check(self.items in (DEFAULT_ITEMS, count), "items", allowed, self.items, w)
+        object.__setattr__(self, "items", count)
 
     def _check_settings(self) -> None:
         """The settings that need no catalogue: the episode's numbers and names, the world."""
@@ -974,6 +1212,8 @@ class EpisodeConfig:
         check(p in PERCEPTIONS, "perception", " | ".join(PERCEPTIONS), p, w)
         for key in ("duration_s", "observation_period_s"):
             RANGES[key].check(key, getattr(self, key), w)
+        if self.horizon_s is not None:  # None: the run ends once the belt is clear
+            RANGES["horizon_s"].check("horizon_s", self.horizon_s, w)
         r = self.item_riding
         check(r in ITEM_RIDINGS, "item_riding", " | ".join(ITEM_RIDINGS), r, w)
         RANGES["energy_price_eur_per_kwh"].check(
@@ -1071,8 +1311,33 @@ class EpisodeConfig:
             world=self.world_variation,
             n_materials=self.materials.count,
             max_items_per_metre=self.max_items_per_metre,
-            **self.flow.flow_kwargs(),
+            **self.mix_kwargs,
         )
+
+    @functools.cached_property
+    def mix_kwargs(self) -> dict[str, Any]:
+        """The `FlowConfig` keywords of the flow's class mix (`FlowMix.flow_kwargs`): the
+        `[flow]` table's as given, or with `mix` or `mix_types` the shares and the transitions
+        matched to them (`sim.flow.mix`). What the flow, its stripe HMMs and the item
+        classifier's table are made with."""
+        return self.flow.flow_kwargs(self.item_catalogue)
+
+    @property
+    def material_shares(self) -> tuple[float, ...]:
+        """Each material's long-run share of the items, in the catalogue's order: the mix's, or
+        the stationary distribution of the flow's transitions (`sim.flow.mix`)."""
+        kwargs = self.mix_kwargs
+        if self.flow.mix is not None or self.flow.mix_types is not None:
+            return tuple(kwargs["class_priors"])
+        table = kwargs.get("transitions") or default_transitions(self.materials.count)
+        return tuple(float(x) for x in flow_mix.stationary_shares(table))
+
+    @property
+    def mean_item_mass_kg(self) -> float:
+        """The mean mass of an item of the flow [kg]: the catalogue's masses under the mix
+        (`sim.flow.mix.mean_item_mass_kg`; what `[infeed] kg_per_h` counts items with)."""
+        weights = self.mix_kwargs.get("type_weights")
+        return flow_mix.mean_item_mass_kg(self.item_catalogue, self.material_shares, weights)
 
     @property
     def max_items_per_metre(self) -> float:
@@ -1120,7 +1385,7 @@ class EpisodeConfig:
     def _check_flow(self) -> None:
         """The flow's own limits (its density: items per metre of belt), checked now rather
         than when the episode starts."""
-        mix = tuple(sorted(self.flow.flow_kwargs().items()))
+        mix = tuple(sorted(self.mix_kwargs.items()))
         try:
             _flow_check(
                 self.items,
@@ -1135,6 +1400,8 @@ class EpisodeConfig:
             key = {"n_items": "items"}.get(exc.field, exc.field)
             if key in ("class_priors", "transitions", "stripe_priors"):
                 key = f"flow.{key}"
+            if key == "items" and self.infeed.rate is not None:
+                key = f"infeed.{self.infeed.rate[0]}"
             raise InvalidInput(key, exc.allowed, exc.got, self.where) from None
 
     @property
@@ -1145,7 +1412,10 @@ class EpisodeConfig:
 
     @property
     def belt_speed_mps(self) -> float:
-        """Belt speed of this episode [m/s]."""
+        """Belt speed of this episode [m/s]: `[belt] speed_mps` as given, else of
+        `speed_factor`."""
+        if self.belt.speed_mps is not None:
+            return self.belt.speed_mps
         return belt_speed_mps(self.speed_factor)
 
     def replace(self, **changes: Any) -> EpisodeConfig:
@@ -1162,6 +1432,7 @@ class EpisodeConfig:
         n = changes.get("robots")
         if is_integer(n) and 1 <= n <= MAX_ROBOTS:
             changes["robots"] = resized(self.robots, n)
+        changes = self._one_spelling(changes)
         if "catalogue" in changes and "catalogue_file" not in changes:
             where = changes.get("where", self.where)
             changes["catalogue_file"] = CatalogueFile.read(changes["catalogue"], where)
@@ -1169,7 +1440,10 @@ class EpisodeConfig:
 
     def to_dict(self) -> dict[str, Any]:
         """Plain dict of every setting in the TOML layout (one `robots` array of tables), for
-        manifests, reports and sweep keys; `from_dict` reads it back to an equal config.
+        manifests, reports and sweep keys; `from_dict` reads it back to an equal config. The
+        belt's speed and the feed in the unit they were given: `speed_factor` left out beside
+        `[belt] speed_mps`, `items` beside an `[infeed]` rate (so an option changing the
+        duration or the speed works them out again, `load`).
 
         Returns:
             {key: value}, tables as dicts, arrays as lists.
@@ -1181,7 +1455,29 @@ class EpisodeConfig:
                 out[f.name] = dataclasses.asdict(value) if _is_table(value) else value
         out["robots"] = [spec.table() for spec in self.robots]
         out["values"] = self.values.table(self.materials)
-        out["flow"] = {k: _plain(v) for k, v in self.flow.flow_kwargs().items()}
+        out["flow"] = self.flow.table()
+        if self.belt.speed_mps is not None:
+            del out["speed_factor"]
+        if self.infeed.rate is not None:
+            del out["items"]
+        return out
+
+    def _one_spelling(self, changes: dict[str, Any]) -> dict[str, Any]:
+        """`changes` for `replace` with the other spelling of what they set cleared, so the
+        last one given wins: a `speed_factor` clears `[belt] speed_mps`, an `items` the
+        `[infeed]` rate; and a value that follows from the plant units (`speed_factor` of
+        `speed_mps`, `items` of a rate) is worked out again from the new settings."""
+        out = dict(changes)
+        belt = out.get("belt", self.belt)
+        if "speed_factor" in out and "belt" not in out and belt.speed_mps is not None:
+            out["belt"] = belt = dataclasses.replace(belt, speed_mps=None)
+        if belt.speed_mps is not None and "speed_factor" not in out:
+            out["speed_factor"] = DEFAULT_SPEED_FACTOR  # follows belt.speed_mps again
+        infeed = out.get("infeed", self.infeed)
+        if "items" in out and "infeed" not in out and infeed.rate is not None:
+            out["infeed"] = infeed = InfeedRate()
+        if infeed.rate is not None and "items" not in out:
+            out["items"] = DEFAULT_ITEMS  # follows the rate again
         return out
 
 
@@ -1263,6 +1559,7 @@ _SECTIONS = {
     "belt": Belt,
     "hmm": Hmm,
     "economics": Economics,
+    "infeed": InfeedRate,
 }
 _SCALARS = {f.name for f in dataclasses.fields(EpisodeConfig)} - set(_SECTIONS)
 _SCALARS -= {"where", "catalogue_file"}  # not keys: what the file names, read
@@ -1317,7 +1614,26 @@ def _from_dict(data: dict[str, Any], where: str | None) -> EpisodeConfig:
     if "robots" in kwargs or section is not None:
         kwargs["robots"] = robot_specs(kwargs.get("robots", 1), section, where)
     kwargs["catalogue_file"] = CatalogueFile.read(kwargs.get("catalogue", ""), where)
-    return EpisodeConfig(where=where, **kwargs)
+    config = EpisodeConfig(where=where, **kwargs)
+    _check_one_spelling(data, config, where)
+    return config
+
+
+def _check_one_spelling(data: dict[str, Any], config: EpisodeConfig, where: str | None) -> None:
+    """Refuse a file that gives the belt's speed or the feed twice, in both units (the config
+    itself refuses any other value than the one that follows; here also the default's value
+    written out, `speed_factor = 1.0` beside `[belt] speed_mps = 0.2`, and the one that
+    follows)."""
+    v = config.belt.speed_mps
+    if "speed_factor" in data and v is not None:
+        allowed = "unset when belt.speed_mps is given (one belt speed: "
+        allowed += f"{v:g} m/s is x{config.speed_factor:.4g})"
+        raise InvalidInput("speed_factor", allowed, data["speed_factor"], where)
+    rate = config.infeed.rate
+    if "items" in data and rate is not None:
+        allowed = f"unset when infeed.{rate[0]} is given (one feed: {rate[1]:g} gives "
+        allowed += f"{config.items} items)"
+        raise InvalidInput("items", allowed, data["items"], where)
 
 
 def read_config_file(path: Path) -> dict[str, Any]:
@@ -1404,6 +1720,47 @@ def read_toml(path: Path) -> dict[str, Any]:
         raise InvalidInput("config", f"valid TOML ({reason})", None, str(path)) from None
 
 
+SECTION_OPTIONS = {
+    "belt_speed_mps": ("belt", "speed_mps"),
+    "items_per_m": ("infeed", "items_per_m"),
+}
+"""`load`'s keywords that set a section's key (the plant units of `sortsim run`'s options)."""
+SPELLINGS = (
+    ("speed_factor", "belt.speed_mps"),
+    ("items", *(f"infeed.{k}" for k in FEED_KEYS)),
+)
+"""Keys that say the same thing in other units: an option setting one of a group takes the
+file's others away (the belt's speed; the feed)."""
+
+
+def _with_options(data: dict[str, Any], changes: dict[str, Any]) -> dict[str, Any]:
+    """The settings of a file with the options applied: each option's key set (a section's
+    inside its table), the file's keys of the same group of `SPELLINGS` taken away.
+
+    Args:
+        data: The file's settings (not changed).
+        changes: {`load` keyword: value}.
+
+    Returns:
+        A new dict of settings.
+    """
+    out = {k: dict(v) if isinstance(v, dict) else v for k, v in data.items()}
+    for name, value in changes.items():
+        key = ".".join(SECTION_OPTIONS.get(name, (name,)))
+        for group in SPELLINGS:
+            for other in group if key in group else ():
+                section, _, sub = other.rpartition(".")
+                table = out.get(section) if section else out
+                if isinstance(table, dict):
+                    table.pop(sub, None)
+        section, _, sub = key.rpartition(".")
+        if not section:
+            out[key] = value
+        elif isinstance(out.setdefault(section, {}), dict):  # else the file's error, refused
+            out[section][sub] = value
+    return out
+
+
 def load(path: Path | None = None, **overrides: Any) -> EpisodeConfig:
     """The episode config of a config file (or the defaults) with the options given applied.
 
@@ -1425,17 +1782,19 @@ def load(path: Path | None = None, **overrides: Any) -> EpisodeConfig:
     data = read_config_file(path) if path is not None else {}
     where = str(path) if path is not None else None
     changes = {k: v for k, v in overrides.items() if v is not None}
-    unknown = set(changes) - _SCALARS
-    check(not unknown, "override", ", ".join(sorted(_SCALARS)), sorted(unknown), None)
+    unknown = set(changes) - _SCALARS - set(SECTION_OPTIONS)
+    options = ", ".join(sorted(_SCALARS | set(SECTION_OPTIONS)))
+    check(not unknown, "override", options, sorted(unknown), None)
     if not changes:
         return from_dict(data, where)
     robots = changes.pop("robots", None)  # a count keeps the file's robots' pauses: replace
     if "energy_price_eur_per_kwh" in changes:  # the option's price wins over [economics]'
         data = _without_economics_price(data)
+    keys = {".".join(SECTION_OPTIONS.get(k, (k,))) for k in changes}
     try:
-        config = from_dict({**data, **changes}, where)
+        config = from_dict(_with_options(data, changes), where)
     except InvalidInput as exc:
-        if exc.field in changes:  # the option's value: not the file's
+        if exc.field in keys:  # the option's value: not the file's
             raise InvalidInput(exc.field, exc.allowed, exc.got, None) from None
         raise
     if robots is not None:

@@ -11,8 +11,10 @@ one at a time, with the episode's own hooks of `sim.episode.step_hooks`).
 
 `step_until_decision` advances until a robot is free and a choice is needed; `apply` takes the
 choice (the configured decision manager's in `run`, or a Gymnasium agent's). The episode ends
-when every item has been dropped and left the belt and every robot is idle. Its parts are made
-by `sim.episode.builder`.
+when every item has been dropped and left the belt and every robot is idle, or at the config's
+`horizon_s` (`Horizon`: the physics stepped up to it and no further, a pick under way cut
+short; the items still in play counted `left_on_belt`, those not yet dropped `not_arrived`).
+Its parts are made by `sim.episode.builder`.
 """
 
 from __future__ import annotations
@@ -38,6 +40,7 @@ from sim.episode.pick_control import PickController
 from sim.episode.scheduler import (
     FrameEvent,
     Hooks,
+    Horizon,
     PeriodicEvent,
     Scheduler,
     is_due,
@@ -179,6 +182,9 @@ class Episode:
         self.flow = builder.episode_flow(config, cell)
         self.timeline = builder.Timeline.of(cell, self.flow, self.speed)
         self.x_discard, self.t_end = self.timeline.x_discard, self.timeline.t_end
+        self.horizon = None if config.horizon_s is None else Horizon(float(config.horizon_s))
+        if self.horizon is not None:
+            self.t_end = min(self.t_end, self.horizon.at_s)
         self.metrics: EpisodeMetrics = builder.episode_metrics(config, cell, self.flow)
         self.tracker = Tracker(self.speed)
         controllers = builder.pick_controllers(config, cell, self.flow)
@@ -232,6 +238,8 @@ class Episode:
         for event in self._user_events:
             event.next_s = 0.0
             self.scheduler.add(event)
+        if self.horizon is not None:  # last: what is due at the horizon happens first
+            self.scheduler.add(self.horizon)
 
     def close(self, aborted: bool = False) -> None:
         """Release the perception's renderer and finish (or, `aborted`, discard) the video."""
@@ -421,6 +429,8 @@ class Episode:
         self.metrics.on_left_unsure(sum(1 for tr in gone if is_unsure(tr.probs, threshold)))
 
     def _finished(self) -> bool:
+        if self.horizon is not None and self.horizon.reached:
+            return True
         if any(s.robot.busy for s in self.stations):  # a pick under way is always finished
             return False
         t = self.data.time
@@ -431,15 +441,19 @@ class Episode:
         return t >= self.timeline.t_last_spawn + SETTLE_S
 
     def _close_out(self) -> None:
-        """Items still on the belt at the time cap count as missed (once)."""
+        """Items still in play count as missed at the time cap, as left on the belt at the
+        horizon (once)."""
         if self._closed_out:
             return
         self._closed_out = True
         self.metrics.on_warnings(self.mj_warnings.update())
         self.book_unsure(self.tracker.tracks())  # still tracked when the episode ended
         items = self.cell.items
+        book = self.metrics.on_missed
+        if self.horizon is not None and self.horizon.reached:
+            book = self.metrics.on_left_on_belt
         for slot in items.active_slots():
-            self.metrics.on_missed(int(items.park(int(slot))))
+            book(int(items.park(int(slot))))
 
     def status_text(self) -> str:
         """One line for the progress bar."""

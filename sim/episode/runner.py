@@ -200,7 +200,8 @@ def run_episode(
         **episode.robot_columns(sim_s),
         "code_digest": code_digest(),
     }
-    row |= per_hour_columns(row, config.duration_s, config.robot_count, _economics(config))
+    feed_s = min(config.duration_s, config.horizon_s or config.duration_s)  # items fed [s]
+    row |= per_hour_columns(row, feed_s, config.robot_count, _economics(config))
     timings = dict(episode.timings)
     # Physics: stepping, the executor's control loop, the cup and bins (everything else).
     timings["physics"] = wall - sum(v for k, v in timings.items() if k != "physics")

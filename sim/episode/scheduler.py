@@ -6,7 +6,8 @@ Hooks (`Hooks`): every function registered on `"before_step"` runs before each p
 order registered: the robots' set-points, then the riders' belt time, the actuator log, the
 cups, then a user's. Events (`Scheduler`): the infeed's drops, the observations, the item checks
 (warnings, throws, items out of reach, bins, riding), the video frames and a user's periodic
-functions (`PeriodicEvent`), each with the next time it is due. After each step the loop fires
+functions (`PeriodicEvent`) and the episode's horizon (`Horizon`), each with the next time it
+is due. After each step the loop fires
 every event due, in the order registered, with the items brought up to date first; while every
 robot idles it steps in one block up to the earliest next time (or decision). One due test,
 `is_due`, serves both.
@@ -115,6 +116,31 @@ class FrameEvent:
         """Hand the sink the cell as it is now and the overlay."""
         t = float(episode.data.time)
         episode.sink_frame(self.sink, self.overlay(episode, t))
+
+
+class Horizon:
+    """The time an episode ends at, whatever is left (the config's `horizon_s`): an event,
+    so the physics is stepped up to it exactly (the loop ends the episode once it is reached).
+
+    Args:
+        at_s: The horizon [s].
+    """
+
+    def __init__(self, at_s: float):
+        self.at_s = at_s
+        self.reached = False
+
+    def due(self, t: float) -> bool:
+        """Whether the horizon has come at sim time `t` [s]."""
+        return not self.reached and is_due(t, self.at_s)
+
+    def next_time(self, t: float) -> float | None:
+        """The horizon [s] (None once reached)."""
+        return None if self.reached else self.at_s
+
+    def fire(self, episode: Episode) -> None:
+        """Mark the horizon reached: the episode ends after this step."""
+        self.reached = True
 
 
 class Scheduler:

@@ -195,7 +195,7 @@ def prepare_camera(config) -> None:
         return
     if is_default_catalogue(config.item_catalogue):
         return
-    ensure_catalogue_table(config.item_catalogue, config.flow.flow_kwargs())
+    ensure_catalogue_table(config.item_catalogue, config.mix_kwargs)
 
 
 def accuracy_table(table: dict, classifier: ItemClassifier) -> list[str]:

@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from sim.episode import config as episode_config
+from sim.episode.feed_rate import FEED_KEYS
 from sim.episode.line_robots import RobotSpec
 from sim.errors import InvalidInput
 from sim.flow.world import WorldVariation
@@ -42,19 +43,42 @@ SUFFIX_UNITS = (
     ("_s", "s"),
     ("_m", "m"),
 )
-UNIT = re.compile(r"\[(m|s|px|Pa|EUR|deg|m/s|EUR/kWh|EUR/kg|EUR/year|J|kg|years|h/year)\]")
+UNIT = re.compile(
+    r"\[(m|s|px|Pa|EUR|deg|m/s|EUR/kWh|EUR/kg|EUR/year|J|kg|years|h/year|items/m|items/s|kg/h)\]"
+)
 REGENERATE = "python -m sim.experiments.settings_doc"
 UNCOMMENTED = {
     "seed": "The episode's seed: the flow (times, places, classes, items), the world's "
     "variation, the depth noise and the planners' random draws; the same seed and config give "
     "the same CSVs.",
-    "items": "Items dropped on the belt over `duration_s`.",
+    "items": "Items dropped on the belt over `duration_s` (or the feed in plant units: "
+    "`[infeed]`, not both).",
 }
 """Meanings of the top-level keys the config's TOML layout gives without a comment."""
-NONE_DEFAULTS = {
+UNSET = {
+    "horizon_s": "unset: the run ends once every item has arrived and left the belt",
+    "belt.speed_mps": "unset: speed_factor's (0.185 m/s at x1)",
+    **{f"infeed.{k}": "unset: `items` over `duration_s`" for k in FEED_KEYS},
+    "flow.mix_types": "unset: the catalogue's weights within each material",
     "economics.energy_price_eur_per_kwh": "the top-level `energy_price_eur_per_kwh` (0)",
 }
-"""The default of a section's key that is None, in words (else: the flow's default mix)."""
+"""Defaults of keys that are unset (None) unless given, in words (`flow.mix`'s: `default_mix`)."""
+
+
+def default_mix() -> str:
+    """The default flow's material shares: the stationary distribution of its transitions,
+    what long flows carry (`EpisodeConfig.material_shares`)."""
+    config = episode_config.EpisodeConfig()
+    shares = ", ".join(
+        f"{n} {s:.3f}" for n, s in zip(config.materials.names, config.material_shares, strict=True)
+    )
+    return (
+        f"{shares}: the default transitions' stationary shares, which long flows carry "
+        '(measured: docs/episode.md, "The feed in plant units"); equal shares for a catalogue '
+        "of other materials"
+    )
+
+
 SECTION_TEXT = {
     "[values]": "A plant prices its bales by the kilogram: `[values] per_kg = { paper = 0.10, "
     "plastic = 0.30, aluminium = 1.20 }` (EUR/kg; an illustration of the order of European bale "
@@ -195,7 +219,7 @@ def _scalars() -> list[Setting]:
             default = f"the classifier's: {threshold} (fused, features), 0 (hmm; truth perception)"
             meaning = comments.get(name, "")
         else:
-            default = _toml(field.default)
+            default = UNSET[name] if field.default is None else _toml(field.default)
             meaning = comments.get(name) or UNCOMMENTED.get(name, "")
         allowed = refusal({name: ...}, name)
         out.append(Setting(name, default, allowed, unit_of(name, meaning, allowed), meaning))
@@ -210,8 +234,10 @@ def _section(name: str, cls: type) -> list[Setting]:
         default = field.default
         if default is dataclasses.MISSING:
             default = field.default_factory() if callable(field.default_factory) else None
-        default_text = NONE_DEFAULTS.get(key, "the default mix (thesis's)")
-        default_text = default_text if default is None else _toml(default)
+        default_text = _toml(default)
+        if default is None:
+            default_text = UNSET.get(key, "the default mix (thesis's)")
+            default_text = default_mix() if key == "flow.mix" else default_text
         allowed = refusal({name: {field.name: ...}}, key)
         meaning = docs.get(field.name, "")
         out.append(Setting(key, default_text, allowed, unit_of(key, meaning, allowed), meaning))

@@ -5,7 +5,7 @@ TOML layout (`experiments/*.toml`)::
     [sweep]
     name = "table_4_2"
     table = "4.2"                  # thesis table printed beside ours (sim/data/thesis_tables.toml)
-    speed_factors = [1.0, 1.2, 1.5]
+    speed_factors = [1.0, 1.2, 1.5]  # or belt_speeds_mps = [0.2, 0.25] (m/s), not both
     items = [50, 100, 120, 150]
     planners = ["qlearning"]
     seeds = 10                     # a count (seed_offset .. seed_offset+n-1) or a list
@@ -47,6 +47,7 @@ from typing import Any
 from sim.checks import check, is_integer
 from sim.episode import config as episode_config
 from sim.episode.config import EpisodeConfig, read_toml
+from sim.episode.feed_rate import FEED_KEYS
 from sim.episode.line_robots import MAX_ROBOTS, SECTION_KEYS, resized_tables
 from sim.errors import InvalidInput
 
@@ -54,6 +55,7 @@ _SWEEP_KEYS = {
     "name",
     "table",
     "speed_factors",
+    "belt_speeds_mps",
     "items",
     "planners",
     "seeds",
@@ -232,6 +234,7 @@ def from_dict(data: dict[str, Any], where: str) -> SweepConfig:  # noqa: C901, P
     for key in _GRID_FIELDS:
         if key in base:
             raise InvalidInput(f"base.{key}", "set in [sweep] (it is a grid axis)", None, where)
+    speeds = _speed_axis(sweep, base, where)
     by_items = sweep.get("duration_s_by_items", {})
     if not isinstance(by_items, dict):
         raise InvalidInput("sweep.duration_s_by_items", "a table items = seconds", by_items, where)
@@ -241,10 +244,11 @@ def from_dict(data: dict[str, Any], where: str) -> SweepConfig:  # noqa: C901, P
     if not all(isinstance(n, str) and n for n in names) or len(set(names)) != len(names):
         raise InvalidInput("variants.name", "a unique, non-empty name per variant", names, where)
     planners = _list(sweep, "planners", ["qlearning"], where)
-    factors = _list(sweep, "speed_factors", [1.0], where)
     item_counts = _list(sweep, "items", [100], where)
+    if "items" not in sweep and _section_key(base, "infeed", *FEED_KEYS):
+        item_counts = [None]  # the base's feed rate gives the count
     seeds = _seeds(sweep, where)
-    axes = (variants, planners, factors, item_counts, seeds)
+    axes = (variants, planners, speeds, item_counts, seeds)
     size = math.prod(len(a) for a in axes)
     if size > MAX_EPISODES:
         sizes = " x ".join(str(len(a)) for a in axes)
@@ -260,9 +264,11 @@ def from_dict(data: dict[str, Any], where: str) -> SweepConfig:  # noqa: C901, P
     for variant in variants:
         over = {k: v for k, v in variant.items() if k != "name"}
         for planner in planners:
-            for factor in factors:
+            for speed in speeds:
                 for items in item_counts:
-                    point = {"planner": planner, "speed_factor": factor, "items": items}
+                    point = {"planner": planner, **speed}
+                    if items is not None:
+                        point["items"] = items
                     if str(items) in by_items:
                         point["duration_s"] = by_items[str(items)]
                     merged = _merge(_merge(base, over), point)
@@ -295,6 +301,30 @@ def from_dict(data: dict[str, Any], where: str) -> SweepConfig:  # noqa: C901, P
     )
 
 
+def _speed_axis(sweep: dict[str, Any], base: dict[str, Any], where: str) -> list[dict]:
+    """The belt-speed axis's grid points: `speed_factors` (default [1.0]) or `belt_speeds_mps`
+    (then each point's `[belt] speed_mps`), not both, nor the latter beside `[base]`'s.
+
+    Returns:
+        One partial config per speed ({"speed_factor": f} or {"belt": {"speed_mps": v}}).
+    """
+    if "belt_speeds_mps" not in sweep:
+        if "speed_factors" not in sweep and _section_key(base, "belt", "speed_mps"):
+            return [{}]  # the base's belt speed
+        return [{"speed_factor": f} for f in _list(sweep, "speed_factors", [1.0], where)]
+    allowed = "unset when sweep.belt_speeds_mps is given (one belt-speed axis)"
+    check("speed_factors" not in sweep, "sweep.speed_factors", allowed, None, where)
+    given = _section_key(base, "belt", "speed_mps")
+    check(not given, "base.belt.speed_mps", "set in [sweep] (it is a grid axis)", None, where)
+    return [{"belt": {"speed_mps": v}} for v in _list(sweep, "belt_speeds_mps", [], where)]
+
+
+def _section_key(table: dict[str, Any], section: str, *keys: str) -> bool:
+    """Whether `table`'s `[section]` sets any of `keys`."""
+    inner = table.get(section)
+    return isinstance(inner, dict) and any(k in inner for k in keys)
+
+
 def _grid_point(
     merged: dict[str, Any], seed: object, variant: str, where: str, like: EpisodeConfig | None
 ) -> EpisodeConfig:
@@ -305,15 +335,19 @@ def _grid_point(
             return like.replace(seed=seed)
         return episode_config.from_dict({**merged, "seed": seed}, where)
     except InvalidInput as exc:
+        belt = merged.get("belt")
+        speed_mps = belt.get("speed_mps") if isinstance(belt, dict) else None
         coords = ", ".join(
             f"{k} {v!r}"
             for k, v in (
                 ("variant", variant),
                 ("planner", merged.get("planner")),
                 ("speed_factor", merged.get("speed_factor")),
+                ("belt.speed_mps", speed_mps),
                 ("items", merged.get("items")),
                 ("seed", seed),
             )
+            if v is not None or k in ("speed_factor", "items")
         )
         at = f"{where} at ({coords})"
         if exc.where and exc.where != where:  # another file's key (the catalogue's): name both
@@ -321,6 +355,9 @@ def _grid_point(
         raise InvalidInput(exc.field, exc.allowed, exc.got, at) from None
 
 
+LATER_TABLE_KEYS = {"belt": {"speed_mps": None}}
+"""Keys added to a table after sweeps were first identified, with the value of before: left
+out of their table at it (so of the identity too, below)."""
 LATER_KEYS = {
     "min_class_confidence": 0.0,
     "world": "uniform",
@@ -337,6 +374,9 @@ LATER_KEYS = {
     },
 }
 LATER_KEYS["belt"] = {**LATER_KEYS["belt"], "infeed_hold": False}  # no hold before it existed
+LATER_KEYS |= {"horizon_s": None, "infeed": dataclasses.asdict(episode_config.InfeedRate())}
+for _table, _keys in LATER_TABLE_KEYS.items():
+    LATER_KEYS[_table] = {k: v for k, v in LATER_KEYS[_table].items() if k not in _keys}
 """Episode-config keys added after sweeps were first identified, with the value that gives the
 behaviour from before they existed (not their default): a grid point at that value is left out
 of the identity, so an old sweep resumes only when its episodes would still run as they did
@@ -348,6 +388,11 @@ def _resolved(variant: str, config: EpisodeConfig) -> str:
     later key at its default is left out (`LATER_KEYS`)."""
     settings = _settings_applied(config)
     settings.pop("seed")
+    for table, keys in LATER_TABLE_KEYS.items():
+        inner = settings.get(table)
+        for key, before in keys.items():
+            if isinstance(inner, dict) and inner.get(key, before) == before:
+                inner.pop(key, None)
     for key, default in LATER_KEYS.items():
         if settings.get(key) == default:
             settings.pop(key)

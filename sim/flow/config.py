@@ -112,6 +112,8 @@ class FlowConfig:
         n_materials: Material classes of the catalogue the flow is drawn from (n).
         max_items_per_metre: The densest belt accepted (`MAX_ITEMS_PER_METRE` for one
             robot's pool, `LINE_MAX_ITEMS_PER_METRE` for a line's).
+        type_weights: Per catalogue item type, its weight within its material (shape variants
+            0; a base type of weight 0 is not drawn); None: the catalogue's `weight`s.
     """
 
     n_items: int = 100
@@ -125,6 +127,7 @@ class FlowConfig:
     world: WorldVariation = field(default_factory=WorldVariation)
     n_materials: int = 3
     max_items_per_metre: float = MAX_ITEMS_PER_METRE
+    type_weights: tuple[float, ...] | None = None
 
     def __post_init__(self):
         n = self.n_items
@@ -162,6 +165,12 @@ class FlowConfig:
             raise InvalidInput("seed", "an integer >= 0", self.seed)
         if not 0.05 <= float(self.observation_period_s) <= 5.0:
             raise InvalidInput("observation_period_s", "0.05..5 s", self.observation_period_s)
+        weights = self.type_weights
+        if weights is not None:
+            array = np.asarray(weights, dtype=float)
+            if array.ndim != 1 or not np.all(np.isfinite(array)) or np.any(array < 0):
+                raise InvalidInput("type_weights", "one weight >= 0 per item type", weights)
+            object.__setattr__(self, "type_weights", tuple(array.tolist()))
         if not isinstance(self.world, WorldVariation):
             raise InvalidInput("world", "a WorldVariation", type(self.world).__name__)
         density = self.items_per_metre

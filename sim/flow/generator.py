@@ -3,8 +3,9 @@
 A biased random number generator, as in the thesis: items arrive one per time slot of
 duration/n_items at a uniformly random instant within it; each falls in a stripe drawn from the
 stripe priors; its class follows a Markov chain along the belt within that stripe (the first
-item of a stripe from the class priors); its type within the class follows the catalogue's
-weights and its colour the type's colour distribution. The world's variation
+item of a stripe from the class priors; a mix given as shares matches the chain to them,
+`sim.flow.mix`); its type within the class follows the catalogue's weights (or the config's
+`type_weights`) and its colour the type's colour distribution. The world's variation
 (`sim.flow.world`, from its own random stream) then gives each item its shape variant (crushed,
 crumpled, folded), size factors, colours and label, and whether it may lie partly over a flat
 neighbour. The lateral position is uniform over the part of the stripe where the whole (scaled)
@@ -163,11 +164,43 @@ def _draw_classes(config: FlowConfig, stripes: np.ndarray, u: np.ndarray) -> np.
     return out
 
 
+def arrivals(config: FlowConfig, rng: np.random.Generator) -> tuple[np.ndarray, ...]:
+    """A flow's first draws, as `generate_flow` makes them from its generator: each item's
+    time in its slot, its stripe and its material (the stripes' Markov chains), in slot order.
+
+    Args:
+        config: Flow settings.
+        rng: `numpy.random.default_rng(config.seed)`, fresh.
+
+    Returns:
+        (t_slot [s], stripe 0..4, material index 0..n-1 in the catalogue's order), (n,) each.
+    """
+    n = config.n_items
+    slot = float(config.duration_s) / n
+    t_slot = (np.arange(n) + rng.random(n)) * slot
+    stripes = rng.choice(N_STRIPES, size=n, p=np.asarray(config.stripe_priors, dtype=float))
+    return t_slot, stripes, _draw_classes(config, stripes, rng.random(n))
+
+
+def _type_weights(config: FlowConfig, catalogue: Catalogue, groups: list) -> list[np.ndarray]:
+    """Each material's base types' weights (`groups`: their indices): the catalogue's, or
+    the config's `type_weights`."""
+    if config.type_weights is None:
+        return [np.array([catalogue.types[i].weight for i in g]) for g in groups]
+    if len(config.type_weights) != len(catalogue.types):
+        allowed = f"one weight per item type of the catalogue ({len(catalogue.types)})"
+        raise InvalidInput("type_weights", allowed, len(config.type_weights))
+    given = np.asarray(config.type_weights)
+    return [given[g] for g in groups]
+
+
 def _draw_within(weights: list[np.ndarray], group: np.ndarray, u: np.ndarray) -> np.ndarray:
     """Index drawn from weights[group[i]] with uniform u[i], for every i."""
     out = np.empty(len(group), dtype=np.int64)
     for g, w in enumerate(weights):
         mask = group == g
+        if not mask.any():  # none drawn (a material of share 0 has no weight to divide by)
+            continue
         cdf = np.cumsum(w) / np.sum(w)
         out[mask] = np.minimum(np.searchsorted(cdf, u[mask], side="right"), len(w) - 1)
     return out
@@ -189,16 +222,13 @@ def generate_flow(config: FlowConfig, catalogue: Catalogue, pool_size: int | Non
     rng = np.random.default_rng(config.seed)
     n = config.n_items
     v = config.belt_speed_mps
-    slot = float(config.duration_s) / n
-    t_slot = (np.arange(n) + rng.random(n)) * slot
-    stripes = rng.choice(N_STRIPES, size=n, p=np.asarray(config.stripe_priors, dtype=float))
     materials = catalogue.materials
     if config.n_materials != materials.count:
         allowed = f"the catalogue's {materials.count} materials ({'/'.join(materials.names)})"
         raise InvalidInput("n_materials", allowed, config.n_materials)
-    classes = _draw_classes(config, stripes, rng.random(n))
+    t_slot, stripes, classes = arrivals(config, rng)
     type_groups = [np.array(catalogue.of_material(m)) for m in materials.names]
-    type_weights = [np.array([catalogue.types[i].weight for i in g]) for g in type_groups]
+    type_weights = _type_weights(config, catalogue, type_groups)
     within = _draw_within(type_weights, classes, rng.random(n))
     type_index = np.array([type_groups[c][k] for c, k in zip(classes, within, strict=True)])
     colour_weights = [np.array(t.colour_probs) for t in catalogue.types]

@@ -81,7 +81,8 @@ def per_hour_columns(
     Args:
         row: The episode's counters (`EpisodeMetrics.row`: picked, wrong_bin, mass_recovered_kg,
             net_profit_eur).
-        feed_s: How long the items were fed (the config's `duration_s`) [s].
+        feed_s: How long the items were fed (the config's `duration_s`, or `horizon_s` when
+            that ends the run sooner) [s].
         robots: The robots of the line.
         economics: {`ECONOMICS_COLUMNS` name: value} (`[economics]`).
 

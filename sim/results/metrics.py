@@ -12,6 +12,10 @@ Definitions (thesis 4.1.4 and docs/episode.md):
 - `missed`: items that passed the robot's working space unpicked (the thesis discards them; the
   runner takes them off the belt there); `dropped`: items that fell anywhere but into a bin
   (off the belt, off the cup, beside a bin).
+- `left_on_belt`: items still in play when the episode ended at its horizon (`horizon_s`): on
+  the belt, in a cup or falling, booked neither picked, missed nor dropped (0 without a
+  horizon, or when the belt was clear before it); `not_arrived`: the flow's items not yet
+  dropped then (`n_items` - `entered`).
 - `mean_cycle_s`: mean time from the start of one pick attempt to the end of its release.
 - `thrown_off`: items the robot struck or flung off the belt (`sim.monitors.thrown`: left
   the belt's top area sideways or upstream, or moved faster than 1.5 m/s, while neither held
@@ -55,8 +59,9 @@ Sorting quality (what a plant judges a sorter by):
 
 Accounting identities, true of every finished episode (`accounting_failures` checks them):
 
-- entered = picked + missed + dropped, the three sets disjoint (every item ends in exactly
-  one: in a bin, past the robot or at the time cap, or anywhere else);
+- entered = picked + missed + dropped + left_on_belt, the four sets disjoint (every item ends
+  in exactly one: in a bin, past the robot or at the time cap, anywhere else, or still in play
+  at the horizon); n_items = entered + not_arrived, not_arrived >= 0;
 - entered = entered_paper + entered_plastic + entered_aluminium, and the same for picked;
 - wrong_bin <= picked <= attempts - failed_picks (only an item the cup carried and released
   over a bin can be in one);
@@ -134,6 +139,8 @@ class EpisodeMetrics:
             class's (an item type's own value, a price per kg; `[values]`).
         item_masses: Each item's mass as varied [kg] ({item id: kg}), for `mass_entered_kg` and
             `mass_recovered_kg`; None: not known (the columns are left empty).
+        n_items: The flow's items (`not_arrived` counts those not dropped); None: not known
+            (the column is left empty).
     """
 
     def __init__(
@@ -143,9 +150,12 @@ class EpisodeMetrics:
         materials: Materials = THESIS_MATERIALS,
         item_values: dict[int, float] | None = None,
         item_masses: dict[int, float] | None = None,
+        n_items: int | None = None,
     ):
         self.values = dict(values)
         self.item_masses = None if item_masses is None else dict(item_masses)
+        self.n_items = n_items
+        self.left_on_belt: set[int] = set()  # in play when the horizon ended the episode
         self.materials = materials
         self.item_values = dict(item_values or {})
         self.energy_price = float(energy_price)
@@ -202,6 +212,11 @@ class EpisodeMetrics:
         """An item left the belt unpicked."""
         if item_id not in self.binned:
             self.missed.add(int(item_id))
+
+    def on_left_on_belt(self, item_id: int) -> None:
+        """An item was still in play when the episode ended at its horizon."""
+        if item_id not in self.binned:
+            self.left_on_belt.add(int(item_id))
 
     def on_dropped(self, item_id: int) -> None:
         """An item fell somewhere other than the belt's end or a bin."""
@@ -304,6 +319,8 @@ class EpisodeMetrics:
             "attempts": len(self.picks),
             "failed_picks": sum(1 for p in self.picks if not p.success),
             "dropped": len(self.dropped),
+            "left_on_belt": len(self.left_on_belt),
+            "not_arrived": None if self.n_items is None else self.n_items - n_in,
             **{f"entered_{names[c]}": self.entered[c] for c in self.materials.ids},
             "mujoco_warnings": self.mujoco_warnings,
             "thrown_off": len(self.thrown_off),
@@ -367,16 +384,24 @@ class EpisodeMetrics:
         row = self.row()
         fails = []
         picked, missed, dropped = set(self.binned), self.missed, self.dropped
-        if row["entered"] != len(picked) + len(missed) + len(dropped):
+        left = self.left_on_belt
+        if row["entered"] != len(picked) + len(missed) + len(dropped) + len(left):
             fails.append(
                 f"entered {row['entered']} != picked {len(picked)} + missed {len(missed)} "
-                f"+ dropped {len(dropped)}"
+                f"+ dropped {len(dropped)} + left_on_belt {len(left)}"
             )
-        for name, a, b in (("picked&missed", picked, missed), ("picked&dropped", picked, dropped)):
+        pairs = (
+            ("picked&missed", picked, missed),
+            ("picked&dropped", picked, dropped),
+            ("missed&dropped", missed, dropped),
+            ("left_on_belt&booked", left, picked | missed | dropped),
+        )
+        for name, a, b in pairs:
             if a & b:
                 fails.append(f"{name} overlap: {sorted(a & b)}")
-        if missed & dropped:
-            fails.append(f"missed&dropped overlap: {sorted(missed & dropped)}")
+        not_arrived = row["not_arrived"]
+        if not_arrived is not None and not_arrived < 0:
+            fails.append(f"not_arrived {not_arrived} < 0: more entered than the flow's items")
         for what in ("entered", "picked"):
             parts = sum(row[f"{what}_{c}"] for c in self.materials.names)
             if parts != row[what]:
@@ -387,7 +412,7 @@ class EpisodeMetrics:
                 f"not wrong_bin {row['wrong_bin']} <= picked {row['picked']} "
                 f"<= carried to a bin {carried}"
             )
-        unbooked = self.thrown_off - picked - missed - dropped
+        unbooked = self.thrown_off - picked - missed - dropped - left
         if unbooked:
             fails.append(f"thrown off but never booked: {sorted(unbooked)}")
         n_in = row["entered"]

@@ -109,6 +109,8 @@ EPISODE_COLUMNS = (
     "robot_life_years",
     "hours_per_year",
     "robot_maintenance_eur_per_year",
+    "left_on_belt",
+    "not_arrived",
 )
 PICK_COLUMNS = (
     "t_start_s",
