@@ -747,8 +747,8 @@ class FlowMix:
 
         Returns:
             {keyword: value} of the fields set; with `mix` or `mix_types`, the class priors
-            (the shares), the transitions matched to them (`sim.flow.mix`) and, of
-            `mix_types`, the item types' weights.
+            (the shares), the transitions matched to them (`sim.flow.mix`), the shares each
+            flow is held to (`held_shares`) and, of `mix_types`, the item types' weights.
         """
         names = ("class_priors", "transitions", "stripe_priors")
         out = {n: getattr(self, n) for n in names if getattr(self, n) is not None}
@@ -764,6 +764,7 @@ class FlowMix:
         base = self.transitions or default_transitions(materials.count)
         out["class_priors"] = tuple(float(x) for x in shares)
         out["transitions"] = flow_mix.matched_transitions(base, shares, field)
+        out["held_shares"] = out["class_priors"]
         return out
 
     def table(self) -> dict[str, Any]:

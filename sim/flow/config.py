@@ -112,6 +112,9 @@ class FlowConfig:
         n_materials: Material classes of the catalogue the flow is drawn from (n).
         max_items_per_metre: The densest belt accepted (`MAX_ITEMS_PER_METRE` for one
             robot's pool, `LINE_MAX_ITEMS_PER_METRE` for a line's).
+        held_shares: Material shares (n) the flow's items are held to, each within
+            `sim.flow.mix.held_items(n_items)` items (a mix given as shares: the stripes' chains
+            drawn again until their items carry it); None: the chains' draw as it falls.
         type_weights: Per catalogue item type, its weight within its material (shape variants
             0; a base type of weight 0 is not drawn); None: the catalogue's `weight`s.
     """
@@ -128,6 +131,7 @@ class FlowConfig:
     n_materials: int = 3
     max_items_per_metre: float = MAX_ITEMS_PER_METRE
     type_weights: tuple[float, ...] | None = None
+    held_shares: tuple[float, ...] | None = None
 
     def __post_init__(self):
         n = self.n_items
@@ -146,19 +150,7 @@ class FlowConfig:
         m = self.n_materials
         if isinstance(m, bool) or not isinstance(m, int | np.integer) or not 1 <= m <= 8:
             raise InvalidInput("n_materials", "an integer 1..8", m)
-        stripes = _probabilities("stripe_priors", self.stripe_priors, (N_STRIPES,))
-        given = self.transitions
-        transitions = _probabilities(
-            "transitions", default_transitions(m) if given is None else given, (m, m)
-        )
-        given = self.class_priors
-        classes = _probabilities(
-            "class_priors", default_class_priors(m) if given is None else given, (m,)
-        )
-        # Plain tuples (e.g. from TOML lists), so configs hash and compare by value.
-        object.__setattr__(self, "stripe_priors", tuple(stripes.tolist()))
-        object.__setattr__(self, "transitions", tuple(tuple(r) for r in transitions.tolist()))
-        object.__setattr__(self, "class_priors", tuple(classes.tolist()))
+        self._set_probabilities(m)
         if isinstance(self.seed, bool) or not isinstance(self.seed, int | np.integer):
             raise InvalidInput("seed", "an integer >= 0", self.seed)
         if self.seed < 0:
@@ -182,6 +174,25 @@ class FlowConfig:
                 f"in {self.duration_s:g} s at x{self.speed_factor:g} (longer flows carry more)"
             )
             raise InvalidInput("n_items", allowed, n)
+
+    def _set_probabilities(self, m: int) -> None:
+        """The stripes', transitions', first items' and held shares' probabilities checked and
+        stored as plain tuples (e.g. from TOML lists), so configs hash and compare by value."""
+        stripes = _probabilities("stripe_priors", self.stripe_priors, (N_STRIPES,))
+        given = self.transitions
+        transitions = _probabilities(
+            "transitions", default_transitions(m) if given is None else given, (m, m)
+        )
+        given = self.class_priors
+        classes = _probabilities(
+            "class_priors", default_class_priors(m) if given is None else given, (m,)
+        )
+        object.__setattr__(self, "stripe_priors", tuple(stripes.tolist()))
+        object.__setattr__(self, "transitions", tuple(tuple(r) for r in transitions.tolist()))
+        object.__setattr__(self, "class_priors", tuple(classes.tolist()))
+        if self.held_shares is not None:
+            held = _probabilities("held_shares", self.held_shares, (m,))
+            object.__setattr__(self, "held_shares", tuple(held.tolist()))
 
     @property
     def belt_speed_mps(self) -> float:

@@ -37,6 +37,7 @@ from sim.flow.config import (
     FlowConfig,
 )
 from sim.flow.footprint_polygons import polygon, shift_intervals
+from sim.flow.mix import HELD_SHARES_MAX_DRAWS, HELD_SHARES_STREAM, held_items
 from sim.flow.world import draw_variation, variation_rng
 
 EDGE_MARGIN_M = 0.005
@@ -179,7 +180,30 @@ def arrivals(config: FlowConfig, rng: np.random.Generator) -> tuple[np.ndarray, 
     slot = float(config.duration_s) / n
     t_slot = (np.arange(n) + rng.random(n)) * slot
     stripes = rng.choice(N_STRIPES, size=n, p=np.asarray(config.stripe_priors, dtype=float))
-    return t_slot, stripes, _draw_classes(config, stripes, rng.random(n))
+    classes = _draw_classes(config, stripes, rng.random(n))
+    if config.held_shares is not None:
+        classes = held_to_shares(config, stripes, classes)
+    return t_slot, stripes, classes
+
+
+def held_to_shares(config: FlowConfig, stripes: np.ndarray, classes: np.ndarray) -> np.ndarray:
+    """The stripes' chains drawn again, from a generator of their own seeded by the flow's
+    seed, until each material's count of items is within `held_items(n)` of the count
+    `config.held_shares` gives: the chains conditioned on carrying the mix (`sim.flow.mix`). The
+    first draw is kept when it does; the flow's other draws are untouched either way."""
+    n = len(classes)
+    target = np.asarray(config.held_shares) * n
+    allowed = held_items(n) + 1e-9
+    redraws = np.random.default_rng([config.seed, HELD_SHARES_STREAM])
+    for _ in range(HELD_SHARES_MAX_DRAWS):
+        counts = np.bincount(classes, minlength=len(target))
+        if np.all(np.abs(counts - target) <= allowed):
+            return classes
+        classes = _draw_classes(config, stripes, redraws.random(n))
+    raise InvalidInput(
+        "flow.mix", f"shares a flow of {n} items can carry within {held_items(n)} items",
+        config.held_shares,
+    )  # fmt: skip
 
 
 def _type_weights(config: FlowConfig, catalogue: Catalogue, groups: list) -> list[np.ndarray]:
