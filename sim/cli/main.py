@@ -39,6 +39,7 @@ COMMANDS = {
     "view": "Show one episode live in MuJoCo's interactive viewer (needs a display).",
     "reproduce": "The thesis's chapter 4, every table and figure, from sweeps of the current code.",
     "frames": "Write the belt camera's frames of one episode as a labelled COCO data set.",
+    "advise": "Which line to buy: robots x belt speeds swept until a plant's targets decide.",
 }
 
 REFUSED = (RefusedInput, NotAvailable)

@@ -70,10 +70,17 @@ def main(args: argparse.Namespace) -> int:
         config = sweep_config.first_seeds(config, args.seeds)
     if args.ray is not None:
         sweep.require_ray(args.ray)
-    sweep.check_out_dir(config, args.out, args.mix_code)
     check_rendering(config)
+    return run_locked(args, config)
+
+
+def run_locked(args: argparse.Namespace, config) -> int:
+    """The sweep run in its folder (`args.out`, `.workers`, `.ray`, `.mix_code`): the folder
+    checked, locked, checked again, then the episodes pending."""
+    from sim.experiments import sweep_runner as sweep
     from sim.results.locks import FolderLock
 
+    sweep.check_out_dir(config, args.out, args.mix_code)
     with FolderLock(args.out, "--out"):
         sweep.check_out_dir(config, args.out, args.mix_code)  # again, now no other can write
         return _run(args, config)
