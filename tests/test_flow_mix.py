@@ -53,7 +53,7 @@ def test_the_matched_table_has_the_mix_as_its_stationary_shares_and_keeps_the_od
 
 def test_a_40_35_25_mix_gives_those_shares_over_600_items_and_long_flows():
     """Every flow of a mix carries it within 2 points (its chains drawn again until they do;
-    alone they stray by 2.2-2.8 points over 600 items, `python -m sim.experiments.mix_shares
+    alone they stray by 2.2-2.8 points over 600 items, `python -m sim.evaluation.mix_shares
     --mix 0.40 0.35 0.25`), and keeps its clumps: a stripe's item follows one of its own class
     about as often as the matched table says; a flow of 100000 items within 1 point at the
     first draw; the default mix is not the plant's."""

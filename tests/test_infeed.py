@@ -62,7 +62,7 @@ def _gap_at_drop(hold: bool) -> tuple[int, float]:
         ep._step()
     mujoco.mj_kinematics(ep.model, data)
     geoms = [pool.geom_id(pool.slot_of(i)) for i in (0, 1)]
-    return ep.infeed_holds, mujoco.mj_geomDistance(ep.model, data, *geoms, 1.0, None)
+    return ep.infeed.holds, mujoco.mj_geomDistance(ep.model, data, *geoms, 1.0, None)
 
 
 def test_the_infeed_holds_an_item_back_until_it_drops_clear_and_off_drops_it_inside():

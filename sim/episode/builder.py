@@ -26,7 +26,7 @@ from sim.episode import step_hooks
 from sim.episode.config import EpisodeConfig
 from sim.episode.cycle_timing import cell_cycle_model
 from sim.episode.pick_control import PRESS_DEPTH_M, PickController
-from sim.episode.scheduler import PeriodicEvent, Scheduler
+from sim.episode.scheduler import Horizon, PeriodicEvent, Scheduler
 from sim.episode.stations import RobotStation
 from sim.errors import InvalidInput
 from sim.flow.config import X_INFEED
@@ -101,22 +101,35 @@ class Timeline:
     Attributes:
         t_last_spawn: When the last item drops [s].
         x_discard: Where an unpicked item is out of every robot's reach [m].
-        t_end: When the last item has passed the robots and settled: a normal end [s].
+        t_end: When the last item has passed the robots and settled: a normal end, or the
+            horizon when that comes first [s].
         t_cap: The latest end [s].
+        horizon: The event of the config's `horizon_s` (None: the run ends when the belt is
+            clear).
     """
 
     t_last_spawn: float
     x_discard: float
     t_end: float
     t_cap: float
+    horizon: Horizon | None = None
 
     @classmethod
-    def of(cls, cell: Cell, flow: Flow, belt_speed: float) -> Timeline:
-        """The timeline of `flow` on `cell` at `belt_speed` [m/s]."""
+    def of(
+        cls, cell: Cell, flow: Flow, belt_speed: float, horizon_s: float | None = None
+    ) -> Timeline:
+        """The timeline of `flow` on `cell` at `belt_speed` [m/s], ended at `horizon_s` [s]."""
         t_last_spawn = float(flow.t_spawn[-1]) if len(flow) else 0.0
         x_discard = float(np.nanmax(cell.window.x_exit)) + DISCARD_MARGIN_M + cell.cup_extra_m
         t_end = t_last_spawn + (x_discard - X_INFEED) / belt_speed + SETTLE_S
-        return cls(t_last_spawn, x_discard, t_end, t_end + 10.0)
+        horizon = None if horizon_s is None else Horizon(float(horizon_s))
+        t_stop = t_end if horizon is None else min(t_end, horizon.at_s)
+        return cls(t_last_spawn, x_discard, t_stop, t_end + 10.0, horizon)
+
+    @property
+    def at_horizon(self) -> bool:
+        """Whether the episode has reached its horizon (it ends there, whatever is left)."""
+        return self.horizon is not None and self.horizon.reached
 
 
 _FLOWS: dict[tuple, Flow] = {}

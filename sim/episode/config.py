@@ -118,7 +118,7 @@ TOML layout (every key optional; defaults are the headline episode)::
     robot_maintenance_eur_per_year = 3000.0
     energy_price_eur_per_kwh = 0.2   # the top-level key, given here instead (either place)
     [infeed]                    # the feed in plant units instead of items (one key of three;
-    items_per_m = 18.0          # sim/episode/feed_rate.py): items per metre of belt, or
+    items_per_m = 18.0          # sim/flow/feed_rate.py): items per metre of belt, or
     # items_per_s = 3.6         # items per second, or kilograms per hour at the catalogue's
     # kg_per_h = 250.0          # mean item mass under the mix; items = the rate over
                                 # duration_s (18 x belt speed x duration_s), rounded
@@ -160,8 +160,6 @@ from planner.decision.robot_materials import class_ids_of
 from planner.motion.belt_speeds import SPEED_RANGE_MPS, SPEED_TOLERANCE_MPS, SPEED_X1_MPS
 from sim.cell.camera import FRAME_SIZE
 from sim.checks import check, is_integer, is_number
-from sim.episode import feed_rate
-from sim.episode.feed_rate import FEED_KEYS
 from sim.episode.line_robots import (
     MAX_PAUSE_S,
     MAX_ROBOTS,
@@ -173,6 +171,7 @@ from sim.episode.line_robots import (
     robot_specs,
 )
 from sim.errors import InvalidInput, RefusedInput
+from sim.flow import feed_rate
 from sim.flow import mix as flow_mix
 from sim.flow.catalogue import DEFAULT_CATALOGUE, MASS_RANGE_KG, Catalogue, load_catalogue
 from sim.flow.config import (
@@ -182,6 +181,7 @@ from sim.flow.config import (
     FlowConfig,
     default_transitions,
 )
+from sim.flow.feed_rate import FEED_KEYS
 from sim.flow.generator import EDGE_MARGIN_M
 from sim.flow.world import WORLD_LIMITS, WorldVariation, check_varied
 from sim.model.line_model import MAX_LAST_X_M
@@ -962,7 +962,7 @@ class Belt:
 
 @dataclass(frozen=True)
 class InfeedRate:
-    """The feed in a plant's units, instead of `items` (`sim.episode.feed_rate`): at most one
+    """The feed in a plant's units, instead of `items` (`sim.flow.feed_rate`): at most one
     key; the item count is the rate over `duration_s`, rounded to the nearest item.
 
     Attributes:
@@ -1181,7 +1181,7 @@ class EpisodeConfig:
         object.__setattr__(self, "speed_factor", derived)
 
     def _resolve_feed(self) -> None:
-        """`items` of an `[infeed]` rate: the rate over `duration_s` (`sim.episode.feed_rate`),
+        """`items` of an `[infeed]` rate: the rate over `duration_s` (`sim.flow.feed_rate`),
         refused past the densest belt or outside 1..`MAX_ITEMS` items (an `items` given too is
         refused unless it is that count)."""
         rate = self.infeed.rate

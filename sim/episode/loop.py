@@ -12,9 +12,7 @@ one at a time, with the episode's own hooks of `sim.episode.step_hooks`).
 `step_until_decision` advances until a robot is free and a choice is needed; `apply` takes the
 choice (the configured decision manager's in `run`, or a Gymnasium agent's). The episode ends
 when every item has been dropped and left the belt and every robot is idle, or at the config's
-`horizon_s` (`Horizon`: the physics stepped up to it and no further, a pick under way cut
-short; the items still in play counted `left_on_belt`, those not yet dropped `not_arrived`).
-Its parts are made by `sim.episode.builder`.
+`horizon_s` (`builder.Timeline.horizon`). Its parts are made by `sim.episode.builder`.
 """
 
 from __future__ import annotations
@@ -40,7 +38,6 @@ from sim.episode.pick_control import PickController
 from sim.episode.scheduler import (
     FrameEvent,
     Hooks,
-    Horizon,
     PeriodicEvent,
     Scheduler,
     is_due,
@@ -154,11 +151,6 @@ class Episode:
         """The track the first robot is picking (None when idle)."""
         return self.stations[0].current_pick if self.stations else None
 
-    @property
-    def infeed_holds(self) -> int:
-        """Items the infeed held back at least once (`sim.episode.infeed`)."""
-        return self.infeed.holds
-
     def _station(self) -> RobotStation:
         return self._deciding if self._deciding is not None else self.stations[0]
 
@@ -180,11 +172,8 @@ class Episode:
         self.speed = config.belt_speed_mps
         cell.reset(self.speed)
         self.flow = builder.episode_flow(config, cell)
-        self.timeline = builder.Timeline.of(cell, self.flow, self.speed)
+        self.timeline = builder.Timeline.of(cell, self.flow, self.speed, config.horizon_s)
         self.x_discard, self.t_end = self.timeline.x_discard, self.timeline.t_end
-        self.horizon = None if config.horizon_s is None else Horizon(float(config.horizon_s))
-        if self.horizon is not None:
-            self.t_end = min(self.t_end, self.horizon.at_s)
         self.metrics: EpisodeMetrics = builder.episode_metrics(config, cell, self.flow)
         self.tracker = Tracker(self.speed)
         controllers = builder.pick_controllers(config, cell, self.flow)
@@ -238,8 +227,8 @@ class Episode:
         for event in self._user_events:
             event.next_s = 0.0
             self.scheduler.add(event)
-        if self.horizon is not None:  # last: what is due at the horizon happens first
-            self.scheduler.add(self.horizon)
+        if self.timeline.horizon is not None:  # last: what is due at the horizon goes first
+            self.scheduler.add(self.timeline.horizon)
 
     def close(self, aborted: bool = False) -> None:
         """Release the perception's renderer and finish (or, `aborted`, discard) the video."""
@@ -383,7 +372,7 @@ class Episode:
         t = self.data.time
         if self.progress is not None and t - self._last_report >= 1.0:
             self._last_report = t
-            self.progress(min(t / self.t_end, 1.0), self.status_text())
+            self.progress(min(t / self.t_end, 1.0), self.metrics.status_line(t))
 
     def _fire_due(self) -> None:
         """Every event due now, in order, each seeing the items where they are now."""
@@ -429,7 +418,7 @@ class Episode:
         self.metrics.on_left_unsure(sum(1 for tr in gone if is_unsure(tr.probs, threshold)))
 
     def _finished(self) -> bool:
-        if self.horizon is not None and self.horizon.reached:
+        if self.timeline.at_horizon:
             return True
         if any(s.robot.busy for s in self.stations):  # a pick under way is always finished
             return False
@@ -449,16 +438,6 @@ class Episode:
         self.metrics.on_warnings(self.mj_warnings.update())
         self.book_unsure(self.tracker.tracks())  # still tracked when the episode ended
         items = self.cell.items
-        book = self.metrics.on_missed
-        if self.horizon is not None and self.horizon.reached:
-            book = self.metrics.on_left_on_belt
+        book = self.metrics.on_left_on_belt if self.timeline.at_horizon else self.metrics.on_missed
         for slot in items.active_slots():
             book(int(items.park(int(slot))))
-
-    def status_text(self) -> str:
-        """One line for the progress bar."""
-        m = self.metrics
-        return (
-            f"t {self.data.time:6.1f} s  entered {m.n_entered}  picked {m.n_picked}  "
-            f"missed {len(m.missed)}  profit {m.profit:.2f} EUR"
-        )

@@ -25,9 +25,9 @@ from pathlib import Path
 from typing import Any
 
 from sim.episode import config as episode_config
-from sim.episode.feed_rate import FEED_KEYS
 from sim.episode.line_robots import RobotSpec
 from sim.errors import InvalidInput
+from sim.flow.feed_rate import FEED_KEYS
 from sim.flow.world import WorldVariation
 from sim.paths import REPO_ROOT
 from sim.sensing.confidence import ITEM_CLASSIFIER_MIN_CONFIDENCE

@@ -47,9 +47,9 @@ from typing import Any
 from sim.checks import check, is_integer
 from sim.episode import config as episode_config
 from sim.episode.config import EpisodeConfig, read_toml
-from sim.episode.feed_rate import FEED_KEYS
 from sim.episode.line_robots import MAX_ROBOTS, SECTION_KEYS, resized_tables
 from sim.errors import InvalidInput
+from sim.flow.feed_rate import FEED_KEYS
 
 _SWEEP_KEYS = {
     "name",

@@ -259,6 +259,13 @@ class EpisodeMetrics:
         worth = self.item_values
         return sum(worth.get(i, self.values[t]) for i, (t, b) in self.binned.items() if t == b)
 
+    def status_line(self, t: float) -> str:
+        """One line for a progress bar at sim time `t` [s]."""
+        return (
+            f"t {t:6.1f} s  entered {self.n_entered}  picked {self.n_picked}  "
+            f"missed {len(self.missed)}  profit {self.profit:.2f} EUR"
+        )
+
     def picked_of(self, class_id: int) -> int:
         """Items of true class `class_id` placed into a bin."""
         return sum(1 for t, _ in self.binned.values() if t == class_id)

@@ -2,8 +2,8 @@
 were set to, and how far a flow of a few hundred items strays from it (docs/episode.md, "The
 feed in plant units").
 
-    python -m sim.experiments.mix_shares                         # the default flow
-    python -m sim.experiments.mix_shares --mix 0.40 0.35 0.25    # a mix by material
+    python -m sim.evaluation.mix_shares                         # the default flow
+    python -m sim.evaluation.mix_shares --mix 0.40 0.35 0.25    # a mix by material
 
 Each flow is the episode's (`EpisodeConfig.flow_config`: its stripes' Markov chains, the mix
 matched by `sim.flow.mix`), its classes drawn as the flow generator draws them
@@ -83,7 +83,7 @@ def main(argv: list[str] | None = None) -> int:
     """Print the measured shares against the mix."""
     from sim.episode import config as episode_config
 
-    parser = argparse.ArgumentParser(prog="python -m sim.experiments.mix_shares")
+    parser = argparse.ArgumentParser(prog="python -m sim.evaluation.mix_shares")
     parser.add_argument("--mix", type=float, nargs=3, default=None, metavar="SHARE")
     parser.add_argument("--long", type=int, default=LONG_ITEMS, help="items of a long flow")
     parser.add_argument("--seeds", type=int, default=20, help="long flows (seeds 0..N-1)")
