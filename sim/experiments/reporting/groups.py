@@ -48,9 +48,14 @@ NAMED_KEYS = frozenset(
         "catalogue",
         "energy_price_eur_per_kwh",
         "min_class_confidence",
+        "belt.speed_mps",  # the belt speed's other spelling
+        "infeed.items_per_m",  # the feed's: items over duration_s
+        "infeed.items_per_s",
+        "infeed.kg_per_h",
     }
 )
-"""Config keys the grouping settings stand for (or the CSV records: the applied confidence)."""
+"""Config keys the grouping settings stand for (or the CSV records: the applied confidence;
+the belt speed in m/s and a feed rate are the belt and items columns in a plant's units)."""
 NAMED_PREFIXES = ("cup.", "economics.", "video.")
 """Config tables the grouping settings stand for (`video`: output only)."""
 
