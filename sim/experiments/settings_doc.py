@@ -28,6 +28,7 @@ from sim.episode import config as episode_config
 from sim.episode.line_robots import RobotSpec
 from sim.errors import InvalidInput
 from sim.flow.world import WorldVariation
+from sim.model.scene_edits import CUP_DIAMETER_M, LINE_CUP_DIAMETER_M
 from sim.paths import REPO_ROOT
 from sim.sensing.confidence import ITEM_CLASSIFIER_MIN_CONFIDENCE
 
@@ -51,6 +52,10 @@ UNCOMMENTED = {
     "items": "Items dropped on the belt over `duration_s`.",
 }
 """Meanings of the top-level keys the config's TOML layout gives without a comment."""
+UNSET_DEFAULTS = {
+    "cup.diameter_m": f"{CUP_DIAMETER_M:g} (one robot), {LINE_CUP_DIAMETER_M:g} (a line of 2-4)"
+}
+"""What a section's key left unset (None) runs with, where it is not the flow's default mix."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -194,7 +199,8 @@ def _section(name: str, cls: type) -> list[Setting]:
         default = field.default
         if default is dataclasses.MISSING:
             default = field.default_factory() if callable(field.default_factory) else None
-        default_text = "the default mix (thesis's)" if default is None else _toml(default)
+        default_text = UNSET_DEFAULTS.get(key, "the default mix (thesis's)")
+        default_text = default_text if default is None else _toml(default)
         allowed = refusal({name: {field.name: ...}}, key)
         meaning = docs.get(field.name, "")
         out.append(Setting(key, default_text, allowed, unit_of(key, meaning, allowed), meaning))
