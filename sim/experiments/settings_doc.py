@@ -270,7 +270,26 @@ def markdown() -> str:
             cells = [f"`{s.key}`", s.default, s.allowed, s.unit, s.meaning]
             lines.append("| " + " | ".join(_cell(c) for c in cells) + " |")
         lines.append("")
-    return "\n".join(lines)
+    return "\n".join(lines + environment())
+
+
+def environment() -> list[str]:
+    """The section of the environment variables the commands read beside a config."""
+    from sim import user_cache
+
+    cells = (f"`{user_cache.VARIABLE}`", user_cache.DEFAULT_TEXT, user_cache.ALLOWED)
+    return [
+        "## Environment",
+        "",
+        "Read beside the config (camera perception's caches: `sortsim run`, `sweep`, `view`, "
+        "`frames`); a value refused stops the command before any episode, in one line naming "
+        "the variable.",
+        "",
+        "| variable | default | allowed | meaning |",
+        "|---|---|---|---|",
+        "| " + " | ".join(_cell(c) for c in (*cells, user_cache.MEANING)) + " |",
+        "",
+    ]
 
 
 def main(argv: list[str] | None = None) -> int:
