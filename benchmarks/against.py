@@ -39,6 +39,9 @@ perception = "camera"
 
 [camera]
 per_robot = true
+
+[cup]
+diameter_m = 0.06  # the cup lines had by default before 50 mm: the same episodes on both sides
 """
 ENV_SCRIPT = REPO / "benchmarks" / "env_decisions.py"
 

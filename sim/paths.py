@@ -1,5 +1,8 @@
 """Where the project's files are: one place, so no module spells a path twice.
 
+What the project computes once and keeps between runs is not here but in the user's cache
+folder (`sim.user_cache`), never inside the install.
+
 Also the one naming scheme of the project's temporary files. Every output is written to a
 hidden temporary file beside its target and renamed over it; the temporary's name carries the
 writing process's id, `.<target name>.<pid>.<token>.tmp[<suffix>]`, so a later run can tell the
@@ -21,13 +24,12 @@ SCENE_XML = MODELS_DIR / "cell" / "scene.xml"
 DATA_DIR = REPO_ROOT / "sim" / "data"
 EXPERIMENTS_DIR = REPO_ROOT / "experiments"
 CAMERA_CALIBRATION_JSON = MODELS_DIR / "cell" / "belt_camera_calibration.json"
-CACHE_DIR = REPO_ROOT / "runs" / "cache"
 
 _TOKEN_HEX = 8
 _TEMPORARIES = (
     re.compile(r"^\..+\.(?P<pid>\d+)\.[0-9a-f]{8}\.tmp(?:\.[A-Za-z0-9]+)?$"),
     re.compile(r"^\..+\.(?P<pid>\d+)\.tmp\.mp4$"),  # the videos' earlier name
-    re.compile(r"^\.stripe_hmms-[0-9a-f]+\.(?P<pid>\d+)\.npz$"),  # the HMM cache's (runs/cache)
+    re.compile(r"^\.stripe_hmms-[0-9a-f]+\.(?P<pid>\d+)\.npz$"),  # the HMM cache's earlier name
 )
 """Names of the project's temporaries, each with the id of the process writing it."""
 

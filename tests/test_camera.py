@@ -258,9 +258,9 @@ def test_a_window_is_the_whole_frame_cut_to_it(cell_with_items, fixture_model):
 
 
 def test_lens_maps_are_kept_between_processes_under_what_makes_them(tmp_path, monkeypatch):
-    """`cached_distorter` keeps a frame's lens maps in `LENS_MAPS_DIR` under the digest of what
-    they depend on: a later camera reads the same maps byte for byte, another lens or window
-    makes its own, and a damaged file is made again."""
+    """`cached_distorter` keeps a frame's lens maps in the user's cache folder under the digest
+    of what they depend on: a later camera reads the same maps byte for byte, another lens or
+    window makes its own, and a damaged file is made again."""
     from perception.camera.lens import (
         ZED_HD_LEFT,
         LensDistorter,
@@ -270,7 +270,7 @@ def test_lens_maps_are_kept_between_processes_under_what_makes_them(tmp_path, mo
     )
     from sim.cell import camera
 
-    monkeypatch.setattr(camera, "LENS_MAPS_DIR", tmp_path)
+    monkeypatch.setenv("SORTSIM_CACHE_DIR", str(tmp_path))
     matrix = np.array([[311.77, 0.0, 319.5], [0.0, 311.77, 179.5], [0.0, 0.0, 1.0]])
     src_matrix, src_size = source_canvas(matrix, ZED_HD_LEFT, (640, 360))
     args = (matrix, ZED_HD_LEFT, (640, 360), src_matrix, src_size)

@@ -29,6 +29,7 @@ ALLOWED = {
     "sim.paths": set(),
     "sim.errors": {"perception.errors"},
     "sim.checks": {"sim.errors", "perception.errors"},
+    "sim.user_cache": {"sim.paths", "sim.errors", "perception.errors"},
 }
 # sim's rooms, lowest first: each may import the ones below it and the pure packages whole.
 SIM_ROOMS = (
@@ -47,7 +48,8 @@ SIM_ROOMS = (
 )
 PURE = ("perception", "planner")
 for i, room in enumerate(SIM_ROOMS):
-    ALLOWED[room] = {"sim.paths", "sim.errors", "sim.checks", *SIM_ROOMS[:i], *PURE}
+    ALLOWED[room] = {"sim.paths", "sim.errors", "sim.checks", "sim.user_cache"}
+    ALLOWED[room] |= {*SIM_ROOMS[:i], *PURE}
 
 
 def room_of(module: str) -> str | None:

@@ -142,8 +142,9 @@ def test_the_positions_reach_the_compiled_line(tmp_path):
         assert cell.data.body(f"{prefix}bin_aluminium").xpos[0] == pytest.approx(bin_x + x)
     assert [rc.base_x for rc in cell.robots] == pytest.approx([0.0, 2.2])
     # Another placement, another model; the same placement, the same cached model.
-    assert shared_cell(None, c.item_catalogue, 2, True, (0.0, 2.2)) is cell
-    assert shared_cell(None, c.item_catalogue, 2, True) is not cell
+    settings = c.cell_settings  # a line's cup (50 mm) by default
+    assert shared_cell(settings, c.item_catalogue, 2, True, (0.0, 2.2)) is cell
+    assert shared_cell(settings, c.item_catalogue, 2, True) is not cell
 
 
 def test_a_robot_sorting_only_aluminium_picks_only_aluminium(tmp_path):

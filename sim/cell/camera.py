@@ -75,7 +75,8 @@ from perception.camera.pipeline import CameraPipeline
 from perception.errors import PerceptionInputError
 from sim.cell.rendering import check_backend, gl_context
 from sim.errors import InvalidInput, ModelFileError
-from sim.paths import CACHE_DIR, CAMERA_CALIBRATION_JSON, temporary_path
+from sim.paths import CAMERA_CALIBRATION_JSON, temporary_path
+from sim.user_cache import cache_dir
 
 CAMERA_NAME = "belt_camera"
 MARKER_NAMES = ("marker_0", "marker_1", "marker_2", "marker_3")
@@ -494,11 +495,6 @@ def _metric_depth(model: mujoco.MjModel, scene: mujoco.MjvScene, raw: np.ndarray
     return out_64.astype(np.float32)
 
 
-LENS_MAPS_DIR = CACHE_DIR
-"""Where the lens's maps of the cameras' frames are kept from one process to the next
-(`cached_distorter`)."""
-
-
 def cached_distorter(
     camera_matrix: np.ndarray,
     lens: LensModel,
@@ -508,12 +504,12 @@ def cached_distorter(
     window: tuple[slice, slice] | None = None,
 ) -> LensDistorter:
     """`perception.camera.lens.LensDistorter` of these arguments, its maps (0.13 s of CPU for a
-    640 x 360 frame) read from `LENS_MAPS_DIR` when an earlier process made them: kept there
-    under the digest of everything they depend on (`distortion_maps_key`), so the maps read are
-    those it would make, byte for byte; else made now and kept (written atomically; a folder
-    that cannot be written keeps nothing)."""
+    640 x 360 frame) read from the user's cache folder (`sim.user_cache.cache_dir`) when an
+    earlier process made them: kept there under the digest of everything they depend on
+    (`distortion_maps_key`), so the maps read are those it would make, byte for byte; else made
+    now and kept (written atomically; a write that fails keeps nothing)."""
     args = (camera_matrix, lens, size, source_matrix, source_size, window)
-    path = Path(LENS_MAPS_DIR) / f"lens_maps-{distortion_maps_key(*args)[:20]}.npz"
+    path = cache_dir() / f"lens_maps-{distortion_maps_key(*args)[:20]}.npz"
     maps = _read_maps(path)
     if maps is not None:
         with contextlib.suppress(PerceptionInputError):  # a damaged file is made again

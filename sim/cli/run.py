@@ -332,16 +332,18 @@ def preflight(config, out: Path, video: str | Path | None) -> None:
 
 def check_perception(config) -> None:
     """Refuse, before the episode, what camera perception could not run without: the camera's
-    calibration, the rendering back-end, a broken cache of the stripe HMMs, the item
-    classifier's training table (nothing for truth perception)."""
+    calibration, the rendering back-end, a cache folder that cannot be used, a broken cache of
+    the stripe HMMs, the item classifier's training table (nothing for truth perception)."""
     if config.perception != "camera":
         return
     from perception.camera.calibration import CameraCalibration
     from sim.cell.camera import DEFAULT_CALIBRATION
     from sim.cell.rendering import check_backend
+    from sim.user_cache import cache_dir
 
     CameraCalibration.load(DEFAULT_CALIBRATION)
     check_backend()
+    cache_dir()  # SORTSIM_CACHE_DIR (or the platform's folder) created and tried
     from sim.sensing.perception import hmm_cache_path
     from sim.sensing.stripe_hmms import read_cache
 
@@ -357,9 +359,10 @@ def check_perception(config) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Run one episode and write its files."""
-    from sim.paths import CACHE_DIR, remove_stale_temporaries
+    from sim.paths import remove_stale_temporaries
     from sim.results.locks import FolderLock
     from sim.results.outputs import OutputError
+    from sim.user_cache import existing_cache_dir
 
     config = load_config(args)
     out = Path(args.out)
@@ -367,7 +370,8 @@ def main(args: argparse.Namespace) -> int:
     video_path = None if args.video is None else Path(args.video)
     with FolderLock(out, "--out"):
         extra = [] if video_path is None else [video_path.parent]
-        remove_stale_temporaries(out, CACHE_DIR, *extra)
+        extra += [cache] if (cache := existing_cache_dir()) is not None else []
+        remove_stale_temporaries(out, *extra)
         if config.perception == "camera":  # its modules cost a truth run a second to import
             from sim.evaluation.item_features import prepare_camera
 

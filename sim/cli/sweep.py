@@ -88,14 +88,17 @@ def run_locked(args: argparse.Namespace, config) -> int:
 
 def check_rendering(config) -> None:
     """Refuse, before any episode, what the sweep's camera episodes could not run without: the
-    rendering back-end, the camera's calibration, the item classifier's training table."""
+    rendering back-end, the camera's calibration, the cache folder, the item classifier's
+    training table."""
     if any(spec.config.perception == "camera" for spec in config.episodes):
         from perception.camera.calibration import CameraCalibration
         from sim.cell.camera import DEFAULT_CALIBRATION
         from sim.cell.rendering import check_backend
+        from sim.user_cache import cache_dir
 
         CameraCalibration.load(DEFAULT_CALIBRATION)
         check_backend()
+        cache_dir()  # SORTSIM_CACHE_DIR (or the platform's folder) created and tried
     if any(
         spec.config.perception == "camera" and spec.config.classifier != "hmm"
         for spec in config.episodes

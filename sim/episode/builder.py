@@ -80,7 +80,11 @@ def make_decision_manager(config: EpisodeConfig, robot: int = 0):
 
 def check_cell(cell: Cell, config: EpisodeConfig) -> None:
     """Refuse a cell compiled with other model settings than the config's (cup, belt), with
-    another number of robots or another catalogue."""
+    another number of robots or another catalogue. The robots first: a line's count decides
+    its default cup."""
+    if len(cell.robots) != config.robot_count:
+        allowed = f"the {len(cell.robots)} robot(s) of the cell it runs on"
+        raise InvalidInput("robots", allowed, config.robot_count)
     got, want = cell.settings, config.cell_settings
     for key, have, asked in (
         ("cup.diameter_m", got.cup_diameter_m, want.cup_diameter_m),
@@ -89,9 +93,6 @@ def check_cell(cell: Cell, config: EpisodeConfig) -> None:
         if have != asked:
             allowed = f"the cell's {have:g} m (a Cell(settings=config.cell_settings) for {asked:g})"
             raise InvalidInput(key, allowed, asked)
-    if len(cell.robots) != config.robot_count:
-        allowed = f"the {len(cell.robots)} robot(s) of the cell it runs on"
-        raise InvalidInput("robots", allowed, config.robot_count)
 
 
 @dataclass(frozen=True)

@@ -100,7 +100,8 @@ TOML layout (every key optional; defaults are the headline episode)::
     per_robot = false           # a line: each robot its own belt camera upstream of its reach,
                                 # their tracks fused (docs/line.md); false: the one camera
     [cup]                       # the vacuum cup
-    diameter_m = 0.06           # lip diameter 0.02..0.12 m (recompiles the cell's model)
+    diameter_m = 0.06           # lip diameter 0.02..0.12 m (recompiles the cell's model);
+                                # unset: 0.06 for one robot, 0.05 for a line (docs/line.md)
     vacuum_pa = 80000.0         # vacuum below atmosphere, 1000..101325 Pa; holds area x vacuum
     [belt]
     speed_mps = 0.2             # belt speed [m/s], 0.135..0.277, instead of speed_factor
@@ -188,9 +189,9 @@ from sim.model.line_model import MAX_LAST_X_M
 from sim.model.scene_edits import (
     BELT_LENGTH_M,
     BELT_LENGTH_RANGE_M,
-    CUP_DIAMETER_M,
     CUP_DIAMETER_RANGE_M,
     CellSettings,
+    default_cup_diameter_m,
 )
 from sim.results.economics import robot_cost_per_h
 from sim.sensing.confidence import default_min_confidence
@@ -921,16 +922,18 @@ class Cup:
 
     Attributes:
         diameter_m: The lip's diameter [m] (`CUP_DIAMETER_RANGE_M`; a model setting: the cell
-            is compiled with it).
+            is compiled with it); unset (None): 0.06 for one robot, 0.05 for a line of two or
+            more (`EpisodeConfig.cup_diameter_m`; docs/line.md, "Every item").
         vacuum_pa: The vacuum it holds with, below atmosphere [Pa] (`VACUUM_RANGE_PA`).
     """
 
-    diameter_m: float = CUP_DIAMETER_M
+    diameter_m: float | None = None
     vacuum_pa: float = 80e3
 
     def __post_init__(self) -> None:
-        for name in ("diameter_m", "vacuum_pa"):
-            RANGES[f"cup.{name}"].check(f"cup.{name}", getattr(self, name))
+        if self.diameter_m is not None:
+            RANGES["cup.diameter_m"].check("cup.diameter_m", self.diameter_m)
+        RANGES["cup.vacuum_pa"].check("cup.vacuum_pa", self.vacuum_pa)
 
 
 @dataclass(frozen=True)
@@ -1409,7 +1412,16 @@ class EpisodeConfig:
     def cell_settings(self) -> CellSettings:
         """What the cell's model is compiled with (cup diameter, belt length): episodes of
         different settings run on different compiled cells (`sim.episode.runner.shared_cell`)."""
-        return CellSettings(self.cup.diameter_m, self.belt.length_m)
+        return CellSettings(self.cup_diameter_m, self.belt.length_m)
+
+    @property
+    def cup_diameter_m(self) -> float:
+        """The cup's diameter the episode runs with [m]: `[cup] diameter_m` when set, else the
+        robots' default (`sim.model.scene_edits.default_cup_diameter_m`: 0.06 for one robot,
+        0.05 for a line)."""
+        if self.cup.diameter_m is not None:
+            return float(self.cup.diameter_m)
+        return default_cup_diameter_m(self.robot_count)
 
     @property
     def belt_speed_mps(self) -> float:

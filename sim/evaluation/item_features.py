@@ -14,8 +14,9 @@ training and scores). Per item: the features, the HMMs' posterior, the true clas
 100-115 at x1, x1.2, x1.5, flows of 100 and of 200 items in 90 s: `TRAIN_SEEDS`,
 `SPEED_FACTORS`, `TRAIN_ITEMS`); `evaluate` records held-out flows and prints, per class and
 overall, the accuracy of the `hmm`, `features` and `fused` modes. Recordings are cached per
-flow in `--cache` (default runs/cache/item_features/<digest of the camera and perception code>,
-so a change of that code records afresh), named after the flow's settings.
+flow in `--cache` (default `item_features/<digest of the camera and perception code>` in the
+user's cache folder, `sim.user_cache`, so a change of that code records afresh), named after
+the flow's settings.
 """
 
 from __future__ import annotations
@@ -37,7 +38,6 @@ from sim.evaluation.flow_replay import FlowReplay
 from sim.flow.catalogue import load_catalogue
 from sim.flow.config import LINE_MAX_ITEMS_PER_METRE, FlowConfig
 from sim.flow.ground_truth import flow_rows
-from sim.paths import REPO_ROOT
 from sim.sensing.item_classifier import (
     CUSTOM_SPEED_FACTORS,
     CUSTOM_TRAIN_SEEDS,
@@ -49,13 +49,15 @@ from sim.sensing.item_classifier import (
     recording_code_digest,
 )
 from sim.sensing.perception import WINDOW_ROWS
+from sim.user_cache import cache_dir
 
 log = logging.getLogger(__name__)
 MATCH_M = 0.03
 """A report is labelled with the nearest true item within this distance of its centroid [m]."""
-CACHE_ROOT = REPO_ROOT / "runs" / "cache" / "item_features"
-"""`--cache`'s default is its folder named by `recording_code_digest()` (read when the command
-runs, not when an episode's command imports this module for `prepare_camera`)."""
+CACHE_FOLDER = "item_features"
+"""`--cache`'s default is this folder of the user's cache folder, then one named by
+`recording_code_digest()` (read when the command runs, not when an episode's command imports
+this module for `prepare_camera`)."""
 TRAIN_SEEDS = tuple(range(100, 116))
 SPEED_FACTORS = (1.0, 1.2, 1.5)
 TRAIN_ITEMS = (100, 200)
@@ -264,7 +266,7 @@ def main(argv: list[str] | None = None) -> int:
         "--items", type=int, nargs="+", default=None, help="items of a 90 s flow (each count)"
     )
     args = parser.parse_args(argv)
-    args.cache = args.cache or CACHE_ROOT / recording_code_digest()
+    args.cache = args.cache or cache_dir() / CACHE_FOLDER / recording_code_digest()
     items = tuple(args.items or ((100,) if args.action == "evaluate" else TRAIN_ITEMS))
     if args.action == "record":
         seeds = args.seeds or list(TRAIN_SEEDS)

@@ -44,6 +44,7 @@ from sim.sensing.perception import (
     WINDOW_ROWS,
 )
 from sim.sensing.truth import ON_BELT_TOL_M
+from sim.user_cache import open_own_file
 
 GROW_M = 0.003
 """A found pixel belongs to a true item when it lies within this of its outline [m]: the
@@ -273,9 +274,11 @@ def load_or_record(cache: Path | None, speed_factor: float, seed: int) -> Record
 
 def cached_recording(path: Path | None, make: Callable[[], Recording]) -> Recording:
     """The recording stored at `path` when there is one, else `make()`'s, stored there (written
-    to a temporary file and renamed); `path` None: never stored."""
+    to a temporary file and renamed); `path` None: never stored. A stored recording is a
+    pickle, loaded only from a file of this user's that no one else can write
+    (`sim.user_cache.open_own_file`)."""
     if path is not None and path.exists():
-        with path.open("rb") as f:
+        with open_own_file(path, "segmentation recording") as f:
             return from_plain(pickle.load(f))
     recording = make()
     if path is not None:

@@ -29,6 +29,7 @@ from sim.episode.line_robots import RobotSpec
 from sim.errors import InvalidInput
 from sim.flow.feed_rate import FEED_KEYS
 from sim.flow.world import WorldVariation
+from sim.model.scene_edits import CUP_DIAMETER_M, LINE_CUP_DIAMETER_M
 from sim.paths import REPO_ROOT
 from sim.sensing.confidence import ITEM_CLASSIFIER_MIN_CONFIDENCE
 
@@ -61,6 +62,7 @@ UNSET = {
     **{f"infeed.{k}": "unset: `items` over `duration_s`" for k in FEED_KEYS},
     "flow.mix_types": "unset: the catalogue's weights within each material",
     "economics.energy_price_eur_per_kwh": "the top-level `energy_price_eur_per_kwh` (0)",
+    "cup.diameter_m": f"{CUP_DIAMETER_M:g} (one robot), {LINE_CUP_DIAMETER_M:g} (a line of 2-4)",
 }
 """Defaults of keys that are unset (None) unless given, in words (`flow.mix`'s: `default_mix`)."""
 
@@ -317,7 +319,26 @@ def markdown() -> str:
             cells = [f"`{s.key}`", s.default, s.allowed, s.unit, s.meaning]
             lines.append("| " + " | ".join(_cell(c) for c in cells) + " |")
         lines.append("")
-    return "\n".join(lines)
+    return "\n".join(lines + environment())
+
+
+def environment() -> list[str]:
+    """The section of the environment variables the commands read beside a config."""
+    from sim import user_cache
+
+    cells = (f"`{user_cache.VARIABLE}`", user_cache.DEFAULT_TEXT, user_cache.ALLOWED)
+    return [
+        "## Environment",
+        "",
+        "Read beside the config (camera perception's caches: `sortsim run`, `sweep`, `view`, "
+        "`frames`); a value refused stops the command before any episode, in one line naming "
+        "the variable.",
+        "",
+        "| variable | default | allowed | meaning |",
+        "|---|---|---|---|",
+        "| " + " | ".join(_cell(c) for c in (*cells, user_cache.MEANING)) + " |",
+        "",
+    ]
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -50,6 +50,7 @@ from sim.episode.config import EpisodeConfig, read_toml
 from sim.episode.line_robots import MAX_ROBOTS, SECTION_KEYS, resized_tables
 from sim.errors import InvalidInput
 from sim.flow.feed_rate import FEED_KEYS
+from sim.model.scene_edits import CUP_DIAMETER_M
 
 _SWEEP_KEYS = {
     "name",
@@ -171,9 +172,12 @@ def _settings_applied(config: EpisodeConfig) -> dict[str, Any]:
     """`settings_as_before(config.to_dict())` with the confidence threshold the episode applies
     (a config that leaves it to the classifier holds None): so a grid point at the classifier's
     own threshold is told from one at 0, and a sweep begun when 0 was every classifier's
-    default does not resume under the rule."""
+    default does not resume under the rule. Likewise the cup's diameter applied (unset: one
+    robot's 0.06 m, a line's 0.05 m): a line's sweep begun when every cup was 60 mm does not
+    resume with the line's cup."""
     settings = settings_as_before(config.to_dict())
     settings["min_class_confidence"] = config.applied_min_class_confidence
+    settings["cup"] = {**settings["cup"], "diameter_m": config.cup_diameter_m}
     return settings
 
 
@@ -377,6 +381,7 @@ LATER_KEYS["belt"] = {**LATER_KEYS["belt"], "infeed_hold": False}  # no hold bef
 LATER_KEYS |= {"horizon_s": None, "infeed": dataclasses.asdict(episode_config.InfeedRate())}
 for _table, _keys in LATER_TABLE_KEYS.items():
     LATER_KEYS[_table] = {k: v for k, v in LATER_KEYS[_table].items() if k not in _keys}
+LATER_KEYS["cup"] = {**LATER_KEYS["cup"], "diameter_m": CUP_DIAMETER_M}  # a line's cup was 60 mm
 """Episode-config keys added after sweeps were first identified, with the value that gives the
 behaviour from before they existed (not their default): a grid point at that value is left out
 of the identity, so an old sweep resumes only when its episodes would still run as they did

@@ -38,9 +38,21 @@ if TYPE_CHECKING:
 
 CUP_DIAMETER_M = 0.06
 """The scene's cup: `cup_collision`'s radius 0.03 m (`tests/test_cell_settings.py` checks it)."""
+LINE_CUP_DIAMETER_M = 0.05
+"""A line's cup by default (two robots or more; `default_cup_diameter_m`): the 60 mm cup cannot
+seal on the narrowest items of the varied world (crumpled paper scraps 29-31 mm wide), and a
+line exists to pick every item (docs/line.md, "Every item")."""
 CUP_DIAMETER_RANGE_M = (0.02, 0.12)
 """Cup diameters accepted [m]: 20 mm (the smallest bellows cups of a picker) to 120 mm (wider
 than most items the catalogue holds: their outline must carry the lip)."""
+
+
+def default_cup_diameter_m(robots: int) -> float:
+    """The cup's diameter [m] when the config gives none: the single cell's 60 mm (its figures
+    were measured with it) for one robot, `LINE_CUP_DIAMETER_M` for a line of two or more."""
+    return LINE_CUP_DIAMETER_M if robots >= 2 else CUP_DIAMETER_M
+
+
 BELT_LENGTH_M = 4.5
 """The scene's belt: `belt`'s half length 2.25 m, from x = -3.0 m to the discharge at +1.5 m."""
 BELT_LENGTH_RANGE_M = (4.0, 20.0)

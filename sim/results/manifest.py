@@ -52,8 +52,10 @@ def git_state(root: Path = REPO_ROOT) -> dict[str, Any] | None:
         commit = subprocess.run(
             ["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True, timeout=10
         )
+        # No optional locks: status leaves the index as it is (a run writes nothing into the
+        # checkout, .git included).
         status = subprocess.run(
-            ["git", "status", "--porcelain", "--untracked-files=no"],
+            ["git", "--no-optional-locks", "status", "--porcelain", "--untracked-files=no"],
             cwd=root,
             capture_output=True,
             text=True,

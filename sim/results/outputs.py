@@ -20,7 +20,7 @@ A run folder's files are written as one unit (`write_together`): every file's te
 written and synced first, then each is renamed into place in order (the manifest last), so a
 write that fails (a full disk) leaves the folder as it was, and a folder whose manifest is new
 has every file of its run. What could not be written is kept as JSON in a recoverable place
-(`keep_unwritten`: under `sim.paths.CACHE_DIR`, else the system's temporary folder).
+(`keep_unwritten`: in the user's cache folder, else the system's temporary folder).
 """
 
 from __future__ import annotations
@@ -37,12 +37,13 @@ from pathlib import Path
 
 from perception.codes import THESIS_MATERIALS, Materials
 from sim.errors import InvalidInput, SortsimError
-from sim.paths import CACHE_DIR, temporary_path
+from sim.paths import temporary_path
 
 PROBE_BYTES = 4096
 """Size of the probe file written into an output folder before any work (one page)."""
-UNWRITTEN_DIR = CACHE_DIR / "unwritten"
-"""Where results that could not be written to their folder are kept (`keep_unwritten`)."""
+UNWRITTEN = "unwritten"
+"""The folder of the user's cache folder where results that could not be written to their
+folder are kept (`keep_unwritten`)."""
 
 
 class OutputError(SortsimError):
@@ -309,8 +310,8 @@ def keep_unwritten(folder: Path | str, files: Mapping[str, str], reason: str) ->
 
     The file holds each output's whole text under `files` (`{"episodes.csv": "...", ...}`), the
     folder they were meant for and why they are not there; writing each text to its name
-    restores the folder as the command would have left it. Tried under `UNWRITTEN_DIR`, then in
-    the system's temporary folder.
+    restores the folder as the command would have left it. Tried in `unwritten` of the user's
+    cache folder (`sim.user_cache`), then in the system's temporary folder.
 
     Args:
         folder: Where the files were to go.
@@ -323,13 +324,25 @@ def keep_unwritten(folder: Path | str, files: Mapping[str, str], reason: str) ->
     stamp = datetime.datetime.now(datetime.UTC).strftime("%Y%m%dT%H%M%SZ")
     record = {"folder": str(Path(os.path.abspath(folder))), "reason": reason, "files": dict(files)}
     text = json.dumps(record, indent=1) + "\n"
-    for place in (UNWRITTEN_DIR, Path(tempfile.gettempdir()) / "sortsim-unwritten"):
+    for place in (_unwritten_dir(), Path(tempfile.gettempdir()) / "sortsim-unwritten"):
+        if place is None:
+            continue
         path = place / f"{stamp}-{os.getpid()}.json"
         try:
             return write_atomic(path, text)
         except OSError:
             continue
     return None
+
+
+def _unwritten_dir() -> Path | None:
+    """`unwritten` in the user's cache folder; None when that folder cannot be used."""
+    from sim.user_cache import cache_dir
+
+    try:
+        return cache_dir() / UNWRITTEN
+    except InvalidInput:
+        return None
 
 
 def restore_unwritten(record: Path | str, folder: Path | str | None = None) -> list[Path]:

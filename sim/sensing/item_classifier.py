@@ -3,9 +3,17 @@
 `sim/data/item_features.npz` holds the labelled items of the training flows (features, true
 class, type, seed, belt speed), written by `python -m sim.evaluation.item_features record
 --train`; its seeds are disjoint from every evaluation's. The classifier
-(`perception.items.classifier.ItemClassifier`) is fitted from it once and kept in
-`runs/cache` under a name made of the table's and the fitting code's digest and the
-scikit-learn version, so a new table, new code or another scikit-learn fits afresh.
+(`perception.items.classifier.ItemClassifier`) is fitted from it once and kept in the user's
+cache folder (`sim.user_cache`) under a name made of the table's and the fitting code's digest
+and the scikit-learn version, so a new table, new code or another scikit-learn fits afresh.
+
+The kept classifier is a pickle: the fitted scikit-learn estimator whole, which the
+classifier's fallback path and the evaluations use, read back to the bit (a form of plain
+arrays would hold only the packed trees, and rebuild the estimator's loss from scikit-learn's
+private classes). Loading a pickle runs the code it names, so it is written readable and
+writable by its user only (mode 0o600) and read only when it is a regular file of this user's
+that no one else can write (`sim.user_cache.open_own_file`); anything else is refused in one
+line, and deleting the file fits the classifier afresh (about 4 s).
 """
 
 from __future__ import annotations
@@ -21,10 +29,10 @@ import sklearn
 
 from perception.items.classifier import ItemClassifier
 from sim.errors import InvalidInput
-from sim.paths import DATA_DIR, REPO_ROOT
+from sim.paths import DATA_DIR, REPO_ROOT, temporary_path
+from sim.user_cache import cache_dir, open_own_file
 
 TRAINING_TABLE = DATA_DIR / "item_features.npz"
-CACHE_DIR = REPO_ROOT / "runs" / "cache"
 _CODE = (
     "perception/items/classifier.py",
     "perception/items/features.py",
@@ -52,7 +60,7 @@ def _cache_path(path) -> object:
     for rel in _CODE:
         digest.update((REPO_ROOT / rel).read_bytes())
     digest.update(sklearn.__version__.encode())
-    return CACHE_DIR / f"item_classifier-{digest.hexdigest()[:12]}.pkl"
+    return cache_dir() / f"item_classifier-{digest.hexdigest()[:12]}.pkl"
 
 
 _RECORDING_CODE = ("perception/camera", "perception/items", "sim/cell", "sim/sensing")
@@ -73,14 +81,14 @@ def is_default_catalogue(catalogue) -> bool:
 
 
 def catalogue_table(catalogue, mix: dict | None = None) -> Path:
-    """Where the training table of `catalogue` (and its class `mix`) is kept (runs/cache, named
-    by content): recorded once through the camera perception by
+    """Where the training table of `catalogue` (and its class `mix`) is kept (the user's cache
+    folder, named by content): recorded once through the camera perception by
     `sim.evaluation.item_features.ensure_catalogue_table`, which `sortsim run`, `sweep` and
     `view` call before a camera episode on another catalogue than the default."""
     key = hashlib.sha1(catalogue.digest.encode())
     key.update(repr(sorted((mix or {}).items())).encode())
     key.update(recording_code_digest().encode())
-    return CACHE_DIR / f"item_features-{key.hexdigest()[:12]}.npz"
+    return cache_dir() / f"item_features-{key.hexdigest()[:12]}.npz"
 
 
 @functools.cache
@@ -120,15 +128,23 @@ def _fitted(path, material_ids: tuple[int, ...]) -> ItemClassifier:
         raise InvalidInput("item table", allowed, "missing", str(path))
     cache = _cache_path(path)
     if cache.exists():
-        with open(cache, "rb") as f:
+        with open_own_file(cache, "item classifier cache") as f:
             return pickle.load(f)
     table = load_table(path)
     classifier = ItemClassifier(
         table["features"], table["class_id"], seed=FIT_SEED, material_ids=material_ids
     )
-    cache.parent.mkdir(parents=True, exist_ok=True)
-    tmp = cache.with_name(f".{cache.stem}.{os.getpid()}.pkl")
-    with open(tmp, "wb") as f:
-        pickle.dump(classifier, f)
-    os.replace(tmp, cache)
+    _keep(cache, classifier)
     return classifier
+
+
+def _keep(cache: Path, classifier: ItemClassifier) -> None:
+    """Write `classifier` to `cache` (mode 0o600) through a temporary renamed over it."""
+    tmp = temporary_path(cache)
+    try:
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o600)
+        with os.fdopen(fd, "wb") as f:
+            pickle.dump(classifier, f)
+        os.replace(tmp, cache)
+    finally:
+        tmp.unlink(missing_ok=True)

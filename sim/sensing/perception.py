@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import hashlib
 import logging
-import os
 import time
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -45,10 +44,10 @@ from sim.flow.config import X_CAMERA
 from sim.paths import REPO_ROOT
 from sim.sensing.item_classifier import trained_item_classifier
 from sim.sensing.tracking import Detection
+from sim.user_cache import cache_dir
 
 log = logging.getLogger(__name__)
 
-HMM_CACHE_DIR = REPO_ROOT / "runs" / "cache"
 _HMM_INPUTS = (
     "sim/data/items.toml",
     "sim/flow/generator.py",
@@ -116,7 +115,8 @@ def hmm_cache_path(catalogue=None, mix: dict | None = None, coupled: bool = Fals
     catalogue's content, the flow's class mix, the flow generator, the recordings and the
     training code, the stripes' coupling), so a change to any of them trains afresh instead of
     reusing stale models. The default catalogue and mix, uncoupled, keep the name they always
-    had."""
+    had. The file is in the user's cache folder (`sim.user_cache.cache_dir`, created if need
+    be)."""
     digest = hashlib.sha1()
     for rel in _HMM_INPUTS:
         digest.update((REPO_ROOT / rel).read_bytes())
@@ -126,7 +126,7 @@ def hmm_cache_path(catalogue=None, mix: dict | None = None, coupled: bool = Fals
         digest.update(repr(sorted(mix.items())).encode())
     if coupled:
         digest.update(b"coupled")
-    return HMM_CACHE_DIR / f"stripe_hmms-{digest.hexdigest()[:12]}.npz"
+    return cache_dir() / f"stripe_hmms-{digest.hexdigest()[:12]}.npz"
 
 
 def _is_default(catalogue) -> bool:
@@ -138,7 +138,7 @@ def _is_default(catalogue) -> bool:
 def stripe_models(catalogue, mix: dict | None = None, coupled: bool = False):
     """(stripe HMMs, cells per item): trained once per catalogue, class mix and coupling (the
     config's `[hmm] coupled`: each stripe's transitions per neighbour class at t-1), cached in
-    runs/cache (written atomically)."""
+    the user's cache folder (`hmm_cache_path`; written atomically)."""
     from perception.hmm.storage import save_models
     from perception.hmm.training import TrainConfig
     from sim.sensing.stripe_hmms import trained_models
@@ -150,10 +150,7 @@ def stripe_models(catalogue, mix: dict | None = None, coupled: bool = False):
     if not (catalogue.materials.is_thesis and _is_default(catalogue)) or mix:
         log.info("training the stripe HMMs for this catalogue and class mix (once; cached)")
     models, sizes = trained_models(catalogue, train, cache=None, mix=mix)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.{os.getpid()}.npz")
-    save_models(tmp, models, sizes)
-    os.replace(tmp, path)
+    save_models(path, models, sizes)  # through a temporary renamed over it
     return models, sizes
 
 
