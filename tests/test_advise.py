@@ -119,3 +119,8 @@ def test_a_small_sweep_of_lines_is_answered_and_its_runs_kept(tmp_path, capsys):
     else:
         assert "No line meets" in text
     assert "episodes in" in text and "CPU-min" in text
+    # Asked again, the folder's episodes are found (a belt speed in m/s gives a speed factor
+    # such as 1.08108..., which episodes.csv writes to 3 decimals): none is run twice.
+    before = (out / "episodes.csv").read_bytes()
+    assert cli.main(args) == 0
+    assert (out / "episodes.csv").read_bytes() == before

@@ -51,6 +51,7 @@ from sim.episode.line_robots import MAX_ROBOTS, SECTION_KEYS, resized_tables
 from sim.errors import InvalidInput
 from sim.flow.feed_rate import FEED_KEYS
 from sim.model.scene_edits import CUP_DIAMETER_M
+from sim.results import outputs
 
 _SWEEP_KEYS = {
     "name",
@@ -85,9 +86,16 @@ class EpisodeSpec:
         return episode_key(self.variant, c.planner, c.speed_factor, c.items, c.seed)
 
 
+SPEED_FACTOR_DECIMALS = outputs.DECIMALS["speed_factor"]
+"""Decimals of a speed factor in an episode's key: as episodes.csv writes it."""
+
+
 def episode_key(variant: str, planner: str, speed_factor: float, items: int, seed: int) -> str:
-    """The string that identifies one episode of a sweep."""
-    return f"{variant}|{planner}|{float(speed_factor):.4f}|{int(items)}|{int(seed)}"
+    """The string that identifies one episode of a sweep: the speed factor at the decimals
+    episodes.csv writes it with, so a row read back names the episode it came from (a belt
+    speed in m/s gives factors such as 0.2 / 0.185 = 1.08108...)."""
+    factor = f"{float(speed_factor):.{SPEED_FACTOR_DECIMALS}f}"
+    return f"{variant}|{planner}|{factor}|{int(items)}|{int(seed)}"
 
 
 @dataclass(frozen=True)

@@ -170,7 +170,7 @@ def sweep_episode_columns(materials_list) -> tuple[str, ...]:
 
 
 # Decimals per float column; anything not listed is written with str().
-_DECIMALS = {
+DECIMALS = {
     "speed_factor": 3,
     "belt_speed_mps": 4,
     "accuracy": 4,
@@ -211,7 +211,7 @@ def format_value(column: str, value: object) -> str:
     """The text of one CSV cell: fixed decimals for float columns, str() otherwise."""
     if value is None:
         return ""
-    decimals = _DECIMALS.get(column) or _DECIMAL_GROUPS.get(column.partition("_")[0])
+    decimals = DECIMALS.get(column) or _DECIMAL_GROUPS.get(column.partition("_")[0])
     if decimals is None and column.startswith("robot"):
         decimals = _DECIMAL_SUFFIXES.get(column.partition("_")[2])
     if decimals is not None and not isinstance(value, str):
