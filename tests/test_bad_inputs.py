@@ -279,6 +279,12 @@ RUN_CASES = [
         "belt.infeed_hold",
         {"c.toml": '[belt]\ninfeed_hold = "yes"\n'},
     ),  # noqa: E501
+    (
+        "config-belt-width-wide",
+        ["--config", "{tmp}/c.toml"],
+        "belt.width_m",
+        {"c.toml": "[belt]\nwidth_m = 1.6\n"},
+    ),
     ("config-world-unknown", ["--config", "{tmp}/c.toml"], "world", {"c.toml": 'world = "odd"\n'}),
     (
         "config-overlap-share-text",

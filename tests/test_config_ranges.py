@@ -169,6 +169,8 @@ RUN = [
     ("size_jitter", 1),
     ("observation_period_s", 0),
     ("observation_period_s", 1),
+    ("belt.width_m", 0),
+    ("belt.width_m", 1),
 ]
 """Representative keys whose ends run a short episode (index 0: the low end, 1: the high)."""
 

@@ -23,9 +23,10 @@ from perception.camera.observe import BELT, ColourRules
 from perception.camera.rectify import BeltView, TopDownRaster
 from perception.errors import PerceptionError, PerceptionInputError
 
-_BELT_EDGE_M = 0.004
+BELT_EDGE_M = 0.004
 """Pixels seeing the belt's outer 4 mm are not items: the belt's edge meets the rails there,
-and its antialiased line would pass for a clear item. The flow keeps items 5 mm inside."""
+and its antialiased line would pass for a clear item. The flow keeps items 5 mm inside. (A
+mapper's `edge_margin_m`; a wider belt's rails, seen more obliquely, need more.)"""
 _ITEM_EDGE_STEP_M = 0.02
 _UNDISTORT_CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 30, 1e-9)
 _KERNEL = np.ones((3, 3), np.uint8)
@@ -64,6 +65,8 @@ class FootprintMapper:
         x_range: (x_lo, x_hi) [m] of the belt the footprints are wanted over, inside the
             raster's (default: all of it); the frame window `roi` is what can see it, and
             the raster's rows beyond it stay belt.
+        edge_margin_m: Pixels seeing the raster's outer strips this wide across the belt are
+            not items [m] (`BELT_EDGE_M`).
     """
 
     def __init__(
@@ -75,6 +78,7 @@ class FootprintMapper:
         rim_fraction: float = 0.35,
         smooth_px: int = 5,
         x_range: tuple[float, float] | None = None,
+        edge_margin_m: float = BELT_EDGE_M,
     ):
         if not 0.0 <= rim_fraction < 1.0:
             raise PerceptionInputError("rim_fraction", "[0, 1)", rim_fraction)
@@ -84,6 +88,9 @@ class FootprintMapper:
             )
         if smooth_px not in (1, 3, 5):
             raise PerceptionInputError("smooth_px", "1, 3 or 5 (a median filter's side)", smooth_px)
+        if not (np.isfinite(edge_margin_m) and 0.0 <= edge_margin_m < 0.1):
+            raise PerceptionInputError("edge_margin_m", "0 <= margin < 0.1 m", edge_margin_m)
+        self.edge_margin_m = float(edge_margin_m)
         self.smooth_px = smooth_px
         self.min_height_m = float(min_height_m)
         self.rim_fraction = float(rim_fraction)
@@ -209,8 +216,8 @@ class FootprintMapper:
         ) * direction[:, 1].reshape(shape)
         # Only pixels that see the belt (or what lies on it) can be items: not its rails.
         raster = self.raster
-        y_lo = raster.y_min + _BELT_EDGE_M
-        y_hi = raster.y_min + raster.shape[1] * raster.resolution_m - _BELT_EDGE_M
+        y_lo = raster.y_min + self.edge_margin_m
+        y_hi = raster.y_min + raster.shape[1] * raster.resolution_m - self.edge_margin_m
         # Two items that touch in the image are told apart by the jump in height between them.
         step = cv2.dilate(height, _KERNEL) - cv2.erode(height, _KERNEL)
         where = has_depth & (y >= y_lo) & (y <= y_hi)

@@ -20,7 +20,7 @@ import cv2
 import numpy as np
 
 from perception.camera.calibration import CameraCalibration
-from perception.camera.depth_footprint import FootprintMapper
+from perception.camera.depth_footprint import BELT_EDGE_M, FootprintMapper
 from perception.camera.grid import BeltGrid
 from perception.camera.observe import BELT, CellObservation, ColourRules, code_cells
 from perception.camera.rectify import (
@@ -69,6 +69,8 @@ class CameraPipeline:
         plane_z: Height above the belt of the rectified plane of frames without depth [m].
         max_pitch_m: Longest row the pipeline must see (top belt speed x period) [m].
         rules: Per-pixel colour rules.
+        edge_margin_m: The belt's outer strips whose pixels are not items [m]
+            (`perception.camera.depth_footprint.BELT_EDGE_M` by default).
     """
 
     def __init__(
@@ -81,8 +83,10 @@ class CameraPipeline:
         plane_z: float = 0.0,
         max_pitch_m: float = 0.3,
         rules: ColourRules | None = None,
+        edge_margin_m: float = BELT_EDGE_M,
     ):
         self.calibration = calibration
+        self.edge_margin_m = float(edge_margin_m)
         self.grid = grid
         self.marker_world = np.asarray(marker_world, dtype=np.float64)
         self.marker_colours = np.asarray(marker_colours, dtype=np.float64)
@@ -119,7 +123,7 @@ class CameraPipeline:
         self.check_frame(frame)
         view = locate_belt(frame, self.calibration, self.marker_world, self.marker_colours)
         self.rectifier = BeltRectifier(view, self.raster, self.plane_z)
-        self.mapper = FootprintMapper(view, self.raster)
+        self.mapper = FootprintMapper(view, self.raster, edge_margin_m=self.edge_margin_m)
         self._band_mappers = {}
         self.view = view
         self._marker_px = np.round(view.project(self.marker_world)).astype(int)
@@ -139,7 +143,9 @@ class CameraPipeline:
             raster = self.raster
             x_min, x_max = raster.x_min, raster.x_min + raster.shape[0] * raster.resolution_m
             x_range = (max(x_lo - BAND_MARGIN_M, x_min), min(x_hi + BAND_MARGIN_M, x_max))
-            mapper = self._band_mappers[key] = FootprintMapper(self.view, raster, x_range=x_range)
+            mapper = self._band_mappers[key] = FootprintMapper(
+                self.view, raster, x_range=x_range, edge_margin_m=self.edge_margin_m
+            )
         return mapper
 
     def check(self, frame: np.ndarray) -> None:

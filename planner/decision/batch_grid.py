@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from planner.decision.interface import BELT_HALF_WIDTH as THESIS_BELT_HALF_WIDTH
 from planner.decision.interface import TrackedItem
 from planner.errors import PlannerInputError
 
@@ -23,8 +24,9 @@ MIN_DISTANCE = 1e-3
 
 BELT_COLUMNS = 25
 GRID_COLUMNS = BELT_COLUMNS + 2
-BELT_HALF_WIDTH = 0.4
-"""Half the belt's width the 25 columns span [m]."""
+BELT_HALF_WIDTH = THESIS_BELT_HALF_WIDTH
+"""Half the thesis's belt width the 25 columns span [m]; a context's `belt_half_width` is the
+cell's belt's."""
 
 
 def belt_coordinate(item: TrackedItem, t: float, belt_speed: float) -> float:

@@ -33,6 +33,8 @@ THESIS_VALUES = THESIS_VALUES_EUR
 # approximately the cell's release points. Every context the cell builds passes the positions of
 # the sites bin_<class>_drop read from the compiled model instead.
 DEFAULT_BINS = ((0.0, -0.51, 0.06), (-0.21, 0.51, 0.06), (0.21, 0.51, 0.06))
+BELT_HALF_WIDTH = 0.4
+"""Half the thesis's belt width [m] (a cell's context passes its model's)."""
 
 
 @runtime_checkable
@@ -139,6 +141,8 @@ class DecisionContext:
         values: Value of an item of each material [EUR] (thesis table 3.3 by default).
         energy: The price of a pick's motor energy (`planner.decision.energy_cost`); at the
             default price 0 no planner sees it.
+        belt_half_width: Half the belt's width [m] (the thesis's 0.4 by default), across
+            which the thesis's grid spreads its columns (`planner.decision.batch_grid`).
     """
 
     belt_speed: float
@@ -147,6 +151,7 @@ class DecisionContext:
     bins: tuple[tuple[float, float, float], ...] = DEFAULT_BINS
     values: tuple[float, ...] = THESIS_VALUES
     energy: EnergyPrice = EnergyPrice()
+    belt_half_width: float = BELT_HALF_WIDTH
 
     def __post_init__(self):
         if not (math.isfinite(self.belt_speed) and self.belt_speed >= 0.0):
@@ -166,6 +171,9 @@ class DecisionContext:
             raise PlannerInputError("energy", "an EnergyPrice", type(self.energy).__name__)
         if not isinstance(self.cycle_model, CycleTimeEstimator):
             raise PlannerInputError("cycle_model", "an object with time_to_pick, time_to_place")
+        w = self.belt_half_width
+        if not (isinstance(w, int | float) and math.isfinite(w) and w > 0.0):
+            raise PlannerInputError("belt_half_width", "a finite half width > 0 [m]", w)
         object.__setattr__(self, "values", values)
         object.__setattr__(self, "bins", bins)
 
@@ -198,7 +206,13 @@ class DecisionContext:
     def with_values(self, values: tuple[float, ...]) -> DecisionContext:
         """The same context with other class values [EUR]."""
         return DecisionContext(
-            self.belt_speed, self.cycle_model, self.window, self.bins, values, self.energy
+            self.belt_speed,
+            self.cycle_model,
+            self.window,
+            self.bins,
+            values,
+            self.energy,
+            self.belt_half_width,
         )
 
 

@@ -61,6 +61,7 @@ import mujoco
 import numpy as np
 
 from perception.camera.calibration import CameraCalibration
+from perception.camera.depth_footprint import BELT_EDGE_M
 from perception.camera.grid import BeltGrid
 from perception.camera.lens import (
     ZED_HD_LEFT,
@@ -715,6 +716,46 @@ class CameraWindow:
         """Nothing to free: the window renders in its camera's renderer."""
 
 
+def belt_grid(model: mujoco.MjModel, x_line: float, period_s: float) -> BeltGrid:
+    """The observation grid of a belt camera on the camera line `x_line` [m] at observation
+    period `period_s` [s]: its five stripes share the model's belt (geom `belt`, whatever its
+    width: `[belt] width_m`), from its -y edge to its +y edge."""
+    from sim.cell.conveyor import Belt
+
+    geometry = Belt(model).geometry
+    y_min, y_max = geometry.y_centre - geometry.y_half, geometry.y_centre + geometry.y_half
+    return BeltGrid(x_line=x_line, y_min=y_min, y_max=y_max, period_s=period_s)
+
+
+THESIS_RAIL_VIEW_M = (0.41, 0.72)
+"""The scene's rails as its belt camera sees them: their inner faces 0.41 m across from the
+camera, their tops 0.72 m below it [m]."""
+
+
+def belt_edge_margin(model: mujoco.MjModel, name: str = CAMERA_NAME) -> float:
+    """The belt's outer strips whose pixels the camera pipeline does not take for items [m]
+    (`perception.camera.depth_footprint.BELT_EDGE_M` on the scene's 0.8 m belt).
+
+    The stereo depth's error (its sigma grows as the range squared, `sim.cell.depth_noise`)
+    moves a rail's top along the camera's ray, so across the belt by the error times y / range:
+    in all, in proportion to range x y. On a wider belt the rails lie farther out and farther
+    away, and the margin grows so that the rails' inner faces stay as many such errors from
+    where items may be seen as on the scene's belt; never below the scene's."""
+    from sim.cell.conveyor import RAIL_GEOMS, Belt, rail_top_z
+    from sim.flow.config import BELT_HALF_WIDTH
+
+    belt = Belt(model).geometry
+    if belt.y_half == BELT_HALF_WIDTH:
+        return BELT_EDGE_M
+    rail_y = min(abs(model.geom(r).pos[1]) - model.geom(r).size[1] for r in RAIL_GEOMS)
+    drop = float(model.cam_pos[camera_id(model, name)][2]) - rail_top_z(model)
+    y_ref, drop_ref = THESIS_RAIL_VIEW_M
+    ratio = (math.hypot(rail_y, drop) * rail_y) / (math.hypot(y_ref, drop_ref) * y_ref)
+    gap = rail_y - belt.y_half  # between the belt's edge and the rails' inner faces
+    reference = (y_ref - BELT_HALF_WIDTH) + BELT_EDGE_M  # the rails' distance from items
+    return max(BELT_EDGE_M, reference * ratio - gap)
+
+
 def camera_pipeline(
     model: mujoco.MjModel,
     data: mujoco.MjData,
@@ -740,4 +781,7 @@ def camera_pipeline(
         The pipeline, its pose not yet solved.
     """
     calibration = CameraCalibration.load(calibration_path).scaled(size)
-    return CameraPipeline(calibration, grid or BeltGrid(), *marker_points(model, data, markers))
+    margin = belt_edge_margin(model)  # every belt camera of a cell hangs as high
+    return CameraPipeline(
+        calibration, grid or BeltGrid(), *marker_points(model, data, markers), edge_margin_m=margin
+    )

@@ -1,6 +1,6 @@
 """`sortsim/PickOrder-v0`'s picture: the belt from above, drawn with OpenCV on a NumPy array.
 
-The belt runs left to right (+x), y up; drawn: the belt (its 0.8 m width), where items come into
+The belt runs left to right (+x), y up; drawn: the belt (its width), where items come into
 view (`view_start_x`, dashed), the robot's reachable window (green outline), the three bins
 beside the belt (each labelled with its material and the items in it), every item still on the
 belt as a dot in its true material's colour (faded before it comes into view), the candidates
@@ -22,7 +22,7 @@ SIZE = (800, 520)
 X_RANGE_M = (-1.7, 1.0)
 """The belt's stretch drawn, along x [m] (the view starts at -1.5 m, the window ends near 0.6)."""
 BELT_HALF_WIDTH_M = 0.4
-"""Half the belt's width [m]."""
+"""Half the thesis's belt width [m] (a scene's `belt_half_width` by default)."""
 ITEM_RADIUS_M = 0.035
 """The dot of an item [m]."""
 BIN_HALF_M = (0.09, 0.12)
@@ -42,6 +42,7 @@ class BeltScene:
         binned: Items in each bin by class id.
         view_start_x: Where items come into view [m].
         counters: The line of text at the top.
+        belt_half_width: Half the belt's width [m].
     """
 
     items: list[tuple[float, float, int]]
@@ -52,6 +53,7 @@ class BeltScene:
     binned: dict[int, int]
     view_start_x: float
     counters: str
+    belt_half_width: float = BELT_HALF_WIDTH_M
 
 
 def _px(x: float, y: float, size=SIZE) -> tuple[int, int]:
@@ -74,8 +76,8 @@ def _text(img, text, org, scale=0.45, colour=(255, 255, 255), thickness=1) -> in
 
 
 def _belt(img: np.ndarray, scene: BeltScene) -> None:
-    top_left = _px(X_RANGE_M[0], BELT_HALF_WIDTH_M)
-    bottom_right = _px(X_RANGE_M[1], -BELT_HALF_WIDTH_M)
+    top_left = _px(X_RANGE_M[0], scene.belt_half_width)
+    bottom_right = _px(X_RANGE_M[1], -scene.belt_half_width)
     cv2.rectangle(img, top_left, bottom_right, (78, 78, 84), -1)
     u = _px(scene.view_start_x, 0.0)[0]
     top, bottom = top_left[1], bottom_right[1]

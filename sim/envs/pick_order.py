@@ -187,5 +187,6 @@ class PickOrderEnv(gym.Env):
             view_start_x=self.view_start_x,
             counters=f"t {t:5.1f} s   belt {v:.3f} m/s   picked {self.picked} of "
             f"{len(self.belt.items)}   profit {self.profit:.2f} EUR",
+            belt_half_width=self.context.belt_half_width,
         )
         return belt_picture.draw(scene)

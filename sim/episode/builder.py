@@ -89,6 +89,7 @@ def check_cell(cell: Cell, config: EpisodeConfig) -> None:
     for key, have, asked in (
         ("cup.diameter_m", got.cup_diameter_m, want.cup_diameter_m),
         ("belt.length_m", got.belt_length_m, want.belt_length_m),
+        ("belt.width_m", got.belt_width_m, want.belt_width_m),
     ):
         if have != asked:
             allowed = f"the cell's {have:g} m (a Cell(settings=config.cell_settings) for {asked:g})"
@@ -276,6 +277,7 @@ def robot_stations(
             bins=view.bins_tuple(),
             values=config.values.for_planning(cell.catalogue),
             energy=EnergyPrice(config.energy_price_eur_per_kwh),
+            belt_half_width=cell.belt.geometry.y_half,
         )
         manager = planner if k == 0 else make_decision_manager(config, robot=k)
         manager.reset()
@@ -391,7 +393,7 @@ def visibility_monitor(
         height = (
             camera_pose(cell.model, cell.items.current(), name)[1][2] - cell.belt.geometry.top_z
         )
-        slope = belt_slope(float(height))
+        slope = belt_slope(float(height), cell.belt.geometry.y_half)
         renders.append(
             shared_segmentation(cell.model, cell.pool, size, SCALE, slope, name, renderer)
         )

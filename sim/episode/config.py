@@ -106,6 +106,7 @@ TOML layout (every key optional; defaults are the headline episode)::
     [belt]
     speed_mps = 0.2             # belt speed [m/s], 0.135..0.277, instead of speed_factor
     length_m = 4.5              # 4..20 m from the infeed; the discharge end moves (recompiles)
+    width_m = 0.8               # 0.4..1.2 m; the stripes, bins, camera rig follow (recompiles)
     infeed_hold = true          # an item that would drop into one already on the belt is held
                                 # back (sim/episode/infeed.py); false: every result to the bit
                                 # as before it
@@ -176,6 +177,8 @@ from sim.flow import feed_rate
 from sim.flow import mix as flow_mix
 from sim.flow.catalogue import DEFAULT_CATALOGUE, MASS_RANGE_KG, Catalogue, load_catalogue
 from sim.flow.config import (
+    BELT_WIDTH_M,
+    BELT_WIDTH_RANGE_M,
     LINE_MAX_ITEMS_PER_METRE,
     MAX_ITEMS_PER_METRE,
     STRIPE_WIDTH,
@@ -874,6 +877,9 @@ RANGES |= {
         f"{MIN_FEED_RATE:g}..{MAX_KG_PER_H:g} kg/h ({MAX_ITEMS_PER_S:g} items/s of "
         f"{MASS_RANGE_KG[1]:g} kg)",
     ),
+    "belt.width_m": Range(
+        *BELT_WIDTH_RANGE_M, f"{BELT_WIDTH_RANGE_M[0]}..{BELT_WIDTH_RANGE_M[1]} m"
+    ),
 }
 
 
@@ -948,14 +954,20 @@ class Belt:
         speed_mps: Its speed [m/s], in the conveyor's range, instead of the top-level
             `speed_factor` (which then follows: speed / 0.185 m/s; a file giving both is
             refused). None: `speed_factor`'s.
+        width_m: Its width [m] (`BELT_WIDTH_RANGE_M`; a model setting: the cell is compiled
+            with it, its rails, the bins and the camera's markers keep their distance from its
+            edges; the five stripes share it). Items the robots cannot reach ride past them
+            and are missed (docs/world.md).
     """
 
     length_m: float = BELT_LENGTH_M
     infeed_hold: bool = True
     speed_mps: float | None = None
+    width_m: float = BELT_WIDTH_M
 
     def __post_init__(self) -> None:
         RANGES["belt.length_m"].check("belt.length_m", self.length_m)
+        RANGES["belt.width_m"].check("belt.width_m", self.width_m)
         v = self.infeed_hold
         check(isinstance(v, bool), "belt.infeed_hold", "true | false", v, None)
         if self.speed_mps is not None:
@@ -1315,6 +1327,7 @@ class EpisodeConfig:
             world=self.world_variation,
             n_materials=self.materials.count,
             max_items_per_metre=self.max_items_per_metre,
+            belt_width_m=self.belt.width_m,
             **self.mix_kwargs,
         )
 
@@ -1410,9 +1423,10 @@ class EpisodeConfig:
 
     @property
     def cell_settings(self) -> CellSettings:
-        """What the cell's model is compiled with (cup diameter, belt length): episodes of
-        different settings run on different compiled cells (`sim.episode.runner.shared_cell`)."""
-        return CellSettings(self.cup_diameter_m, self.belt.length_m)
+        """What the cell's model is compiled with (cup diameter, belt length and width):
+        episodes of different settings run on different compiled cells
+        (`sim.episode.runner.shared_cell`)."""
+        return CellSettings(self.cup_diameter_m, self.belt.length_m, self.belt.width_m)
 
     @property
     def cup_diameter_m(self) -> float:

@@ -367,7 +367,7 @@ def _grid_point(
         raise InvalidInput(exc.field, exc.allowed, exc.got, at) from None
 
 
-LATER_TABLE_KEYS = {"belt": {"speed_mps": None}}
+LATER_TABLE_KEYS = {"belt": {"speed_mps": None, "width_m": episode_config.BELT_WIDTH_M}}
 """Keys added to a table after sweeps were first identified, with the value of before: left
 out of their table at it (so of the identity too, below)."""
 LATER_KEYS = {

@@ -4,8 +4,9 @@ Time and row convention, shared with perception: belt speed v constant per episo
 period T. An item dropped at the infeed X_INFEED at time t crosses the camera line X_CAMERA at
 tau = t + (X_CAMERA - X_INFEED) / v. Row k of the grid is the belt under the camera band
 [X_CAMERA - vT/2, X_CAMERA + vT/2) at time k T, so an item's centre belongs to row
-round(tau / T). Stripe j (0..4) covers y in [-0.4 + 0.16 j, -0.4 + 0.16 (j + 1)), stripe 0 on
-the -y side.
+round(tau / T). Stripe j (0..4) of a belt of width W covers y in [-W/2 + j W/5, -W/2 +
+(j + 1) W/5), stripe 0 on the -y side: [-0.4 + 0.16 j, -0.4 + 0.16 (j + 1)) on the thesis's
+0.8 m belt (`BELT_WIDTH_M`, the default; `[belt] width_m` of an episode config).
 """
 
 from __future__ import annotations
@@ -17,10 +18,16 @@ import numpy as np
 from planner.motion.belt_speeds import SPEED_RANGE_MPS as BELT_SPEED_RANGE_MPS
 from planner.motion.belt_speeds import SPEED_TOLERANCE_MPS
 from planner.motion.belt_speeds import SPEED_X1_MPS as BELT_SPEED_X1_MPS
+from sim.checks import is_finite_in
 from sim.errors import InvalidInput
 from sim.flow.world import WorldVariation
 
 BELT_HALF_WIDTH = 0.4
+BELT_WIDTH_M = 2 * BELT_HALF_WIDTH
+"""The thesis's belt width [m]: the scene's belt (`models/cell/scene.xml`) and the default."""
+BELT_WIDTH_RANGE_M = (0.4, 1.2)
+"""Belt widths accepted [m]: 0.4 m (a narrow picking belt) to 1.2 m (wider than the IRB 360's
+1.13 m working circle: its outer edges are out of the robot's reach)."""
 BELT_X_RANGE = (-3.0, 1.5)
 X_INFEED = -2.75
 X_CAMERA = -1.48
@@ -73,10 +80,19 @@ def default_transitions(n_materials: int) -> tuple[tuple[float, ...], ...]:
     )
 
 
-def stripe_of(y: np.ndarray | float) -> np.ndarray:
-    """Stripe index 0..4 of lateral positions y [m] (clipped to the belt)."""
-    index = np.floor((np.asarray(y) + BELT_HALF_WIDTH) / STRIPE_WIDTH).astype(int)
+def stripe_of(y: np.ndarray | float, belt_width_m: float = BELT_WIDTH_M) -> np.ndarray:
+    """Stripe index 0..4 of lateral positions y [m] (clipped to the belt) on a belt
+    `belt_width_m` [m] wide."""
+    half, stripe = stripe_geometry(belt_width_m)
+    index = np.floor((np.asarray(y) + half) / stripe).astype(int)
     return np.clip(index, 0, N_STRIPES - 1)
+
+
+def stripe_geometry(belt_width_m: float = BELT_WIDTH_M) -> tuple[float, float]:
+    """(half the belt's width, a stripe's width) [m] of a belt `belt_width_m` [m] wide; the
+    thesis's (`BELT_HALF_WIDTH`, `STRIPE_WIDTH`) to the bit for its 0.8 m."""
+    half = 0.5 * float(belt_width_m)
+    return half, 2 * half / N_STRIPES
 
 
 def _probabilities(field: str, values, shape: tuple[int, ...]) -> np.ndarray:
@@ -117,6 +133,7 @@ class FlowConfig:
             drawn again until their items carry it); None: the chains' draw as it falls.
         type_weights: Per catalogue item type, its weight within its material (shape variants
             0; a base type of weight 0 is not drawn); None: the catalogue's `weight`s.
+        belt_width_m: The belt's width [m] (`BELT_WIDTH_RANGE_M`): the five stripes share it.
     """
 
     n_items: int = 100
@@ -132,6 +149,7 @@ class FlowConfig:
     max_items_per_metre: float = MAX_ITEMS_PER_METRE
     type_weights: tuple[float, ...] | None = None
     held_shares: tuple[float, ...] | None = None
+    belt_width_m: float = BELT_WIDTH_M
 
     def __post_init__(self):
         n = self.n_items
@@ -165,6 +183,10 @@ class FlowConfig:
             object.__setattr__(self, "type_weights", tuple(array.tolist()))
         if not isinstance(self.world, WorldVariation):
             raise InvalidInput("world", "a WorldVariation", type(self.world).__name__)
+        lo, hi = BELT_WIDTH_RANGE_M
+        if not is_finite_in(self.belt_width_m, lo, hi):
+            raise InvalidInput("belt_width_m", f"{lo}..{hi} m", self.belt_width_m)
+        object.__setattr__(self, "belt_width_m", float(self.belt_width_m))
         density = self.items_per_metre
         limit = float(self.max_items_per_metre)
         if density > limit * (1 + 1e-9):
@@ -198,6 +220,16 @@ class FlowConfig:
     def belt_speed_mps(self) -> float:
         """Belt speed v [m/s]."""
         return BELT_SPEED_X1_MPS * float(self.speed_factor)
+
+    @property
+    def belt_half_width_m(self) -> float:
+        """Half the belt's width [m]: items lie within +- it of the centre line."""
+        return stripe_geometry(self.belt_width_m)[0]
+
+    @property
+    def stripe_width_m(self) -> float:
+        """Width of each of the five stripes [m]."""
+        return stripe_geometry(self.belt_width_m)[1]
 
     @property
     def items_per_metre(self) -> float:

@@ -9,7 +9,11 @@ item of a stripe from the class priors; a mix given as shares matches the chain 
 (`sim.flow.world`, from its own random stream) then gives each item its shape variant (crushed,
 crumpled, folded), size factors, colours and label, and whether it may lie partly over a flat
 neighbour. The lateral position is uniform over the part of the stripe where the whole (scaled)
-footprint stays on the belt, the yaw uniform (redrawn when the item would not fit). An item
+footprint stays on the belt, the yaw uniform (redrawn when the item would not fit). The stripes
+share the belt's width (`FlowConfig.belt_width_m`); on a belt narrower than the thesis's an
+item too wide for its outer stripe at every yaw tried lies along the belt as near that stripe
+as its footprint allows, its centre in the next stripe (its class still drawn from its
+stripe's chain). An item
 that would come closer than the world's `min_gap_m` to one already on the belt is dropped later,
 by just enough belt travel to clear it (and never before the previous item of its stripe), so
 each stripe keeps its order; an item allowed to overlap may reach up to `overlap_depth_m` over a
@@ -28,7 +32,6 @@ import numpy as np
 from sim.errors import InvalidInput
 from sim.flow.catalogue import Catalogue, ItemType
 from sim.flow.config import (
-    BELT_HALF_WIDTH,
     MAX_ITEMS_PER_METRE,
     N_STRIPES,
     STRIPE_WIDTH,
@@ -279,7 +282,7 @@ def generate_flow(config: FlowConfig, catalogue: Catalogue, pool_size: int | Non
     latest = np.empty(n)
     for i in range(n):
         item_type = types[i]
-        y[i], yaw[i] = _lateral(item_type, int(stripes[i]), u_y[i], u_yaw[i])
+        y[i], yaw[i] = _lateral(item_type, int(stripes[i]), u_y[i], u_yaw[i], config)
         t_i = max(float(t_slot[i]), last_in_stripe[stripes[i]])
         shape = polygon(item_type, 0.0, y[i], yaw[i])
         reach[i] = math.hypot(item_type.half_length, item_type.half_width)
@@ -340,18 +343,25 @@ def generate_flow(config: FlowConfig, catalogue: Catalogue, pool_size: int | Non
     return flow
 
 
-def _lateral(item_type, stripe: int, u_y: float, u_yaw: np.ndarray) -> tuple[float, float]:
+def _lateral(
+    item_type, stripe: int, u_y: float, u_yaw: np.ndarray, config: FlowConfig
+) -> tuple[float, float]:
     """(y, yaw) of an item in `stripe` whose footprint stays on the belt."""
-    lo_stripe = -BELT_HALF_WIDTH + STRIPE_WIDTH * stripe
-    hi_stripe = lo_stripe + STRIPE_WIDTH
+    half_belt, width = config.belt_half_width_m, config.stripe_width_m
+    lo_stripe = -half_belt + width * stripe
+    hi_stripe = lo_stripe + width
     # Tries the drawn yaws in turn; an item too wide at all of them lies along the belt.
-    candidates = [*u_yaw.tolist(), 0.0 if item_type.half_width <= item_type.half_length else 1.5708]
-    for yaw in candidates:
+    along = 0.0 if item_type.half_width <= item_type.half_length else 1.5708
+    for yaw in [*u_yaw.tolist(), along]:
         half_y = float(item_type.half_extents(yaw)[1])
-        lo = max(lo_stripe, -BELT_HALF_WIDTH + half_y + EDGE_MARGIN_M)
-        hi = min(hi_stripe, BELT_HALF_WIDTH - half_y - EDGE_MARGIN_M)
+        lo = max(lo_stripe, -half_belt + half_y + EDGE_MARGIN_M)
+        hi = min(hi_stripe, half_belt - half_y - EDGE_MARGIN_M)
         if lo < hi:
             return lo + u_y * (hi - lo), yaw
+    # A belt narrower than the thesis's: the footprint on the belt, as near the stripe as it can.
+    edge = half_belt - float(item_type.half_extents(along)[1]) - EDGE_MARGIN_M
+    if width < STRIPE_WIDTH and edge > 0.0:
+        return min(max(0.5 * (lo_stripe + hi_stripe), -edge), edge), along
     raise InvalidInput("size", "footprints that fit the outer stripes", item_type.name)
 
 

@@ -9,7 +9,8 @@ of it (`perception.codes`), EMPTY_CODE when under 1 %.
 
 Grid rows lie along the belt: row k is centred at x = x_first - k * pitch and spans one pitch,
 so later rows sit further upstream (they reach the camera later). Stripe j spans
-y in [-0.4 + 0.16 j, -0.4 + 0.16 (j + 1)).
+y in [-W/2 + j W/5, -W/2 + (j + 1) W/5) of a belt W wide: [-0.4 + 0.16 j, -0.4 + 0.16 (j + 1))
+on the thesis's 0.8 m belt.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ import numpy as np
 
 from perception.codes import COLOURS, EMPTY_CODE, MEDIUM_MAX, MIN_FRACTION, SMALL_MAX, VOID
 from sim.flow.catalogue import Catalogue, ItemType
-from sim.flow.config import BELT_HALF_WIDTH, N_STRIPES, STRIPE_WIDTH, X_CAMERA
+from sim.flow.config import BELT_WIDTH_M, N_STRIPES, X_CAMERA, stripe_geometry
 from sim.flow.coverage import outline, polygon_rect_areas
 from sim.flow.generator import Flow
 
@@ -56,6 +57,7 @@ def grid_truth(
     pitch: float,
     n_rows: int,
     item_types: Sequence[ItemType] | None = None,
+    belt_width_m: float = BELT_WIDTH_M,
 ) -> GridTruth:
     """True classes and codes of `n_rows` grid rows from item footprints on the belt plane.
 
@@ -70,14 +72,16 @@ def grid_truth(
         n_rows: Rows to compute.
         item_types: Each item's own (scaled, variant) type (`Flow.item_types`); default the
             catalogue's type of `type_index`.
+        belt_width_m: The belt's width [m], which the five stripes share.
     """
+    half_belt, stripe = stripe_geometry(belt_width_m)
     shape = (n_rows, N_STRIPES)
     # index = class id (0 unused, 1 void, 2.. the materials)
     by_class = np.zeros((n_rows, N_STRIPES, catalogue.materials.n_states + 1))
     best = np.zeros(shape)
     best_colour = np.zeros(shape, dtype=np.int64)
     dominant = np.full(shape, -1, dtype=np.int64)
-    cell_area = pitch * STRIPE_WIDTH
+    cell_area = pitch * stripe
     if item_types is None:
         item_types = [catalogue.types[int(k)] for k in type_index]
     for i in range(len(x)):
@@ -85,18 +89,18 @@ def grid_truth(
         ex, ey = (float(e) for e in item_type.half_extents(yaw[i]))
         k0 = max(math.ceil((x_first - x[i] - ex) / pitch - 0.5), 0)
         k1 = min(math.floor((x_first - x[i] + ex) / pitch + 0.5), n_rows - 1)
-        j0 = max(math.floor((y[i] - ey + BELT_HALF_WIDTH) / STRIPE_WIDTH), 0)
-        j1 = min(math.floor((y[i] + ey + BELT_HALF_WIDTH) / STRIPE_WIDTH), N_STRIPES - 1)
+        j0 = max(math.floor((y[i] - ey + half_belt) / stripe), 0)
+        j1 = min(math.floor((y[i] + ey + half_belt) / stripe), N_STRIPES - 1)
         if k0 > k1 or j0 > j1:
             continue
         rows, cols = np.arange(k0, k1 + 1), np.arange(j0, j1 + 1)
         # Cells relative to the item's centre, for precision far along long flows.
         kk, jj = (a.ravel() for a in np.meshgrid(rows, cols, indexing="ij"))
         cx = x_first - pitch * kk - float(x[i])
-        cy = STRIPE_WIDTH * (jj + 0.5) - BELT_HALF_WIDTH - float(y[i])
+        cy = stripe * (jj + 0.5) - half_belt - float(y[i])
         poly = outline(item_type, 0.0, 0.0, float(yaw[i]))
         areas = polygon_rect_areas(
-            poly, cx - pitch / 2, cx + pitch / 2, cy - STRIPE_WIDTH / 2, cy + STRIPE_WIDTH / 2
+            poly, cx - pitch / 2, cx + pitch / 2, cy - stripe / 2, cy + stripe / 2
         )
         frac = (areas / cell_area).reshape(len(rows), len(cols))
         block = np.ix_(rows, cols)
@@ -146,7 +150,7 @@ def flow_truth(
     truth = grid_truth(
         x, flow.y, flow.yaw, flow.type_index, flow.class_id, flow.colour, catalogue,
         x_first=X_CAMERA, pitch=flow.config.row_pitch_m, n_rows=n_rows,
-        item_types=flow.item_types(catalogue),
+        item_types=flow.item_types(catalogue), belt_width_m=flow.config.belt_width_m,
     )  # fmt: skip
     return truth.classes, truth.codes
 
@@ -167,6 +171,7 @@ def cell_truth_from_poses(
     pitch: float,
     x_centre: float = X_CAMERA,
     item_types: Sequence[ItemType] | None = None,
+    belt_width_m: float = BELT_WIDTH_M,
 ) -> tuple[np.ndarray, np.ndarray]:
     """True classes and codes of the camera band's row from items' physical poses.
 
@@ -181,6 +186,7 @@ def cell_truth_from_poses(
         x_centre: Centre of the camera band [m].
         item_types: Each item's own (scaled, variant) type (`ItemPool.item_type`); default the
             catalogue's type of `type_index`.
+        belt_width_m: The belt's width [m].
 
     Returns:
         (classes, codes): int arrays (5,), one per stripe.
@@ -189,5 +195,6 @@ def cell_truth_from_poses(
     truth = grid_truth(
         xy[:, 0], xy[:, 1], np.asarray(yaw, dtype=float), type_index, class_id, colour,
         catalogue, x_first=x_centre, pitch=pitch, n_rows=1, item_types=item_types,
+        belt_width_m=belt_width_m,
     )  # fmt: skip
     return truth.classes[0], truth.codes[0]

@@ -84,7 +84,7 @@ def record(seed: int, catalogue, mix: dict | None = None) -> Recording:
         item_b=v * np.asarray(flow.tau),
         item_y=np.asarray(flow.y),
         item_class=np.asarray(flow.class_id),
-        item_cell=np.stack([flow.row, stripe_of(flow.y)], axis=1),
+        item_cell=np.stack([flow.row, stripe_of(flow.y, config.belt_width_m)], axis=1),
     )
 
 

@@ -390,8 +390,8 @@ def line_spec(
 
     Args:
         layout: The robots, their positions and prefixes.
-        settings: Cup diameter and belt length (`sim.model.scene_edits`); the belt is made at
-            least `layout.belt_length_m` long.
+        settings: Cup diameter, belt length and width (`sim.model.scene_edits`); the belt is
+            made at least `layout.belt_length_m` long.
         materials: One bin per material for each robot (`perception.codes.Materials`); the
             thesis's when None.
         path: The scene file.
@@ -401,6 +401,7 @@ def line_spec(
     Raises:
         ModelFileError: the scene or the robot's file is refused (`sim.model.mjcf`).
     """
+    from sim.model.belt_width import set_belt_width
     from sim.model.bin_layout import lay_out_bins
     from sim.model.mjcf import CELL_ELEMENTS, load_spec
 
@@ -415,6 +416,7 @@ def line_spec(
             spec = load_spec(_scene_with_pool(pool_size, Path(folder)), CELL_ELEMENTS)
     set_belt_length(spec, max(settings.belt_length_m, layout.belt_length_m))
     lay_out_bins(spec, materials)  # the file's own bins for the thesis's materials
+    set_belt_width(spec, settings.belt_width_m, materials)  # before robots copy cage and bins
     if layout.in_place:
         set_cup_diameter(spec, settings.cup_diameter_m)
         _move_in_place(spec, layout.positions_m[0], materials)

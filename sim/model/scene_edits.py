@@ -1,7 +1,7 @@
 """The cell's physical settings that change its compiled model, applied to `models/cell/scene.xml`.
 
 `CellSettings` holds what a user may vary in the model itself: the vacuum cup's diameter and
-the belt's length. The defaults are the scene file's own numbers, and a cell with default
+the belt's length and width. The defaults are the scene file's own numbers, and a cell with default
 settings is compiled from the file as it is (`compile_scene`), so its model is the file's to
 the bit. Any other value is written into the file's `MjSpec` before it is compiled, by pure
 functions `(spec, value) -> None` that find the elements by name:
@@ -13,14 +13,19 @@ functions `(spec, value) -> None` that find the elements by name:
   `rail_right`) keep their upstream (infeed) end and end at the new discharge; the discharge
   legs move with it and a longer belt gets more legs (drawn only). The camera, its markers,
   the robot, the cage and the bins stay where they are.
+- `sim.model.belt_width.set_belt_width`: the belt, its rails and legs, the camera's rig and
+  markers, the cage and the bins (keeping their release points in the robot's reach) follow
+  the belt's edges; applied once the bins are laid out (`compile_scene`).
 
 Everything else that depends on these numbers reads them back from the compiled model: the
 cup's radius, area and seal margin (`sim.cell.suction`), the clearance of a pick's path and the
 riders it wakes (`sim.episode.pick_control`, `sim.episode.loop`), the belt's discharge end
-(`sim.cell.conveyor.BeltGeometry`: items past it are missed, `ItemPool.park_missed`), the
-throw and bin checks. A cup larger than the scene's reaches farther around the TCP by its extra
-radius (`Cell.cup_extra_m`): riders wake that much earlier (`Cell.wake_x`) and unpicked items
-are discarded that much later (`sim.episode.loop`).
+(`sim.cell.conveyor.BeltGeometry`: items past it are missed, `ItemPool.park_missed`; its
+half width, which the camera's stripes, the true perception and the planners' grid take), the
+throw and bin checks, the bins' release points (`sim.cell.robots.RobotView.drop_xyz`). A cup
+larger than the scene's reaches farther around the TCP by its extra radius
+(`Cell.cup_extra_m`): riders wake that much earlier (`Cell.wake_x`) and unpicked items are
+discarded that much later (`sim.episode.loop`).
 """
 
 from __future__ import annotations
@@ -31,6 +36,7 @@ from typing import TYPE_CHECKING
 
 from sim.checks import is_finite_in
 from sim.errors import InvalidInput
+from sim.flow.config import BELT_WIDTH_M, BELT_WIDTH_RANGE_M
 from sim.paths import SCENE_XML
 
 if TYPE_CHECKING:
@@ -74,10 +80,12 @@ class CellSettings:
     Attributes:
         cup_diameter_m: Diameter of the vacuum cup's lip [m].
         belt_length_m: Length of the belt, infeed (x = -3.0 m) to discharge [m].
+        belt_width_m: Width of the belt [m] (`BELT_WIDTH_RANGE_M`).
     """
 
     cup_diameter_m: float = CUP_DIAMETER_M
     belt_length_m: float = BELT_LENGTH_M
+    belt_width_m: float = BELT_WIDTH_M
 
     def __post_init__(self) -> None:
         lo, hi = CUP_DIAMETER_RANGE_M
@@ -86,9 +94,13 @@ class CellSettings:
         lo, hi = BELT_LENGTH_RANGE_M
         if not is_finite_in(self.belt_length_m, lo, hi):
             raise InvalidInput("belt.length_m", f"{lo}..{hi} m", self.belt_length_m)
+        lo, hi = BELT_WIDTH_RANGE_M
+        if not is_finite_in(self.belt_width_m, lo, hi):
+            raise InvalidInput("belt.width_m", f"{lo}..{hi} m", self.belt_width_m)
         # 0.06 and 0.060000000001 compile alike: one cache key per model.
         object.__setattr__(self, "cup_diameter_m", float(self.cup_diameter_m))
         object.__setattr__(self, "belt_length_m", float(self.belt_length_m))
+        object.__setattr__(self, "belt_width_m", float(self.belt_width_m))
 
     @property
     def is_default(self) -> bool:
@@ -138,10 +150,15 @@ def set_belt_length(spec: mujoco.MjSpec, length_m: float) -> None:
             )
 
 
-def apply_settings(spec: mujoco.MjSpec, settings: CellSettings) -> None:
-    """Every setting of `settings` written into `spec`."""
+def apply_settings(spec: mujoco.MjSpec, settings: CellSettings, materials=None) -> None:
+    """Every setting of `settings` written into `spec`, whose bins are those of `materials`
+    (the file's thesis bins when None)."""
+    from perception.codes import THESIS_MATERIALS
+    from sim.model.belt_width import set_belt_width
+
     set_cup_diameter(spec, settings.cup_diameter_m)
     set_belt_length(spec, settings.belt_length_m)
+    set_belt_width(spec, settings.belt_width_m, materials or THESIS_MATERIALS)
 
 
 def compile_scene(
@@ -149,12 +166,15 @@ def compile_scene(
 ) -> mujoco.MjModel:
     """The cell of `path` compiled with `settings` and one bin per material of `materials`
     (`sim.model.bin_layout`; the file's thesis bins when None): the file as it is for the
-    defaults, else its `MjSpec` edited (`apply_settings`, `lay_out_bins`) and compiled, checked
-    as `sim.model.mjcf` checks a file.
+    defaults, else its `MjSpec` edited (as `apply_settings`, the bins laid out before the belt's
+    width moves them: `lay_out_bins`, `set_belt_width`) and compiled, checked as
+    `sim.model.mjcf` checks a file.
 
     Raises:
         ModelFileError: the file is refused (`sim.model.mjcf.load_model`).
     """
+    from perception.codes import THESIS_MATERIALS
+    from sim.model.belt_width import set_belt_width
     from sim.model.bin_layout import lay_out_bins
     from sim.model.mjcf import CELL_ELEMENTS, cell_elements, compile_spec, load_scene, load_spec
 
@@ -163,7 +183,9 @@ def compile_scene(
     if settings.is_default and thesis_bins:
         return load_scene(path)
     spec = load_spec(path, CELL_ELEMENTS)
-    apply_settings(spec, settings)
+    set_cup_diameter(spec, settings.cup_diameter_m)
+    set_belt_length(spec, settings.belt_length_m)
     if not thesis_bins:
         lay_out_bins(spec, materials)
+    set_belt_width(spec, settings.belt_width_m, materials or THESIS_MATERIALS)
     return compile_spec(spec, path, cell_elements(materials))

@@ -92,11 +92,11 @@ class Sighting:
     passed: tuple[int, ...]
 
 
-def belt_slope(camera_height_m: float) -> float:
+def belt_slope(camera_height_m: float, belt_half_width_m: float = BELT_HALF_WIDTH) -> float:
     """The largest |x / z| of a ray (camera axes: x across the belt) to an item on the belt
-    seen by a camera `camera_height_m` [m] above it: its outline reaches `BELT_MARGIN_M` past
-    the belt's edge and at most `TALLEST_ITEM_M` above the belt."""
-    return (BELT_HALF_WIDTH + BELT_MARGIN_M) / (camera_height_m - TALLEST_ITEM_M)
+    `2 belt_half_width_m` [m] wide seen by a camera `camera_height_m` [m] above it: its outline
+    reaches `BELT_MARGIN_M` past the belt's edge and at most `TALLEST_ITEM_M` above the belt."""
+    return (belt_half_width_m + BELT_MARGIN_M) / (camera_height_m - TALLEST_ITEM_M)
 
 
 def outline(kind: int, size: np.ndarray, pos: np.ndarray, mat: np.ndarray, eye: np.ndarray):

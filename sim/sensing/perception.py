@@ -40,7 +40,7 @@ from perception.items.split import SplitSettings
 from sim.cell.camera import FRAME_SIZE
 from sim.cell.depth_noise import ZED_CLASS, StereoDepthNoise
 from sim.errors import InvalidInput
-from sim.flow.config import X_CAMERA
+from sim.flow.config import BELT_WIDTH_M, X_CAMERA
 from sim.paths import REPO_ROOT
 from sim.sensing.item_classifier import trained_item_classifier
 from sim.sensing.tracking import Detection
@@ -110,13 +110,18 @@ class ReportedItem:
     classifier_probs: np.ndarray | None
 
 
-def hmm_cache_path(catalogue=None, mix: dict | None = None, coupled: bool = False) -> Path:
+def hmm_cache_path(
+    catalogue=None,
+    mix: dict | None = None,
+    coupled: bool = False,
+    belt_width_m: float = BELT_WIDTH_M,
+) -> Path:
     """Cache file of the trained stripe HMMs, named after what the training depends on (the
     catalogue's content, the flow's class mix, the flow generator, the recordings and the
-    training code, the stripes' coupling), so a change to any of them trains afresh instead of
-    reusing stale models. The default catalogue and mix, uncoupled, keep the name they always
-    had. The file is in the user's cache folder (`sim.user_cache.cache_dir`, created if need
-    be)."""
+    training code, the stripes' coupling, the belt's width), so a change to any of them trains
+    afresh instead of reusing stale models. The default catalogue and mix, uncoupled, on the
+    0.8 m belt, keep the name they always had. The file is in the user's cache folder
+    (`sim.user_cache.cache_dir`, created if need be)."""
     digest = hashlib.sha1()
     for rel in _HMM_INPUTS:
         digest.update((REPO_ROOT / rel).read_bytes())
@@ -126,6 +131,8 @@ def hmm_cache_path(catalogue=None, mix: dict | None = None, coupled: bool = Fals
         digest.update(repr(sorted(mix.items())).encode())
     if coupled:
         digest.update(b"coupled")
+    if belt_width_m != BELT_WIDTH_M:
+        digest.update(f"belt width {float(belt_width_m)!r} m".encode())
     return cache_dir() / f"stripe_hmms-{digest.hexdigest()[:12]}.npz"
 
 
@@ -135,21 +142,26 @@ def _is_default(catalogue) -> bool:
     return catalogue.digest == load_catalogue().digest
 
 
-def stripe_models(catalogue, mix: dict | None = None, coupled: bool = False):
-    """(stripe HMMs, cells per item): trained once per catalogue, class mix and coupling (the
-    config's `[hmm] coupled`: each stripe's transitions per neighbour class at t-1), cached in
-    the user's cache folder (`hmm_cache_path`; written atomically)."""
+def stripe_models(
+    catalogue, mix: dict | None = None, coupled: bool = False, belt_width_m: float = BELT_WIDTH_M
+):
+    """(stripe HMMs, cells per item): trained once per catalogue, class mix, coupling (the
+    config's `[hmm] coupled`: each stripe's transitions per neighbour class at t-1) and belt
+    width (flows on a belt of that width: its stripes' share of it), cached in the user's cache
+    folder (`hmm_cache_path`; written atomically)."""
     from perception.hmm.storage import save_models
     from perception.hmm.training import TrainConfig
     from sim.sensing.stripe_hmms import trained_models
 
-    path = hmm_cache_path(catalogue, mix, coupled)
+    path = hmm_cache_path(catalogue, mix, coupled, belt_width_m)
     train = TrainConfig(coupled=bool(coupled))
     if path.exists():
         return trained_models(catalogue, train, cache=path)
-    if not (catalogue.materials.is_thesis and _is_default(catalogue)) or mix:
-        log.info("training the stripe HMMs for this catalogue and class mix (once; cached)")
-    models, sizes = trained_models(catalogue, train, cache=None, mix=mix)
+    other_belt = belt_width_m != BELT_WIDTH_M
+    if not (catalogue.materials.is_thesis and _is_default(catalogue)) or mix or other_belt:
+        log.info("training the stripe HMMs for this catalogue, class mix and belt (once; cached)")
+    flows = {**(mix or {}), "belt_width_m": float(belt_width_m)} if other_belt else mix
+    models, sizes = trained_models(catalogue, train, cache=None, mix=flows)
     save_models(path, models, sizes)  # through a temporary renamed over it
     return models, sizes
 
@@ -175,10 +187,10 @@ class CameraPerception:
         prefix: str = "",
         coupled: bool = False,
     ):
-        from perception.camera.grid import BeltGrid
         from sim.cell.camera import (
             PERCEPTION_SAMPLES,
             BeltCamera,
+            belt_grid,
             camera_line,
             camera_name,
             camera_pipeline,
@@ -200,7 +212,7 @@ class CameraPerception:
         # scene's, on the flow's camera line.
         name = camera_name(prefix)
         self.x_line = X_CAMERA if prefix == "" else camera_line(model, name)
-        grid = BeltGrid(x_line=self.x_line, period_s=period_s)
+        grid = belt_grid(model, self.x_line, period_s)  # the stripes share the model's belt
         size = (int(size[0]), int(size[1]))
         if camera is not None and tuple(camera.size) != size:
             raise InvalidInput("camera", f"a camera of {size[0]} x {size[1]} px", camera.size)
@@ -213,7 +225,8 @@ class CameraPerception:
         self.camera = camera
         # `coupled` (the config's `[hmm] coupled`): the online filter mixes each stripe's
         # transitions by its neighbours' posteriors at t-1 (`perception.hmm.stripes`).
-        models, self.cells_per_item = stripe_models(catalogue, mix, coupled)
+        width = grid.y_max - grid.y_min
+        models, self.cells_per_item = stripe_models(catalogue, mix, coupled, width)
         self.hmm = OnlineStripeHmms(models)
         stripes, n_states = models.pi.shape
         self.classes = np.full((WINDOW_ROWS, stripes), VOID, dtype=np.int64)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from perception.codes import N_STATES
 from sim.cell.items import Items
-from sim.flow.config import BELT_HALF_WIDTH, X_CAMERA
+from sim.flow.config import X_CAMERA
 from sim.flow.generator import Flow
 from sim.sensing.tracking import Detection
 
@@ -34,6 +34,8 @@ class TruthPerception:
     def __init__(self, items: Items, flow: Flow, belt_speed: float, period_s: float):
         self.items, self.pool, self.flow = items, items.pool, flow
         self.n_states = items.pool.catalogue.materials.n_states
+        self.half_width = items.pool.belt.geometry.y_half
+        """Half the belt's width [m] (the model's): items beyond it are off the belt."""
         self.rows = self.unobserved = 0
 
     def observe(self, t: float) -> list[Detection]:
@@ -44,7 +46,7 @@ class TruthPerception:
             item_id = int(self.pool.item_ids[slot])
             x, y, z = self.items.position(slot)
             resting = -0.05 < z < self.pool.item_type(int(slot)).rest_height + ON_BELT_TOL_M
-            if X_CAMERA <= x and resting and abs(y) <= BELT_HALF_WIDTH:
+            if X_CAMERA <= x and resting and abs(y) <= self.half_width:
                 cls = int(self.flow.class_id[item_id])
                 probs = one_hot(cls, self.n_states)
                 out.append(Detection(t, float(x), float(y), probs, true_id=item_id))

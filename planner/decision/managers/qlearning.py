@@ -291,10 +291,11 @@ class QLearningPlanner:
             self._learn(batch, current, robot, context)
         q = [self._q.get(c.item.item_id, -math.inf) for c in cands]
         k = max(range(len(cands)), key=lambda i: (q[i], -i))  # ties: the earlier exit
+        column = grid_column(cands[k].item.y, context.belt_half_width)
         return choice_of(
             cands[k],
             f"max q {q[k]:.4f} of batch {current} ({len(self._q)} items, "
-            f"{self._learned.episodes} episodes), column {grid_column(cands[k].item.y)}",
+            f"{self._learned.episodes} episodes), column {column}",
         )
 
     def _learn(self, batch, current, robot, context) -> None:
@@ -305,7 +306,7 @@ class QLearningPlanner:
         first_row = current * cfg.batch_rows
         rows = [grid_row(it, t, v, cfg.row_period_s, self._origin) - first_row for it in batch]
         wanted = [
-            (min(max(r, 0), cfg.batch_rows - 1), grid_column(it.y) - 1)
+            (min(max(r, 0), cfg.batch_rows - 1), grid_column(it.y, context.belt_half_width) - 1)
             for r, it in zip(rows, batch, strict=True)
         ]
         cells = assign_cells(wanted, cfg.batch_rows)
@@ -316,7 +317,7 @@ class QLearningPlanner:
             [
                 (
                     self._origin + v * t - (first_row + r + 0.5) * pitch if v > 0.0 else it.x,
-                    column_centre(c + 1),
+                    column_centre(c + 1, context.belt_half_width),
                 )
                 for (r, c), it in zip(cells, batch, strict=True)
             ]

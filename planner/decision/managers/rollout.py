@@ -192,7 +192,7 @@ class RolloutPlanner:
             q, episodes = q_values(w, next_state, cfg.gamma, cfg.iterations, cfg.tolerance)
             k = int(np.argmax(q))
             detail = f"{episodes} episodes"
-        col = grid_column(cands[k].item.y)
+        col = grid_column(cands[k].item.y, context.belt_half_width)
         return choice_of(
             cands[k],
             f"max q {q[k]:.4f} (w {w[0, k]:.4f}), batch {current}, column {col}, "
