@@ -203,3 +203,19 @@ def _over_bin(model, data, name, point) -> bool:
     plate = model.geom(f"bin_{name}_floor_plate").id
     centre, half = data.geom_xpos[plate][:2], model.geom_size[plate][:2]
     return bool(np.all(np.abs(np.asarray(point)[:2] - centre) <= half))
+
+
+def test_a_report_of_two_widths_groups_by_the_belts_width(tmp_path, capsys):
+    from sim.cli import main as cli
+    from sim.cli.run import write_run
+
+    folders = []
+    for width in (0.8, 1.2):
+        config = episode_config.load(
+            None, items=6, duration_s=4.0, perception="truth", seed=3
+        ).replace(belt=episode_config.Belt(width_m=width))
+        folder = tmp_path / f"w{width}"
+        write_run(folder, config, run_episode(config))
+        folders.append(str(folder))
+    assert cli.main(["report", *folders, "--out", str(tmp_path / "report")]) == 0
+    assert "Grouped by belt width" in capsys.readouterr().out

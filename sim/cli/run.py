@@ -348,7 +348,7 @@ def check_perception(config) -> None:
     from sim.sensing.stripe_hmms import read_cache
 
     catalogue, mix = config.item_catalogue, config.mix_kwargs
-    cache = hmm_cache_path(catalogue, mix, belt_width_m=config.belt.width_m)
+    cache = hmm_cache_path(catalogue, mix, config.hmm.coupled, config.belt.width_m)
     if cache.exists():
         read_cache(cache, n_states=catalogue.materials.n_states)
     if config.classifier != "hmm" and not config.catalogue:

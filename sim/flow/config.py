@@ -183,10 +183,7 @@ class FlowConfig:
             object.__setattr__(self, "type_weights", tuple(array.tolist()))
         if not isinstance(self.world, WorldVariation):
             raise InvalidInput("world", "a WorldVariation", type(self.world).__name__)
-        lo, hi = BELT_WIDTH_RANGE_M
-        if not is_finite_in(self.belt_width_m, lo, hi):
-            raise InvalidInput("belt_width_m", f"{lo}..{hi} m", self.belt_width_m)
-        object.__setattr__(self, "belt_width_m", float(self.belt_width_m))
+        self._check_belt_width()
         density = self.items_per_metre
         limit = float(self.max_items_per_metre)
         if density > limit * (1 + 1e-9):
@@ -215,6 +212,13 @@ class FlowConfig:
         if self.held_shares is not None:
             held = _probabilities("held_shares", self.held_shares, (m,))
             object.__setattr__(self, "held_shares", tuple(held.tolist()))
+
+    def _check_belt_width(self) -> None:
+        """The belt's width in `BELT_WIDTH_RANGE_M`, stored as a float."""
+        lo, hi = BELT_WIDTH_RANGE_M
+        if not is_finite_in(self.belt_width_m, lo, hi):
+            raise InvalidInput("belt_width_m", f"{lo}..{hi} m", self.belt_width_m)
+        object.__setattr__(self, "belt_width_m", float(self.belt_width_m))
 
     @property
     def belt_speed_mps(self) -> float:

@@ -5,10 +5,10 @@ episodes.csv row and, for what the CSV does not hold, from its folder's `manifes
 run's `config`; a sweep's `grid`: the grid point's config, matched by variant, planner, belt
 speed factor and items). The settings a report groups by and names (`SETTINGS`): the code
 (`code_digest`, where the CSV has it), the item catalogue, the variant, the perception, the
-robots, a line's coordination, the cup, the energy price, the robots' economics, the belt
-speed, the items and the feed (items per metre), and the planner. Episodes that differ in any
-of them are never averaged together; the settings that differ over a report's episodes are its
-grouping columns (`grouping`), named above its tables.
+robots, a line's coordination, the cup, the belt's width, the energy price, the robots'
+economics, the belt speed, the items and the feed (items per metre), and the planner. Episodes
+that differ in any of them are never averaged together; the settings that differ over a
+report's episodes are its grouping columns (`grouping`), named above its tables.
 
 Every other setting (the rest of the config, flattened to dotted keys: `camera.width`,
 `robots[0].pick_pause_s`, `values.paper`; the CSV's `min_class_confidence` and a sweep's
@@ -32,6 +32,7 @@ from typing import Any
 from planner.motion.belt_speeds import SPEED_X1_MPS
 from sim.errors import InvalidInput
 from sim.experiments.reporting.stats import number
+from sim.flow.config import BELT_WIDTH_M
 from sim.results.economics import ECONOMICS_COLUMNS
 
 ROW_CONFIG = "@config"
@@ -49,6 +50,7 @@ NAMED_KEYS = frozenset(
         "energy_price_eur_per_kwh",
         "min_class_confidence",
         "belt.speed_mps",  # the belt speed's other spelling
+        "belt.width_m",
         "infeed.items_per_m",  # the feed's: items over duration_s
         "infeed.items_per_s",
         "infeed.kg_per_h",
@@ -189,6 +191,12 @@ def _cup(row: dict) -> tuple:
     return (float(cup.get("diameter_m", math.nan)), float(cup.get("vacuum_pa", math.nan)))
 
 
+def _belt_width(row: dict) -> float:
+    belt = _config(row).get("belt")
+    width = number(belt.get("width_m")) if isinstance(belt, dict) else None
+    return BELT_WIDTH_M if width is None else width  # recorded before the key: the thesis's
+
+
 def _energy_price(row: dict) -> float:
     price = number(row.get("energy_price_eur_per_kwh"))
     if price is None:
@@ -274,6 +282,10 @@ SETTINGS = (
         lambda v: _if(v, f"coordination {v}"),
     ),
     Setting("cup", "cup", _cup, _cup_text, lambda v: _if(v, f"cup {_cup_text(v)}")),
+    Setting(
+        "width", "belt width", _belt_width, lambda v: f"{v:g} m",
+        lambda v: f"belt {v:g} m wide" if v != BELT_WIDTH_M else "",
+    ),
     Setting(
         "energy_price", "energy EUR/kWh", _energy_price, lambda v: f"{v:g}",
         lambda v: f"energy {v:g} EUR/kWh" if v else "",
