@@ -213,7 +213,7 @@ def test_a_report_of_two_widths_groups_by_the_belts_width(tmp_path, capsys):
     for width in (0.8, 1.2):
         config = episode_config.load(
             None, items=6, duration_s=4.0, perception="truth", seed=3
-        ).replace(belt=episode_config.Belt(width_m=width))
+        ).replace(belt=episode_config.Belt(width_m=width), cup=episode_config.Cup(0.06))
         folder = tmp_path / f"w{width}"
         write_run(folder, config, run_episode(config))
         folders.append(str(folder))
