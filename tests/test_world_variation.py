@@ -198,7 +198,7 @@ def test_bad_settings_are_refused_by_name():
 def test_episode_config_world_keys():
     from sim.cli.run import WORLD_NUMBERS as CLI_NUMBERS
     from sim.episode import config
-    from sim.experiments.sweep_config import LATER_KEYS, LATER_TABLE_KEYS, settings_as_before
+    from sim.experiments.sweep_config import LATER_KEYS, LATER_TABLE_KEYS, settings_applied
 
     assert config.WORLD_NUMBERS == CLI_NUMBERS
     assert config.load(None).world_variation == WorldVariation()
@@ -207,15 +207,11 @@ def test_episode_config_world_keys():
     assert uniform_no_gap.min_gap_m == 0.0 and uniform_no_gap.size_jitter == 0.0
     # Every later key is an episode-config key; at the value LATER_KEYS holds the episode runs
     # as before the key existed (the uniform world, no depth noise, the HMMs' classes, no hold
-    # at the infeed), in the layout the sweep's identity reads (`settings_as_before`).
-    before = (
-        config.load(
-            None, world="uniform", classifier="hmm", depth_noise=False, min_class_confidence=0.0
-        )
-        .replace(belt=config.Belt(infeed_hold=False))
-        .to_dict()
-    )
-    before = settings_as_before(before)
+    # at the infeed), in the layout the sweep's identity reads (`settings_applied`).
+    before = config.load(
+        None, world="uniform", classifier="hmm", depth_noise=False, min_class_confidence=0.0
+    ).replace(belt=config.Belt(infeed_hold=False))
+    before = settings_applied(before)  # as the identity reads it: the cup applied
     # A key added to a table later is left out of it at the value of before it existed.
     for table, keys in LATER_TABLE_KEYS.items():
         for key, value in keys.items():

@@ -143,7 +143,7 @@ def variant_values(spec: EpisodeSpec, keys: tuple[str, ...]) -> dict[str, Any]:
         its preset (`world`), the preset's; `min_class_confidence` left to the classifier, the
         threshold applied; None (an empty cell) for a key the config does not hold.
     """
-    settings = _settings_applied(spec.config)
+    settings = settings_applied(spec.config)
     out = {}
     for key in keys:
         value: Any = settings
@@ -176,7 +176,7 @@ def settings_as_before(settings: dict[str, Any]) -> dict[str, Any]:
     return settings | {"robots": placed if any(placed) else len(tables), "robot": shared[0]}
 
 
-def _settings_applied(config: EpisodeConfig) -> dict[str, Any]:
+def settings_applied(config: EpisodeConfig) -> dict[str, Any]:
     """`settings_as_before(config.to_dict())` with the confidence threshold the episode applies
     (a config that leaves it to the classifier holds None): so a grid point at the classifier's
     own threshold is told from one at 0, and a sweep begun when 0 was every classifier's
@@ -399,7 +399,7 @@ of the identity, so an old sweep resumes only when its episodes would still run 
 def _resolved(variant: str, config: EpisodeConfig) -> str:
     """One grid point's resolved config, seed aside, as canonical JSON (for the identity); a
     later key at its default is left out (`LATER_KEYS`)."""
-    settings = _settings_applied(config)
+    settings = settings_applied(config)
     settings.pop("seed")
     for table, keys in LATER_TABLE_KEYS.items():
         inner = settings.get(table)

@@ -33,6 +33,7 @@ from planner.motion.belt_speeds import SPEED_X1_MPS
 from sim.errors import InvalidInput
 from sim.experiments.reporting.stats import number
 from sim.flow.config import BELT_WIDTH_M
+from sim.model.scene_edits import default_cup_diameter_m
 from sim.results.economics import ECONOMICS_COLUMNS
 
 ROW_CONFIG = "@config"
@@ -185,10 +186,19 @@ def _catalogue(row: dict) -> str:
 
 
 def _cup(row: dict) -> tuple:
+    """(diameter [m], vacuum [Pa]) of the cup the episode ran with: the manifest's, a diameter
+    left unset (null) being the default for its robot count."""
     cup = _config(row).get("cup")
     if not isinstance(cup, dict):
         return ()
-    return (float(cup.get("diameter_m", math.nan)), float(cup.get("vacuum_pa", math.nan)))
+    diameter = number(cup.get("diameter_m"))
+    if diameter is None and "diameter_m" in cup:  # unset: the default the episode ran with
+        diameter = default_cup_diameter_m(int(number(row.get("robots")) or 1))
+    vacuum = number(cup.get("vacuum_pa"))
+    return (
+        math.nan if diameter is None else diameter,
+        math.nan if vacuum is None else vacuum,
+    )
 
 
 def _belt_width(row: dict) -> float:
