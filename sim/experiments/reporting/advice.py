@@ -186,10 +186,10 @@ def deciding_perception(results: list[LineResult]) -> str:
     return "camera" if any(r.line.perception == "camera" for r in results) else "truth"
 
 
-def ranked(results: list[LineResult]) -> list[LineResult]:
-    """The lines of the deciding perception that meet the targets, cheapest first (fewest
-    robots, then the most profit per hour after the robots' cost)."""
-    perception = deciding_perception(results)
+def ranked(results: list[LineResult], perception: str | None = None) -> list[LineResult]:
+    """The lines of `perception` (None: the deciding one) that meet the targets, cheapest
+    first (fewest robots, then the most profit per hour after the robots' cost)."""
+    perception = perception or deciding_perception(results)
     meeting = [r for r in results if r.line.perception == perception and r.verdict == MEETS]
     return sorted(meeting, key=lambda r: (r.line.robots, -r.net_profit_per_h_eur))
 
@@ -234,7 +234,8 @@ def recommendation(results: list[LineResult], targets: tuple[Target, ...]) -> st
     best = ranked(results)
     if not best:
         still = "; some lines are still open: more seeds decide" if not decided(results) else ""
-        return f"No line meets {wanted} with 95 % confidence through {perception}{still}."
+        text = f"No line meets {wanted} with 95 % confidence through {perception}{still}."
+        return text + _bound_text(results, perception)
     first = best[0]
     text = (
         f"Recommended: {first.line.name}: meets {wanted} with 95 % confidence; "
@@ -248,4 +249,16 @@ def recommendation(results: list[LineResult], targets: tuple[Target, ...]) -> st
             f"{second.net_profit_per_h_eur:.2f} after the robots' cost, pays back in "
             f"{_years(second.payback_years)} years."
         )
-    return text
+    return text + _bound_text(results, perception)
+
+
+def _bound_text(results: list[LineResult], perception: str) -> str:
+    """Beside a camera's answer, the cheapest line that meets the targets with truth's
+    perfect perception (the bound of what a better camera could give)."""
+    bound = ranked(results, "truth") if perception == "camera" else []
+    if not bound:
+        return ""
+    return (
+        f"\nWith perfect perception (truth, the bound): {bound[0].line.name}, "
+        f"{bound[0].net_profit_per_h_eur:.2f} EUR/h after the robots' cost."
+    )
