@@ -29,7 +29,8 @@ def test_eta_text():
 @pytest.mark.parametrize("name", sorted(COMMANDS))
 def test_every_subcommand_takes_verbose_and_quiet(name):
     parser = build_parser()
-    required = {"report": ["DIR"], "sweep": ["--config", "c.toml", "--out", "o"]}
+    sweep_like = ["--config", "c.toml", "--out", "o"]
+    required = {"report": ["DIR"], "sweep": sweep_like, "advise": sweep_like}
     positional = required.get(name, [])
     assert parser.parse_args([name, *positional, "--verbose"]).verbose
     assert parser.parse_args([name, *positional, "-q"]).quiet

@@ -122,8 +122,8 @@ def _move_out(element, dw: float) -> None:
 @functools.cache
 def _robot_geometry():
     """The IRB 360's geometry at the origin (its file's), for the reach of release points."""
-    from sim.cell.robot import geometry_from_model
     from sim.model.mjcf import load_robot
+    from sim.model.robot_geometry import geometry_from_model
 
     return geometry_from_model(load_robot())
 

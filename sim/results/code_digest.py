@@ -82,18 +82,26 @@ def code_digest() -> str:
 def git_commit(root: Path = REPO_ROOT) -> dict[str, object] | None:
     """{'commit': sha, 'dirty': bool} of `root`'s checkout, dirty when `CODE_ROOTS` hold
     changes not committed (or files not tracked); None outside git or without git."""
+    return git_state(root, CODE_ROOTS, untracked=True)
+
+
+def git_state(
+    root: Path = REPO_ROOT, paths: tuple[str, ...] = (), untracked: bool = False
+) -> dict[str, object] | None:
+    """{'commit': sha, 'dirty': bool} of `root`'s checkout, dirty when `paths` (every path:
+    ()) hold changes not committed (and, `untracked`, files not tracked); None outside git or
+    without git. Git runs without optional locks: the index is left as it is (a run writes
+    nothing into the checkout, .git included)."""
     if not (Path(root) / ".git").exists():
         return None
+    status_cmd = ["git", "--no-optional-locks", "status", "--porcelain"]
+    status_cmd += [] if untracked else ["--untracked-files=no"]
     try:
         commit = subprocess.run(
             ["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True, timeout=10
         )
         status = subprocess.run(
-            ["git", "status", "--porcelain", "--", *CODE_ROOTS],
-            cwd=root,
-            capture_output=True,
-            text=True,
-            timeout=10,
+            [*status_cmd, "--", *paths], cwd=root, capture_output=True, text=True, timeout=10
         )
     except (OSError, subprocess.SubprocessError):
         return None

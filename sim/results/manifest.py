@@ -20,14 +20,12 @@ import hashlib
 import json
 import os
 import platform
-import subprocess
 import sys
 from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-from sim.paths import REPO_ROOT
-from sim.results.code_digest import code_digest
+from sim.results.code_digest import code_digest, git_state
 from sim.results.outputs import write_atomic
 
 MANIFEST_FILE = "manifest.json"
@@ -41,31 +39,6 @@ def package_version() -> str:
         return metadata.version("sortsim")
     except metadata.PackageNotFoundError:
         return "unknown"
-
-
-def git_state(root: Path = REPO_ROOT) -> dict[str, Any] | None:
-    """{'commit': sha, 'dirty': bool} of the source tree, None when it is not a git checkout
-    or git is not available."""
-    if not (root / ".git").exists():
-        return None
-    try:
-        commit = subprocess.run(
-            ["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True, timeout=10
-        )
-        # No optional locks: status leaves the index as it is (a run writes nothing into the
-        # checkout, .git included).
-        status = subprocess.run(
-            ["git", "--no-optional-locks", "status", "--porcelain", "--untracked-files=no"],
-            cwd=root,
-            capture_output=True,
-            text=True,
-            timeout=10,
-        )
-    except (OSError, subprocess.SubprocessError):
-        return None
-    if commit.returncode != 0:
-        return None
-    return {"commit": commit.stdout.strip(), "dirty": bool(status.stdout.strip())}
 
 
 def cpu_model() -> str:
