@@ -49,15 +49,20 @@ Z_TOL = 1e-9
 _AT_REST = (0.0,) * DOF
 
 
+def _goal(wp, corners, k: int) -> State:
+    """The state a segment ends in at waypoint `wp` (the `k`-th): its own, or a corner's (offset,
+    velocity) from `corners` where the waypoint leaves its velocity free."""
+    if wp.velocity is None:
+        offset, vel = corners[k]
+        return State(wp.position + offset, vel)
+    return State(wp.position, wp.velocity)
+
+
 def _build(start, waypoints, corners, generator, checked):
     """Segments for given corner (offset, velocity) pairs; None if a path constraint fails."""
     segments, state, t = [], start, 0.0
     for k, wp in enumerate(waypoints):
-        if wp.velocity is None:
-            offset, vel = corners[k]
-            goal = State(wp.position + offset, vel)
-        else:
-            goal = State(wp.position, wp.velocity)
+        goal = _goal(wp, corners, k)
         min_dur = None if wp.arrival_time is None else wp.arrival_time - t
         if min_dur is not None and min_dur < 0.0:
             return None
@@ -83,11 +88,7 @@ def _legs(start, waypoints, corners) -> list[tuple[State, State]]:
     velocity) pairs, as `_build` plans them (a dwell carries the state on at its velocity)."""
     legs, state = [], start
     for k, wp in enumerate(waypoints):
-        if wp.velocity is None:
-            offset, vel = corners[k]
-            goal = State(wp.position + offset, vel)
-        else:
-            goal = State(wp.position, wp.velocity)
+        goal = _goal(wp, corners, k)
         legs.append((state, goal))
         state = goal
         if wp.dwell > 0.0 and k + 1 < len(waypoints):  # (the last one's is never used)
