@@ -251,14 +251,6 @@ def write_block(text: str, name: str, body: str) -> str:
     replaced by `body`; everything else as it was (idempotent: writing the same body again
     gives the same text).
 
-    Args:
-        text: The docs file's text.
-        name: The piece's name (`start_marker`).
-        body: The block (without markers).
-
-    Returns:
-        The new text.
-
     Raises:
         InvalidInput: the start marker is missing or twice there, no end marker follows it, or
             `body` holds a marker.
@@ -285,17 +277,8 @@ def markers_in(text: str) -> list[str]:
 def reproduce(
     names: list[str], run: Run, docs: Path | None = DOCS_FILE, echo: Callable[[str], None] = print
 ) -> dict[str, Block]:
-    """Make the pieces `names` (in `pieces()`'s order), print them, write them to
-    `run.out/<name>.md` and, with `docs`, between their markers there.
-
-    Args:
-        names: Piece names (every one when empty).
-        run: Where and how (`Run`).
-        docs: The docs file to fill, or None.
-        echo: Where each block is printed.
-
-    Returns:
-        {name: Block}.
+    """Make the pieces `names` (all when empty; in `PIECES`' order), `echo` them, write them
+    to `run.out/<name>.md` and, with `docs`, between their markers there; {name: Block}.
 
     Raises:
         InvalidInput: an unknown name; a docs file without a piece's markers; a sweep folder
