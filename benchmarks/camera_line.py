@@ -152,7 +152,7 @@ def run(mode: str, seed: int, args) -> dict:
         if args.gate is not None:
             tracker.fusion_gate = args.gate
         tracker.update = watch.update(tracker.update, original)
-        tracker._fuse = watch.fuse(tracker._fuse, original)
+        tracker.fuse = watch.fuse(tracker.fuse, original)
         try:
             episode.run()
         finally:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from perception.errors import RefusedInput, SortsimError
 
-__all__ = ["InvalidInput", "ModelFileError", "NotAvailable", "RefusedInput", "SortsimError"]
+__all__ = ["InvalidInput", "ModelFileError", "RefusedInput", "SortsimError"]
 
 
 class InvalidInput(RefusedInput):
@@ -30,7 +30,3 @@ class ModelFileError(InvalidInput):
 
     def __reduce__(self):
         return (type(self), (self.path, self.reason))
-
-
-class NotAvailable(SortsimError):
-    """A command whose implementation has not landed yet (exit code 2)."""

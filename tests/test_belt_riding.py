@@ -223,7 +223,7 @@ def test_the_wake_line_is_upstream_of_everything_the_robot_reaches():
     xs = np.linspace(-1.5, 0.0, 301)
     for z in (-0.01, 0.05, 0.15, 0.25):
         pts = np.stack([xs, np.zeros_like(xs), np.full_like(xs, z)], axis=1)
-        ok = reachable_mask(cell.geometry, pts)
+        ok = reachable_mask(cell.robots[0].geometry, pts)
         assert xs[ok].min() > cell.wake_x + 0.15  # the largest item still clears it
     assert -1.48 < cell.wake_x < -0.7  # downstream of the camera, upstream of the window
 

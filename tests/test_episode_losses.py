@@ -32,22 +32,22 @@ PAPER_OFFSET = np.array([0.38, 0.06, 0.0])  # [m] from the paper bin's release p
 @pytest.fixture(scope="module")
 def lossy(cell):
     """The finished lossy episode (the cell's release points restored afterwards)."""
-    saved = {k: v.copy() for k, v in cell.drop_xyz.items()}
+    saved = {k: v.copy() for k, v in cell.robots[0].drop_xyz.items()}
     try:
-        cell.drop_xyz[PAPER] = saved[PAPER] + PAPER_OFFSET
-        cell.drop_xyz[PLASTIC] = saved[ALUMINIUM].copy()
+        cell.robots[0].drop_xyz[PAPER] = saved[PAPER] + PAPER_OFFSET
+        cell.robots[0].drop_xyz[PLASTIC] = saved[ALUMINIUM].copy()
         with Episode(config.load(None, **LOSSY), cell) as episode:
             episode.reset()
             episode.run()
         return episode
     finally:
-        cell.drop_xyz.update(saved)
+        cell.robots[0].drop_xyz.update(saved)
 
 
 def test_the_release_point_beside_the_paper_bin_is_over_no_bin(lossy):
     low, high = lossy.bins.interiors["paper"]
     mid_z = 0.5 * (low[2] + high[2])
-    release = np.array(lossy.cell.bins_tuple()[0])
+    release = np.array(lossy.cell.robots[0].bins_tuple()[0])
     moved = release + PAPER_OFFSET
     assert lossy.bins.bin_at((release[0], release[1], mid_z)) == "paper"
     assert lossy.bins.bin_at((moved[0], moved[1], mid_z)) is None
@@ -104,7 +104,7 @@ def test_dropped_items_were_carried_and_missed_ones_never_were(lossy):
     assert not m.missed & carried
     for landing in lossy.bins.dropped:  # on the floor near the release point
         x, y, _ = landing.position
-        target = lossy.cell.drop_xyz[PAPER] + PAPER_OFFSET
+        target = lossy.cell.robots[0].drop_xyz[PAPER] + PAPER_OFFSET
         assert abs(x - target[0]) < 0.15 and abs(y - target[1]) < 0.15, landing
     assert len(lossy.bins.dropped) == len(m.dropped)
 

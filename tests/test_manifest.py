@@ -11,10 +11,10 @@ import mujoco
 import pytest
 
 import sim
-from sim.cli.sweep import seeds, sweep_manifest_config
 from sim.episode import config as episode_config
 from sim.errors import InvalidInput
 from sim.experiments import sweep_config
+from sim.experiments.sweep_runner import manifest_config, seeds
 from sim.paths import REPO_ROOT
 from sim.results import manifest
 from tests.test_cli_run import run_dir  # noqa: F401  (the module's `sortsim run` fixture)
@@ -41,7 +41,7 @@ def test_a_run_folder_has_its_manifest(run_dir):  # noqa: F811
 
 def test_a_sweep_manifest_lists_every_grid_point_once():
     config = sweep_config.load(REPO_ROOT / "experiments" / "table_4_5.toml")
-    resolved = sweep_manifest_config(config)
+    resolved = manifest_config(config)
     # 5 item counts x 2 planners, 10 seeds each: 10 grid points, seeds kept apart.
     assert len(resolved["grid"]) == 10
     assert all("seed" not in point["config"] for point in resolved["grid"])

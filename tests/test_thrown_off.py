@@ -107,10 +107,16 @@ def test_the_cup_flies_over_a_standing_can_on_its_way_down(cell):
     # Planned without the neighbours, the cup would come down onto the board through the can.
     top = robot.top_of(board)
     config = replace(robot.config, lift_height=robot.clear_z + PRESS_DEPTH_M)
-    drop = np.array(cell.drop_xyz[PAPER])
+    drop = np.array(robot.view.drop_xyz[PAPER])
     drop[2] = robot.clear_z + top
     blind = intercept_item(
-        State.at_rest(robot.rest), (x, y), SPEED, drop, cell.generator, top - PRESS_DEPTH_M, config
+        State.at_rest(robot.rest),
+        (x, y),
+        SPEED,
+        drop,
+        robot.view.generator,
+        top - PRESS_DEPTH_M,
+        config,
     )
     neighbours = [o for _, o in robot.neighbours(exclude=board)]
     t_down = blind.plan.chain.phase_start("descend")

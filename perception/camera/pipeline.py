@@ -194,7 +194,7 @@ class CameraPipeline:
         self.check(frame)
         mapper = self.band_mapper(belt_speed)
         labels, height, colour = mapper.footprint_and_height(frame, depth, self.rules)
-        return self._code(labels, belt_speed, t, height, colour)
+        return self.row_observation(labels, belt_speed, t, height, colour)
 
     def observe_window(
         self, crop: np.ndarray, depth: np.ndarray, belt_speed: float, t: float
@@ -217,7 +217,7 @@ class CameraPipeline:
             raise PerceptionError("window is all black (camera or lighting off)")
         mapper = self.band_mapper(belt_speed)
         labels, height, colour = mapper.window_footprint_and_height(crop, depth, self.rules)
-        return self._code(labels, belt_speed, t, height, colour)
+        return self.row_observation(labels, belt_speed, t, height, colour)
 
     def code_row(self, top: np.ndarray, belt_speed: float, t: float) -> RowObservation:
         """The row of codes of a top-down image (`rectify`) taken at time `t` [s]."""
@@ -231,7 +231,7 @@ class CameraPipeline:
         solid = cv2.morphologyEx((band != BELT).astype(np.uint8), cv2.MORPH_OPEN, _KERNEL)
         band[solid == 0] = BELT
         labels[start:stop] = band
-        return self._code(labels, belt_speed, t)
+        return self.row_observation(labels, belt_speed, t)
 
     def _check_speed(self, belt_speed: float) -> None:
         pitch = self.grid.row_pitch(belt_speed)
@@ -243,7 +243,7 @@ class CameraPipeline:
     def _band_rows(self, belt_speed: float, t: float) -> tuple[int, int]:
         return self.raster.rows_of(*self.grid.band(belt_speed, t))
 
-    def _code(
+    def row_observation(
         self,
         labels: np.ndarray,
         belt_speed: float,
@@ -251,6 +251,8 @@ class CameraPipeline:
         height: np.ndarray | None = None,
         colour: np.ndarray | None = None,
     ) -> RowObservation:
+        """The row of codes of a label raster (`labels`, the belt band of time `t` [s] filled
+        in), each cell with its pixels' heights [m] and colours when given."""
         raster = self.raster
         row_slice = self._band_rows(belt_speed, t)
         edges = self.grid.stripe_edges()

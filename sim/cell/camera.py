@@ -592,7 +592,7 @@ class BeltCamera:
         self._own_renderer = renderer is None
         self.renderer = SceneRenderer(model) if renderer is None else renderer
         """The `SceneRenderer` every pass of the camera and of its windows renders in."""
-        self._passes = _RenderPasses(self.renderer, self._cam, src_size, self.camera_matrix[1, 1],
+        self._passes = RenderPasses(self.renderer, self._cam, src_size, self.camera_matrix[1, 1],
                                      samples, distorter)  # fmt: skip
         self._windows: dict[tuple[int, int, int, int], CameraWindow] = {}
 
@@ -627,7 +627,7 @@ class BeltCamera:
         self.close()
 
 
-class _RenderPasses:
+class RenderPasses:
     """The two passes of a frame with depth on one pinhole canvas (see the module docstring):
     the depth pass (MuJoCo's segmentation render, one sample) and the colour pass (`samples`),
     both of one scene (`SceneRenderer.update`), then the lens's distortion.
@@ -704,7 +704,7 @@ class CameraWindow:
         distorter = cached_distorter(
             camera.camera_matrix, lens, camera.size, part_matrix, canvas, (rows, cols)
         )
-        self._passes = _RenderPasses(camera.renderer, camera._cam, canvas, part_matrix[1, 1],
+        self._passes = RenderPasses(camera.renderer, camera._cam, canvas, part_matrix[1, 1],
                                      camera.samples, distorter)  # fmt: skip
 
     def render_rgbd(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:

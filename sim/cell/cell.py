@@ -11,7 +11,6 @@ accessors keep riders' poses right. `reset` parks every item and puts every robo
 from __future__ import annotations
 
 import mujoco
-import numpy as np
 
 from planner.motion.kinematics import reachable_mask
 from planner.motion.reach_window import ReachWindow
@@ -90,11 +89,6 @@ class Cell:
         self._scene_renderer = None  # the one every belt camera of the cell renders in
 
     @property
-    def robot(self) -> RobotView:
-        """The first robot, upstream (a single cell's only one)."""
-        return self.robots[0]
-
-    @property
     def window(self) -> ReachWindow:
         """The last robot's window: items past it are out of every robot's reach."""
         return self.robots[-1].window
@@ -110,40 +104,6 @@ class Cell:
         scene's cup or a smaller one): the distances that allow for the cup's radius (riders'
         wake line, where an unpicked item is out of reach) widen by it."""
         return max(self.cup_radius - 0.5 * CUP_DIAMETER_M, 0.0)
-
-    # The first robot's parts, by the names a single cell's users know them by.
-    @property
-    def geometry(self):
-        """The first robot's geometry (`sim.cell.robot.geometry_from_model`)."""
-        return self.robot.geometry
-
-    @property
-    def limits(self):
-        """The first robot's motion limits for the design payload."""
-        return self.robot.limits
-
-    @property
-    def generator(self):
-        """The first robot's trajectory generator."""
-        return self.robot.generator
-
-    @property
-    def executor(self):
-        """The first robot's trajectory executor."""
-        return self.robot.executor
-
-    @property
-    def drop_xyz(self) -> dict[int, np.ndarray]:
-        """Release point over each of the first robot's bins, by class id [m]."""
-        return self.robot.drop_xyz
-
-    def bins_tuple(self) -> tuple[tuple[float, float, float], ...]:
-        """Release points of the first robot's bins, in material order [m]."""
-        return self.robot.bins_tuple()
-
-    def tcp(self) -> np.ndarray:
-        """The first robot's cup lip centre now [m]."""
-        return self.robot.tcp()
 
     def reset(self, belt_speed: float) -> None:
         """Park every item, every robot to `home`, belt at `belt_speed` [m/s], clock at 0.

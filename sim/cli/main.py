@@ -25,7 +25,7 @@ import signal
 import sys
 from collections.abc import Iterator
 
-from sim.errors import NotAvailable, RefusedInput, SortsimError
+from sim.errors import RefusedInput, SortsimError
 
 COMMANDS = {
     "run": "Run one episode of the sorting cell and write episodes.csv, picks.csv, video.",
@@ -42,7 +42,6 @@ COMMANDS = {
     "advise": "Which line to buy: robots x belt speeds swept until a plant's targets decide.",
 }
 
-REFUSED = (RefusedInput, NotAvailable)
 STORAGE_ERRORS = frozenset(
     {errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EIO, errno.EFBIG, errno.ENOMEM}
 )
@@ -149,7 +148,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         with _orderly_stops():
             return int(_module(args.command).main(args) or 0)
-    except REFUSED as exc:
+    except RefusedInput as exc:
         _say(args.command, exc)
         return 2
     except SortsimError as exc:

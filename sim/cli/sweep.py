@@ -112,9 +112,8 @@ def _run(args: argparse.Namespace, config) -> int:
     """The sweep's work once its folder is locked: manifest, episodes, table and figures."""
     from sim.cli.run import Progress
     from sim.experiments import sweep_runner as sweep
-    from sim.results import manifest
 
-    manifest.write(args.out, manifest.build("sweep", sweep_manifest_config(config), seeds(config)))
+    sweep.write_manifest(config, args.out)
     from sim.evaluation.item_features import prepare_camera
 
     prepared = set()
@@ -143,28 +142,3 @@ def _run(args: argparse.Namespace, config) -> int:
     for path in thesis_report.save_figures(config.table, rows, args.out):
         print(f"figure: {path}")
     return 0
-
-
-def seeds(config) -> list[int]:
-    """The seeds of a sweep's episodes."""
-    return [spec.config.seed for spec in config.episodes]
-
-
-def sweep_manifest_config(config) -> dict:
-    """A sweep's resolved configuration for its manifest: name, table, identity and each grid
-    point's full episode config (seed aside), in the sweep's order."""
-    points, seen = [], set()
-    for spec in config.episodes:
-        resolved = spec.config.to_dict()
-        resolved.pop("seed")
-        key = (spec.variant, repr(sorted(resolved.items())))
-        if key not in seen:
-            seen.add(key)
-            points.append({"variant": spec.variant, "config": resolved})
-    return {
-        "name": config.name,
-        "table": config.table,
-        "identity": config.identity,
-        "file": config.path,
-        "grid": points,
-    }

@@ -145,7 +145,7 @@ def install(episode: Episode, audit: Audit) -> None:
         created = []
         obs = audit.observations[-1] if audit.observations else None
         for det in detections:
-            match = tracker._match(det)
+            match = tracker.match(det)
             new = update([det])
             created += new
             if obs is not None:

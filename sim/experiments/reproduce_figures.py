@@ -10,8 +10,6 @@ Q-learning). Legends say which line is which: `qlearning` the thesis's algorithm
 
 from __future__ import annotations
 
-from collections import defaultdict
-from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import matplotlib
@@ -19,31 +17,32 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from sim.experiments.reproduce_tables import PLANNERS, Block  # noqa: E402
-from sim.experiments.thesis_figures import mean_and_range  # noqa: E402
-from sim.experiments.thesis_report import thesis_tables  # noqa: E402
+from sim.experiments.reproduce_run import Block  # noqa: E402
+from sim.experiments.reproduce_tables import PLANNERS  # noqa: E402
+from sim.experiments.thesis_report import (  # noqa: E402
+    DECISION_FIGURES,
+    DecisionFigure,
+    RowValue,
+    column_value,
+    decision_panel,
+    thesis_tables,
+)
 
 if TYPE_CHECKING:
     from pathlib import Path
 
-    from sim.experiments.reproduce import Run
+    from sim.experiments.reproduce_run import Run
 
-COLOURS = {"qlearning": "tab:blue", "rollout": "tab:green", "proximity": "tab:orange"}
-LEGEND = {
-    "qlearning": "qlearning: the thesis's algorithm as written (here)",
-    "rollout": "rollout: ours (here)",
-    "proximity": "proximity (here)",
-}
-THESIS_LEGEND = {"qlearning": "thesis: its Q-learning", "proximity": "thesis: proximity"}
 SWEEPS = (
     ("physical cycle", "reproduce_4_5", "4.5"),
     ("physical cycle", "reproduce_4_6", "4.6"),
     ("the thesis's pauses", "reproduce_4_5_paused", "4.5"),
     ("the thesis's pauses", "reproduce_4_6_paused", "4.6"),
 )
+"""The four panels of figures 4.4-4.9: (regime, sweep, the thesis's table at its speed)."""
 
 
-def _per_class(material: str) -> Callable[[dict], float | None]:
+def _per_class(material: str) -> RowValue:
     def value(row: dict) -> float | None:
         entered = float(row.get(f"entered_{material}") or 0)
         return float(row[f"picked_{material}"]) / entered if entered else None
@@ -51,63 +50,17 @@ def _per_class(material: str) -> Callable[[dict], float | None]:
     return value
 
 
-def _column(name: str) -> Callable[[dict], float | None]:
-    return lambda row: float(row[name])
-
-
-def _series(rows: list[dict], planner: str, value: Callable[[dict], float | None]):
-    by: dict[int, list[float]] = defaultdict(list)
-    for row in rows:
-        if row["planner"] == planner:
-            v = value(row)
-            if v is not None:
-                by[int(row["n_items"])].append(v)
-    xs = sorted(by)
-    return xs, [by[x] for x in xs]
-
-
 def _panels(
-    run: Run,
-    name: str,
-    title: str,
-    ylabel: str,
-    value: Callable[[dict], float | None],
-    thesis_metric: str | None,
+    run: Run, name: str, title: str, ylabel: str, value: RowValue, thesis_metric: str | None
 ) -> Block:
     """A 2 x 2 figure (regime x belt speed) of `value` against the dataset's size."""
     tables = thesis_tables()
     fig, axes = plt.subplots(2, 2, figsize=(11, 8), sharex=True)
     for ax, (regime, sweep, table), letter in zip(axes.flat, SWEEPS, "abcd", strict=True):
-        rows = run.rows(sweep)
-        for planner in PLANNERS:
-            xs, groups = _series(rows, planner, value)
-            if xs:
-                m, lo, hi = mean_and_range(groups)
-                ax.errorbar(
-                    xs,
-                    m,
-                    yerr=[lo, hi],
-                    marker="o",
-                    capsize=3,
-                    color=COLOURS[planner],
-                    label=LEGEND[planner],
-                )
         t = tables[table]
-        if thesis_metric is not None:
-            for planner, label in THESIS_LEGEND.items():
-                ax.plot(
-                    t["items"],
-                    t[f"{thesis_metric}_{planner}"],
-                    "--",
-                    marker="x",
-                    color=COLOURS[planner],
-                    alpha=0.6,
-                    label=label,
-                )
+        decision_panel(ax, run.rows(sweep), PLANNERS, value, t, thesis_metric)
         ax.set_title(f"({letter}) belt x{t['speed_factor']:g}, {regime}")
-        ax.set_xlabel("items in the dataset")
         ax.set_ylabel(ylabel)
-        ax.grid(alpha=0.3)
     for ax in axes.flat:  # the legend once, on the first panel that has lines
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=7)
@@ -123,28 +76,28 @@ def _panels(
     return Block(text, (path,))
 
 
+def _decision_figure(run: Run, figure: DecisionFigure) -> Block:
+    name = f"figure_{figure.number.replace('.', '_')}"
+    title = f"Figure {figure.number}: {figure.metric}"
+    if figure.metric == "accuracy":
+        title += " (SP/SI)"
+    value = column_value(figure.column)
+    return _panels(run, name, title, figure.ylabel, value, figure.metric)
+
+
 def figure_4_4(run: Run) -> Block:
     """Figure 4.4: accuracy SP/SI against the dataset's size."""
-    return _panels(
-        run,
-        "figure_4_4",
-        "Figure 4.4: accuracy (SP/SI)",
-        "accuracy (SP/SI)",
-        _column("accuracy"),
-        "accuracy",
-    )
+    return _decision_figure(run, DECISION_FIGURES[0])
 
 
 def figure_4_5(run: Run) -> Block:
     """Figure 4.5: time (simulated, until the last item left the belt)."""
-    return _panels(run, "figure_4_5", "Figure 4.5: time", "time [s]", _column("sim_s"), "time")
+    return _decision_figure(run, DECISION_FIGURES[1])
 
 
 def figure_4_6(run: Run) -> Block:
     """Figure 4.6: profit."""
-    return _panels(
-        run, "figure_4_6", "Figure 4.6: profit", "profit [EUR]", _column("profit_eur"), "profit"
-    )
+    return _decision_figure(run, DECISION_FIGURES[2])
 
 
 def figure_4_7(run: Run) -> Block:

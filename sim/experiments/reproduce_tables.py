@@ -1,6 +1,6 @@
 """The decision tables of `sortsim reproduce` (thesis tables 4.2-4.6) and the +13 % finding.
 
-Each function takes the run (`sim.experiments.reproduce.Run`), reads the rows of its sweeps and
+Each function takes the run (`sim.experiments.reproduce_run.Run`), reads the rows of its sweeps and
 returns a `Block`: markdown tables with our means over the seeds beside the thesis's numbers
 (`sim/data/thesis_tables.toml`), and a reading computed from the same numbers. The decision
 managers have their own columns: `qlearning` is the thesis's algorithm as written (the thesis's
@@ -14,29 +14,14 @@ from __future__ import annotations
 
 import statistics
 from collections import defaultdict
-from dataclasses import dataclass
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 from perception.codes import THESIS_VALUES_EUR
+from sim.experiments.reproduce_run import Block
 from sim.experiments.thesis_report import thesis_tables
 
 if TYPE_CHECKING:
-    from sim.experiments.reproduce import Run
-
-
-@dataclass(frozen=True)
-class Block:
-    """What a piece made.
-
-    Attributes:
-        markdown: The block written between its markers (tables, readings of numbers, figure
-            links relative to the docs file).
-        figures: The PNG files written.
-    """
-
-    markdown: str
-    figures: tuple[Path, ...] = ()
+    from sim.experiments.reproduce_run import Run
 
 
 PLANNERS = ("qlearning", "rollout", "proximity")

@@ -50,7 +50,7 @@ from sim.checks import check, is_integer
 from sim.errors import InvalidInput, RefusedInput
 from sim.experiments.sweep_config import EpisodeSpec, SweepConfig, episode_key, variant_values
 from sim.paths import remove_stale_temporaries
-from sim.results import code_digest, outputs
+from sim.results import code_digest, manifest, outputs
 
 IDENTITY_FILE = "sweep.json"
 """The file beside `episodes.csv` that names the sweep its rows belong to."""
@@ -204,6 +204,37 @@ def _start(sweep: SweepConfig, out: Path) -> None:
         filled = _with_variant_values(sweep, kept)
         if len(kept) != len(rows) or filled:
             outputs.write_sweep_picks(picks_path, kept, pick_columns(sweep))
+
+
+def seeds(sweep: SweepConfig) -> list[int]:
+    """The seeds of a sweep's episodes, in its order."""
+    return [spec.config.seed for spec in sweep.episodes]
+
+
+def manifest_config(sweep: SweepConfig) -> dict:
+    """A sweep's resolved configuration for its manifest: name, table, identity and each grid
+    point's full episode config (seed aside), in the sweep's order."""
+    points, seen = [], set()
+    for spec in sweep.episodes:
+        resolved = spec.config.to_dict()
+        resolved.pop("seed")
+        key = (spec.variant, repr(sorted(resolved.items())))
+        if key not in seen:
+            seen.add(key)
+            points.append({"variant": spec.variant, "config": resolved})
+    return {
+        "name": sweep.name,
+        "table": sweep.table,
+        "identity": sweep.identity,
+        "file": sweep.path,
+        "grid": points,
+    }
+
+
+def write_manifest(sweep: SweepConfig, out: Path) -> Path:
+    """The sweep's manifest.json in `out` (created), once the folder is checked."""
+    Path(out).mkdir(parents=True, exist_ok=True)
+    return manifest.write(out, manifest.build("sweep", manifest_config(sweep), seeds(sweep)))
 
 
 def episode_columns(sweep: SweepConfig) -> tuple[str, ...]:

@@ -1,4 +1,4 @@
-"""Our sweep results beside the thesis's tables 4.2-4.6, and figures like its 4.4-4.6.
+"""Our sweep results beside the thesis's tables 4.2-4.6, and its figures 4.4-4.6.
 
 Each table is printed in the thesis's layout with every cell as `ours (thesis)`; our value is
 the mean over the seeds of the sweep's episodes.csv, one block or column per decision manager
@@ -6,16 +6,28 @@ the mean over the seeds of the sweep's episodes.csv, one block or column per dec
 numbers stand in brackets), `rollout` ours (no thesis counterpart). The thesis's numbers are in
 `sim/data/thesis_tables.toml`. `sortsim reproduce` (`sim.experiments.reproduce`) makes the
 whole chapter as markdown.
+
+Figures 4.4, 4.5 and 4.6 plot accuracy, time and profit against the dataset size, one line per
+decision manager: ours solid with markers (mean over seeds, bars at min..max), the thesis's
+dashed. A sweep's figures have one panel per belt speed (`save_figures`); `sortsim reproduce`
+draws the same panels for both regimes (`sim.experiments.reproduce_figures`). A sweep folder
+written before the rename holds the rollout under the name `qlearning` (`docs/results.md`).
 """
 
 from __future__ import annotations
 
 import tomllib
 from collections import defaultdict
+from collections.abc import Callable
 from pathlib import Path
+from typing import NamedTuple
 
-from sim.experiments.thesis_figures import figures_for
-from sim.paths import DATA_DIR
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+from sim.paths import DATA_DIR  # noqa: E402
 
 THESIS_TABLES = DATA_DIR / "thesis_tables.toml"
 
@@ -167,10 +179,169 @@ def format_table(table_id: str | None, rows: list[dict]) -> str:
     return "Table " + table_id + ": " + FORMATTERS[table_id](rows, thesis_tables()[table_id])
 
 
-def save_figures(table_id: str | None, rows: list[dict], out_dir: Path) -> list[Path]:
-    """PNG figures like the thesis's 4.4-4.6 (tables 4.5/4.6) or accuracy curves (4.2)."""
+class DecisionFigure(NamedTuple):
+    """One of the thesis's figures 4.4-4.6."""
 
-    return figures_for(table_id, rows, Path(out_dir), thesis_tables())
+    number: str
+    metric: str
+    """The thesis's name of it (`sim/data/thesis_tables.toml`: `<metric>_<planner>`)."""
+    column: str
+    """Our episodes.csv column."""
+    ylabel: str
+
+
+DECISION_FIGURES = (
+    DecisionFigure("4.4", "accuracy", "accuracy", "accuracy (SP/SI)"),
+    DecisionFigure("4.5", "time", "sim_s", "time [s]"),
+    DecisionFigure("4.6", "profit", "profit_eur", "profit [EUR]"),
+)
+COLOURS = {"proximity": "tab:orange", "qlearning": "tab:blue", "rollout": "tab:green"}
+LABELS = {
+    "qlearning": "qlearning: the thesis's algorithm as written (here)",
+    "rollout": "rollout: ours (here)",
+    "proximity": "proximity (here)",
+}
+"""Legend of our lines by planner (another planner: its name and "(here)")."""
+THESIS_LABELS = {"qlearning": "thesis: its Q-learning", "proximity": "thesis: proximity"}
+"""Legend of the thesis's dashed lines."""
+
+RowValue = Callable[[dict], float | None]
+"""A row's number to plot (None: the row has none, e.g. no item of a class entered)."""
+
+
+def column_value(name: str) -> RowValue:
+    return lambda row: float(row[name])
+
+
+def mean_and_range(groups: list[list[float]]) -> tuple[list[float], list[float], list[float]]:
+    """Each group's mean and its distances down to the group's minimum and up to its maximum,
+    as error bars (never negative: the mean of equal values may round past them)."""
+    m = [sum(g) / len(g) for g in groups]
+    lo = [max(0.0, a - min(g)) for a, g in zip(m, groups, strict=True)]
+    hi = [max(0.0, max(g) - a) for a, g in zip(m, groups, strict=True)]
+    return m, lo, hi
+
+
+def series(rows: list[dict], planner: str, value: RowValue) -> tuple[list[int], list[list[float]]]:
+    """The item counts of `planner`'s rows and, per count, the rows' values."""
+    by_items: dict[int, list[float]] = defaultdict(list)
+    for row in rows:
+        if row["planner"] == planner:
+            v = value(row)
+            if v is not None:
+                by_items[int(row["n_items"])].append(v)
+    xs = sorted(by_items)
+    return xs, [by_items[x] for x in xs]
+
+
+def decision_panel(
+    ax, rows: list[dict], planners, value: RowValue, thesis: dict | None, metric: str | None
+) -> None:
+    """One panel of figures 4.4-4.9: each planner's `value` against the dataset's size and,
+    with `thesis` (its table at this belt speed) and `metric`, the thesis's dashed lines of the
+    planners it has."""
+    for planner in planners:
+        xs, groups = series(rows, planner, value)
+        if xs:
+            m, lo, hi = mean_and_range(groups)
+            ax.errorbar(
+                xs,
+                m,
+                yerr=[lo, hi],
+                marker="o",
+                capsize=3,
+                color=COLOURS.get(planner),
+                label=LABELS.get(planner, f"{planner} (here)"),
+            )
+    if thesis is not None and metric is not None:
+        for planner in (p for p in planners if p in THESIS_LABELS):
+            ax.plot(
+                thesis["items"],
+                thesis[f"{metric}_{planner}"],
+                "--",
+                marker="x",
+                color=COLOURS[planner],
+                alpha=0.6,
+                label=THESIS_LABELS[planner],
+            )
+    ax.set_xlabel("items in the dataset")
+    ax.grid(alpha=0.3)
+
+
+def _at_speed(rows: list[dict], factor: float) -> list[dict]:
+    return [r for r in rows if abs(float(r["speed_factor"]) - factor) < 1e-6]
+
+
+def _decision_figures(rows: list[dict], out_dir: Path, tables: dict) -> list[Path]:
+    """Figures 4.4-4.6 of a sweep, one panel per belt speed."""
+    factors = sorted({round(float(r["speed_factor"]), 3) for r in rows})
+    thesis = {round(tables[k]["speed_factor"], 3): tables[k] for k in ("4.5", "4.6")}
+    planners = planners_of(rows)
+    paths = []
+    for figure in DECISION_FIGURES:
+        fig, axes = plt.subplots(1, len(factors), figsize=(5.5 * len(factors), 4), squeeze=False)
+        for ax, factor, letter in zip(axes[0], factors, "abcdef", strict=False):
+            value = column_value(figure.column)
+            at = _at_speed(rows, factor)
+            decision_panel(ax, at, planners, value, thesis.get(factor), figure.metric)
+            ax.set_title(f"({letter}) speed x{factor:g}")
+            ax.set_ylabel(figure.ylabel)
+            ax.legend(fontsize=8)
+        fig.suptitle(
+            f"Figure {figure.number}: {figure.metric} of the decision managers against the thesis's"
+        )
+        fig.tight_layout()
+        path = out_dir / f"figure_{figure.number.replace('.', '_')}_{figure.metric}.png"
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        paths.append(path)
+    return paths
+
+
+def _accuracy_curves(rows: list[dict], out_dir: Path, t: dict) -> list[Path]:
+    """Table 4.2's accuracy against the items, one colour per belt speed."""
+    fig, ax = plt.subplots(figsize=(6, 4))
+    styles = ("-o", "-s", "-^", "-v")
+    for i, factor in enumerate(t["speed_factors"]):
+        colour = f"C{i}"
+        at = _at_speed(rows, factor)
+        for planner, style in zip(planners_of(rows), styles, strict=False):
+            xs, groups = series(at, planner, column_value("accuracy"))
+            if xs:
+                means = [sum(g) / len(g) for g in groups]
+                label = f"x{factor:g} {LABELS.get(planner, planner + ' (here)')}"
+                ax.plot(xs, means, style, color=colour, label=label)
+        ax.plot(
+            t["items"],
+            t["accuracy"][i],
+            "--x",
+            color=colour,
+            alpha=0.6,
+            label=f"x{factor:g} thesis: its Q-learning",
+        )
+    ax.set_xlabel("items per ~90 s")
+    ax.set_ylabel("pick and place accuracy (SP/SI)")
+    ax.set_title("Table 4.2: accuracy vs items and belt speed")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    path = out_dir / "table_4_2_accuracy.png"
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return [path]
+
+
+def save_figures(table_id: str | None, rows: list[dict], out_dir: Path) -> list[Path]:
+    """PNG figures 4.4-4.6 (tables 4.5/4.6) or accuracy curves (4.2) in `out_dir`; their paths."""
+    if not rows:
+        return []
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    if table_id in ("4.5", "4.6"):
+        return _decision_figures(rows, out_dir, thesis_tables())
+    if table_id == "4.2":
+        return _accuracy_curves(rows, out_dir, thesis_tables()["4.2"])
+    return []
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -187,7 +358,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, required=True, help="where to write the PNGs")
     args = parser.parse_args(argv)
     rows = [r for d in args.dirs for r in outputs.read_rows(d / "episodes.csv")]
-    for path in figures_for("4.5", rows, args.out, thesis_tables()):
+    for path in save_figures("4.5", rows, args.out):
         print(f"figure: {path}")
     return 0
 

@@ -8,7 +8,7 @@ grid rows or in overlapping extraction windows is tracked once.
 
 A line with a camera per robot reports each detection with the camera that saw it (0 the first,
 upstream). A detection of a downstream camera first looks for a track that only cameras
-upstream of it saw (`Tracker._fuse`): the nearest such track whose position advanced with the
+upstream of it saw (`Tracker.fuse`): the nearest such track whose position advanced with the
 belt lies within `fusion_gate` of it (`FUSION_GATE_M`, wider than the match radius: the track
 has travelled 1.8-6 m since it was seen), whatever the class each camera gave, each track and
 detection paired once, nearest pairs first. The item is then one track, placed where the newer
@@ -45,7 +45,7 @@ class Detection:
 
 FUSION_GATE_M = 0.10
 """A downstream camera's detection joins a track only cameras upstream of it saw when it lies
-within this of the track's position advanced with the belt [m] (`Tracker._fuse`)."""
+within this of the track's position advanced with the belt [m] (`Tracker.fuse`)."""
 
 
 @dataclass
@@ -104,12 +104,12 @@ class Tracker:
     def update(self, detections: list[Detection]) -> list[Track]:
         """Merge `detections` into the tracks; returns the tracks created."""
         created = []
-        fused = self._fuse(detections)
+        fused = self.fuse(detections)
         for index, det in enumerate(detections):
             if index in fused:
                 confirm(fused[index], det)
                 continue
-            track = self._match(det)
+            track = self.match(det)
             if track is None:
                 track = Track(
                     track_id=self._next_id,
@@ -139,14 +139,16 @@ class Tracker:
                 track.last_seen = det.t
         return created
 
-    def _match(self, det: Detection) -> Track | None:
+    def match(self, det: Detection) -> Track | None:
+        """The track `det` updates (`update`): the same simulator item in truth mode, else the
+        nearest track of the same camera and predicted class within `match_radius`; None."""
         best, best_d = None, self.match_radius
         for track in self._tracks.values():
             if det.true_id is not None or track.true_id is not None:
                 if det.true_id == track.true_id:
                     return track
                 continue
-            if track.camera != det.camera:  # another camera's track: `_fuse`'s
+            if track.camera != det.camera:  # another camera's track: `fuse`'s
                 continue
             dx = track.x_at(det.t, self.belt_speed) - det.x
             d = float(np.hypot(dx, track.y - det.y))
@@ -154,7 +156,7 @@ class Tracker:
                 best, best_d = track, d
         return best
 
-    def _fuse(self, detections: list[Detection]) -> dict[int, Track]:
+    def fuse(self, detections: list[Detection]) -> dict[int, Track]:
         """The tracks that detections of downstream cameras are of: for each camera detection
         (index into `detections`) of a camera after the first, the nearest track that only
         cameras upstream of it saw, within `fusion_gate` of the track's position advanced with
@@ -203,7 +205,7 @@ class Tracker:
 
 
 def confirm(track: Track, det: Detection) -> None:
-    """A downstream camera saw the item of `track` (`Tracker._fuse`): the track is placed where
+    """A downstream camera saw the item of `track` (`Tracker.fuse`): the track is placed where
     that camera saw it (the belt's travel since and any slip of the item are left behind), its
     class probabilities are the mean of every report's, and it is that camera's from now on.
 
