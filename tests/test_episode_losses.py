@@ -133,8 +133,8 @@ def test_items_still_on_a_stalled_belt_at_the_time_cap_count_as_missed(cell):
     row = episode.metrics.row()
     assert stalled_at is not None and stalled_at < 6.0
     assert before_cap[-1] == (0, 4)  # at the last decision: nothing missed yet, all on the belt
-    assert episode.data.time >= episode.timeline.t_cap
-    assert episode.data.time < episode.timeline.t_cap + 0.1
+    assert episode.data.time >= episode.parts.timeline.t_cap
+    assert episode.data.time < episode.parts.timeline.t_cap + 0.1
     assert row["entered"] == 4 and row["missed"] == 4
     assert row["picked"] == 0 and row["dropped"] == 0 and row["attempts"] == 0
     assert not cell.pool.active_slots().size
