@@ -111,7 +111,7 @@ class Watch:
     def _truth(self):
         episode = self.episode
         items = episode.cell.items
-        held = episode.held()
+        held = episode.parts.held()
         xy, shapes = {}, {}
         for slot in items.active_slots():
             if slot not in held:

@@ -169,7 +169,7 @@ def test_an_episode_syncs_the_riders_before_anything_reads_them():
     seen = {"observations": 0, "decisions": 0, "riders": 0}
 
     def check(episode, what):
-        riding, pool, d = episode.riding, episode.cell.pool, episode.data
+        riding, pool, d = episode.parts.riding, episode.cell.pool, episode.data
         assert riding.behind_s == 0.0, what
         riders = riding.riding()
         body = pool.body_ids[riders]

@@ -167,13 +167,13 @@ def test_sorting_cell_masks_raise_and_render(monkeypatch):
         assert np.abs(later.astype(int) - frame).max(axis=2).mean() > 0.5  # it moved on
         for _ in range(500):  # until an item lands in a bin
             *_, terminated, _, _ = env.step(_first_slot(env.action_masks()))
-            if env.episode.bins.landed or terminated:
+            if env.episode.parts.bins.landed or terminated:
                 break
-        overlay = overlay_of(env.episode, env.episode.data.time, planner="agent")
+        overlay = overlay_of(env.episode.parts, env.episode.data.time, planner="agent")
         assert "agent" in overlay.counters[0] and overlay.counters[2].startswith("wrong bin 0")
         bins = {b.cls: b for b in overlay.bins}
         assert set(bins) == {2, 3, 4} and bins[2].y < 0 < bins[3].y  # paper's on its own side
-        assert sum(b.count for b in bins.values()) == len(env.episode.bins.landed) > 0
+        assert sum(b.count for b in bins.values()) == len(env.episode.parts.bins.landed) > 0
     finally:
         env.close()
 

@@ -45,12 +45,12 @@ def lossy(cell):
 
 
 def test_the_release_point_beside_the_paper_bin_is_over_no_bin(lossy):
-    low, high = lossy.bins.interiors["paper"]
+    low, high = lossy.parts.bins.interiors["paper"]
     mid_z = 0.5 * (low[2] + high[2])
     release = np.array(lossy.cell.robots[0].bins_tuple()[0])
     moved = release + PAPER_OFFSET
-    assert lossy.bins.bin_at((release[0], release[1], mid_z)) == "paper"
-    assert lossy.bins.bin_at((moved[0], moved[1], mid_z)) is None
+    assert lossy.parts.bins.bin_at((release[0], release[1], mid_z)) == "paper"
+    assert lossy.parts.bins.bin_at((moved[0], moved[1], mid_z)) is None
     assert moved[0] > high[0] + 0.1  # 18 cm past the paper bin's end wall
 
 
@@ -62,7 +62,7 @@ def test_the_episode_misses_drops_and_misplaces_items(lossy):
     assert row["wrong_bin"] >= 3, row
     assert row["picked"] >= 8, row
     # Ended normally: the missed were discarded on the way.
-    assert lossy.data.time < lossy.timeline.t_cap
+    assert lossy.data.time < lossy.parts.timeline.t_cap
 
 
 def test_every_item_ends_in_exactly_one_place(lossy):
@@ -82,7 +82,7 @@ def test_every_item_ends_in_exactly_one_place(lossy):
 
 
 def test_where_each_class_went(lossy):
-    m, flow = lossy.metrics, lossy.flow
+    m, flow = lossy.metrics, lossy.parts.flow
     row = m.row()
     # Paper: released beside its bin, so never binned; every dropped item is a paper item.
     assert row["picked_paper"] == 0
@@ -102,11 +102,11 @@ def test_dropped_items_were_carried_and_missed_ones_never_were(lossy):
     carried = {p.item_id for p in m.picks if p.success}
     assert m.dropped <= carried  # released by the cup, beside the bin
     assert not m.missed & carried
-    for landing in lossy.bins.dropped:  # on the floor near the release point
+    for landing in lossy.parts.bins.dropped:  # on the floor near the release point
         x, y, _ = landing.position
         target = lossy.cell.robots[0].drop_xyz[PAPER] + PAPER_OFFSET
         assert abs(x - target[0]) < 0.15 and abs(y - target[1]) < 0.15, landing
-    assert len(lossy.bins.dropped) == len(m.dropped)
+    assert len(lossy.parts.bins.dropped) == len(m.dropped)
 
 
 def test_items_still_on_a_stalled_belt_at_the_time_cap_count_as_missed(cell):
@@ -133,8 +133,8 @@ def test_items_still_on_a_stalled_belt_at_the_time_cap_count_as_missed(cell):
     row = episode.metrics.row()
     assert stalled_at is not None and stalled_at < 6.0
     assert before_cap[-1] == (0, 4)  # at the last decision: nothing missed yet, all on the belt
-    assert episode.data.time >= episode.timeline.t_cap
-    assert episode.data.time < episode.timeline.t_cap + 0.1
+    assert episode.data.time >= episode.parts.timeline.t_cap
+    assert episode.data.time < episode.parts.timeline.t_cap + 0.1
     assert row["entered"] == 4 and row["missed"] == 4
     assert row["picked"] == 0 and row["dropped"] == 0 and row["attempts"] == 0
     assert not cell.pool.active_slots().size

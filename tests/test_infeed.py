@@ -49,20 +49,20 @@ def _gap_at_drop(hold: bool) -> tuple[int, float]:
     cfg = cfg.replace(belt=config.Belt(infeed_hold=hold))
     ep = Episode(cfg, config_cell(cfg))
     ep.reset()
-    t1 = float(ep.flow.t_spawn[1])
+    t1 = float(ep.parts.flow.t_spawn[1])
     while ep.data.time < t1 - 0.1:
         ep._step()
     pool, data = ep.cell.pool, ep.data
     first = pool.slot_of(0)
     x = X_INFEED - ep.speed * (t1 - float(data.time))
     adr, dof = pool.qpos_adr[first], pool.dof_adr[first]
-    data.qpos[adr : adr + 2] = x, ep.flow.y[1]
+    data.qpos[adr : adr + 2] = x, ep.parts.flow.y[1]
     data.qvel[dof : dof + 6] = (ep.speed, 0.0, 0.0, 0.0, 0.0, 0.0)
     while pool.slot_of(1) is None:
         ep._step()
     mujoco.mj_kinematics(ep.model, data)
     geoms = [pool.geom_id(pool.slot_of(i)) for i in (0, 1)]
-    return ep.infeed.holds, mujoco.mj_geomDistance(ep.model, data, *geoms, 1.0, None)
+    return ep.parts.infeed.holds, mujoco.mj_geomDistance(ep.model, data, *geoms, 1.0, None)
 
 
 def test_the_infeed_holds_an_item_back_until_it_drops_clear_and_off_drops_it_inside():
@@ -81,16 +81,16 @@ def test_an_item_that_waited_too_long_is_dropped_onto_what_is_in_its_way():
     cfg = config.load(None, perception="truth", items=5, duration_s=5.0, seed=0)
     ep = Episode(cfg, config_cell(cfg))
     ep.reset()
-    while ep.data.time < float(ep.flow.t_spawn[1]) - 0.1:
+    while ep.data.time < float(ep.parts.flow.t_spawn[1]) - 0.1:
         ep._step()
     pool, data = ep.cell.pool, ep.data
     first = pool.slot_of(0)
     adr = pool.qpos_adr[first]
-    data.qpos[adr : adr + 2] = X_INFEED, ep.flow.y[1]
-    slot = pool.drop(data, ep.flow, 1, X_INFEED)
+    data.qpos[adr : adr + 2] = X_INFEED, ep.parts.flow.y[1]
+    slot = pool.drop(data, ep.parts.flow, 1, X_INFEED)
     mujoco.mj_kinematics(ep.model, data)
     assert ep.cell.items.inside_another(slot, DEEP_M)
-    ep.infeed.drop_above(1, X_INFEED, slot)
+    ep.parts.infeed.drop_above(1, X_INFEED, slot)
     mujoco.mj_kinematics(ep.model, data)
     lifted = pool.slot_of(1)
     assert not ep.cell.items.inside_another(lifted, DEEP_M)

@@ -90,7 +90,7 @@ def test_the_horizon_ends_the_run_at_its_time_and_the_counts_add_up():
         episode.reset()
         episode.run()
         metrics, end = episode.metrics, float(episode.data.time)
-        cut_short = any(s.robot.busy for s in episode.stations)
+        cut_short = any(s.robot.busy for s in episode.parts.stations)
     assert end == pytest.approx(15.0, abs=1e-9)
     assert cut_short  # a pick was under way at the horizon: its item counts as left
     row = metrics.row()

@@ -271,14 +271,14 @@ def test_varied_episode_settles_every_item_at_its_scaled_rest_height(cell):
                 if X_CAMERA - 0.2 <= x < X_CAMERA:  # the last rows before the camera line
                     samples[int(pool.item_ids[slot])] = (
                         z - pool.belt.geometry.top_z,
-                        episode.riding.linear_velocity(data, [slot])[0, 0],
+                        episode.parts.riding.linear_velocity(data, [slot])[0, 0],
                         float(cell.model.body_mass[pool.body_ids[slot]]),
                     )
             return observe(t)
 
         episode.perception.observe = watched
         episode.run()
-        row, flow, speed = episode.metrics.row(), episode.flow, episode.speed
+        row, flow, speed = episode.metrics.row(), episode.parts.flow, episode.speed
     assert row["mujoco_warnings"] == 0
     assert len(samples) == len(flow) and (flow.z_drop > 0).sum() >= 2
     for i, (height, vx, mass) in samples.items():

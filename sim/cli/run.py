@@ -410,15 +410,12 @@ def run_with_video(config, video_path: Path | None, progress):
     Returns:
         (the episode's result, the `KeptVideo` or None).
     """
-    from sim.episode.runner import config_cell, run_episode
+    from sim.episode.runner import config_cell, episode_video, run_episode
 
     if video_path is None:
         return run_episode(config, progress=progress), None
-    from sim.render.video import VideoRecorder
-
     cell = config_cell(config, sized=True)
-    v = config.video
-    video = KeptVideo.start(VideoRecorder, cell.model, video_path, v.fps, v.width, v.height)
+    video = KeptVideo.start(episode_video, config, cell, video_path)
     try:
         result = run_episode(config, cell=cell, progress=progress, recorder=video)
     finally:
@@ -485,14 +482,14 @@ class KeptVideo:
         self._stderr = None
 
     @classmethod
-    def start(cls, recorder_class, *args) -> KeptVideo:
-        """A recorder made with `args` whose video process writes its stderr (and its
+    def start(cls, make, *args) -> KeptVideo:
+        """A recorder `make(*args)` whose video process writes its stderr (and its
         encoder's: ffmpeg's own lines when the disk fills) to an anonymous temporary file
         instead of the terminal: `release_stderr` shows it after the episode, or, when the
         video failed, its last line becomes part of the one line that says so.
 
         Args:
-            recorder_class: `sim.render.video.VideoRecorder`.
+            make: Makes the recorder (`sim.episode.runner.episode_video`).
             *args: Its arguments.
 
         Returns:
@@ -504,12 +501,12 @@ class KeptVideo:
         try:
             capture = tempfile.TemporaryFile()
         except OSError:  # no temporary folder: the process's stderr is left as it is
-            return cls(recorder_class(*args))
+            return cls(make(*args))
         sys.stderr.flush()
         saved = os.dup(2)
         os.dup2(capture.fileno(), 2)  # the video process starts now and inherits it
         try:
-            video = cls(recorder_class(*args))
+            video = cls(make(*args))
         finally:
             os.dup2(saved, 2)
             os.close(saved)

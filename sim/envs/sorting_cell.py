@@ -127,7 +127,7 @@ class SortingCellEnv(gym.Env):
         _, watch, painter = self._painter
         data = self.episode.cell.items.current()
         painter.apply(frame_state(model, data, watch))
-        return painter.paint(overlay_of(self.episode, float(data.time), planner="agent"))
+        return painter.paint(overlay_of(self.episode.parts, float(data.time), planner="agent"))
 
     def _close_painter(self) -> None:
         if self._painter is not None:

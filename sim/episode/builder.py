@@ -1,19 +1,15 @@
-"""The parts of an episode, made afresh at each reset: the flow, the metrics, the riding, the
-monitors, the robots' stations and the perception.
-
-`Episode.reset` (`sim.episode.loop`) calls `build_parts` and registers what it made on its
-hooks and scheduler; nothing here steps the physics.
+"""The parts of an episode, made afresh at each reset (`build_parts`: a frozen
+`sim.episode.parts.EpisodeParts`): the flow, the metrics, the riding, the monitors, the robots'
+stations, the perception and the infeed; and the episode's own observation events. Nothing here
+steps the physics.
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import mujoco
-import numpy as np
 
 from planner.decision.energy_cost import EnergyPrice
 from planner.decision.interface import DecisionContext
@@ -22,32 +18,27 @@ from sim.cell.cell import PICK_Z_NOMINAL, Cell
 from sim.cell.depth_noise import ZED_CLASS
 from sim.cell.riding import ItemRiding
 from sim.cell.suction import SuctionConfig
-from sim.episode import step_hooks
+from sim.episode import item_checks
 from sim.episode.config import EpisodeConfig
 from sim.episode.cycle_timing import cell_cycle_model
+from sim.episode.infeed import Infeed
+from sim.episode.parts import EpisodeParts, StepClock, Timeline, Timings
 from sim.episode.pick_control import PRESS_DEPTH_M, PickController
-from sim.episode.scheduler import Horizon, PeriodicEvent, Scheduler
-from sim.episode.stations import RobotStation
+from sim.episode.scheduler import PeriodicEvent
+from sim.episode.stations import Offers, RobotStation
 from sim.errors import InvalidInput
-from sim.flow.config import X_INFEED
 from sim.flow.generator import Flow, generate_flow, max_items_on_belt
 from sim.monitors.energy import ActuatorLog, EnergyMeter
+from sim.monitors.mj_warnings import WarningCounter
+from sim.monitors.thrown import ThrowWatch
 from sim.monitors.visibility import SCALE, VisibilityWatch, belt_slope
 from sim.render.segmentation import shared_segmentation
 from sim.results.metrics import EpisodeMetrics
+from sim.sensing.tracking import Tracker
 from sim.sensing.truth import TruthPerception
-
-if TYPE_CHECKING:
-    from sim.episode.loop import Episode
 
 CHECK_PERIOD_S = 0.02
 """How often items leaving the belt, landing in bins or falling are looked for [s]."""
-DISCARD_MARGIN_M = 0.15
-"""An item this far past the reachable window's downstream edge is out of the robot's reach
-(the scene's cup radius and the item's half length included; a larger cup adds its extra
-radius, `Cell.cup_extra_m`) [m]."""
-SETTLE_S = 2.0
-"""Time after the last item left before the episode may end (falls into bins) [s]."""
 _OBJECTIVES = {"value_over_distance": "v/d", "value_only": "d=1", "distance_only": "v=1"}
 
 
@@ -94,44 +85,6 @@ def check_cell(cell: Cell, config: EpisodeConfig) -> None:
         if have != asked:
             allowed = f"the cell's {have:g} m (a Cell(settings=config.cell_settings) for {asked:g})"
             raise InvalidInput(key, allowed, asked)
-
-
-@dataclass(frozen=True)
-class Timeline:
-    """When an episode's items have passed and when it must end.
-
-    Attributes:
-        t_last_spawn: When the last item drops [s].
-        x_discard: Where an unpicked item is out of every robot's reach [m].
-        t_end: When the last item has passed the robots and settled: a normal end, or the
-            horizon when that comes first [s].
-        t_cap: The latest end [s].
-        horizon: The event of the config's `horizon_s` (None: the run ends when the belt is
-            clear).
-    """
-
-    t_last_spawn: float
-    x_discard: float
-    t_end: float
-    t_cap: float
-    horizon: Horizon | None = None
-
-    @classmethod
-    def of(
-        cls, cell: Cell, flow: Flow, belt_speed: float, horizon_s: float | None = None
-    ) -> Timeline:
-        """The timeline of `flow` on `cell` at `belt_speed` [m/s], ended at `horizon_s` [s]."""
-        t_last_spawn = float(flow.t_spawn[-1]) if len(flow) else 0.0
-        x_discard = float(np.nanmax(cell.window.x_exit)) + DISCARD_MARGIN_M + cell.cup_extra_m
-        t_end = t_last_spawn + (x_discard - X_INFEED) / belt_speed + SETTLE_S
-        horizon = None if horizon_s is None else Horizon(float(horizon_s))
-        t_stop = t_end if horizon is None else min(t_end, horizon.at_s)
-        return cls(t_last_spawn, x_discard, t_stop, t_end + 10.0, horizon)
-
-    @property
-    def at_horizon(self) -> bool:
-        """Whether the episode has reached its horizon (it ends there, whatever is left)."""
-        return self.horizon is not None and self.horizon.reached
 
 
 _FLOWS: dict[tuple, Flow] = {}
@@ -295,6 +248,47 @@ def robot_stations(
     return stations
 
 
+def build_parts(config: EpisodeConfig, cell: Cell, planner) -> EpisodeParts:
+    """The parts of an episode of `config` on `cell` (reset here to the config's belt speed),
+    `planner` deciding for the first robot (`robot_stations`)."""
+    check_cell(cell, config)
+    speed = config.belt_speed_mps
+    cell.reset(speed)
+    flow = episode_flow(config, cell)
+    timeline = Timeline.of(cell, flow, speed, config.horizon_s)
+    metrics = episode_metrics(config, cell, flow)
+    tracker = Tracker(speed)
+    controllers = pick_controllers(config, cell, flow)
+    bins = item_checks.episode_bins(cell)
+    radius = largest_item_radius(cell, flow)
+    riding = item_riding(config, cell, radius)
+    cell.items.ride(riding)
+    # MuJoCo's warning counts start at zero (the reset above clears them).
+    mj_warnings = WarningCounter(cell.data)
+    throw_watch = ThrowWatch(cell.model, cell.pool)
+    actuator_log = ActuatorLog(cell.data)  # read by every robot's energy meter
+    stations = robot_stations(config, cell, controllers, planner, radius, actuator_log)
+    return EpisodeParts(
+        config=config,
+        cell=cell,
+        flow=flow,
+        timeline=timeline,
+        metrics=metrics,
+        tracker=tracker,
+        offers=Offers(tracker, speed, config.applied_min_class_confidence),
+        stations=tuple(stations),
+        perception=perception(config, cell, flow),
+        infeed=Infeed(cell.items, flow, config.belt.infeed_hold, riding, metrics),
+        riding=riding,
+        bins=bins,
+        actuator_log=actuator_log,
+        mj_warnings=mj_warnings,
+        throw_watch=throw_watch,
+        clock=StepClock(),
+        timings=Timings(),
+    )
+
+
 def perception(config: EpisodeConfig, cell: Cell, flow: Flow):
     """The episode's perception: true items at the camera line, or the belt camera's frames
     through the pipeline (`sim.sensing.perception`); a line's cameras, one per robot, with
@@ -306,60 +300,54 @@ def perception(config: EpisodeConfig, cell: Cell, flow: Flow):
     # a truth episode's start does without them.
     from sim.sensing.perception import CameraPerception, line_camera_perception
 
-    if config.camera.per_robot and len(cell.robots) > 1:
-        from sim.cell.camera import camera_name
+    options = {
+        "belt_speed": speed,
+        "period_s": period,
+        "classifier": config.classifier,
+        "depth_noise": ZED_CLASS if config.depth_noise else None,
+        "seed": config.seed,
+        "mix": config.mix_kwargs,
+        "size": config.camera.size,
+        "coupled": config.hmm.coupled,
+    }
+    data, catalogue = cell.items.current(), cell.catalogue
+    if not (config.camera.per_robot and len(cell.robots) > 1):
+        camera = cell.belt_camera(config.camera.size)
+        return CameraPerception(cell.model, data, catalogue, camera=camera, **options)
+    from sim.cell.camera import camera_name
 
-        prefixes = ("", *(robot.prefix for robot in cell.robots[1:]))
-        names = [camera_name(p) for p in prefixes]
-        ids = [mujoco.mj_name2id(cell.model, mujoco.mjtObj.mjOBJ_CAMERA, n) for n in names]
-        if min(ids) < 0:
-            allowed = "a cell compiled with a camera per robot (sim.episode.runner.config_cell)"
-            raise InvalidInput("camera.per_robot", allowed, f"no camera {names[ids.index(-1)]}")
-        return line_camera_perception(
-            cell.model,
-            cell.items.current(),
-            cell.catalogue,
-            prefixes,
-            [cell.belt_camera(config.camera.size, n) for n in names],
-            belt_speed=speed,
-            period_s=period,
-            classifier=config.classifier,
-            depth_noise=ZED_CLASS if config.depth_noise else None,
-            seed=config.seed,
-            mix=config.mix_kwargs,
-            size=config.camera.size,
-            coupled=config.hmm.coupled,
-        )
-    return CameraPerception(
-        cell.model,
-        cell.items.current(),
-        cell.catalogue,
-        speed,
-        period,
-        camera=cell.belt_camera(config.camera.size),
-        classifier=config.classifier,
-        depth_noise=ZED_CLASS if config.depth_noise else None,
-        seed=config.seed,
-        mix=config.mix_kwargs,
-        size=config.camera.size,
-        coupled=config.hmm.coupled,
-    )
+    prefixes = ("", *(robot.prefix for robot in cell.robots[1:]))
+    names = [camera_name(p) for p in prefixes]
+    ids = [mujoco.mj_name2id(cell.model, mujoco.mjtObj.mjOBJ_CAMERA, n) for n in names]
+    if min(ids) < 0:
+        allowed = "a cell compiled with a camera per robot (sim.episode.runner.config_cell)"
+        raise InvalidInput("camera.per_robot", allowed, f"no camera {names[ids.index(-1)]}")
+    cameras = [cell.belt_camera(config.camera.size, n) for n in names]
+    return line_camera_perception(cell.model, data, catalogue, prefixes, cameras, **options)
 
 
-def add_observations(scheduler: Scheduler, episode: Episode) -> None:
-    """The episode's events every observation period, in this order: the perception's
-    (`step_hooks.observe`), then in camera perception the visibility monitor's
-    (`visibility_monitor`), each registered as `Episode.every` registers a user's.
+def own_events(parts: EpisodeParts) -> list:
+    """The episode's own scheduled events, in the order they fire when due together: the
+    infeed's drops, the perception's observations, in camera perception the visibility
+    monitor's, then the item checks (`sim.episode.item_checks`)."""
+    config = parts.config
+    events = [parts.infeed, PeriodicEvent(config.observation_period_s, observe)]
+    if config.perception == "camera":
+        monitor = visibility_monitor(parts.cell, config.camera.size, parts.metrics)
+        events.append(PeriodicEvent(config.observation_period_s, monitor))
+    events.append(PeriodicEvent(CHECK_PERIOD_S, item_checks.run_checks))
+    return events
 
-    Args:
-        scheduler: The episode's scheduler.
-        episode: The episode, its parts made (`Episode.reset`).
-    """
-    period = episode.config.observation_period_s
-    scheduler.add(PeriodicEvent(period, step_hooks.observe))
-    if episode.config.perception == "camera":
-        monitor = visibility_monitor(episode.cell, episode.config.camera.size, episode.metrics)
-        scheduler.add(PeriodicEvent(period, monitor))
+
+def observe(parts: EpisodeParts) -> None:
+    """The perception's detections now, handed to the tracker (timed); new tracks booked
+    against the true items (`never_detected`)."""
+    t = parts.data.time
+    t0 = time.perf_counter()
+    parts.cell.items.kinematics()
+    created = parts.tracker.update(parts.perception.observe(t))
+    parts.timings.add("perception", time.perf_counter() - t0, "perception")
+    item_checks.attribute(parts, created, t)
 
 
 def belt_cameras(cell: Cell) -> tuple[str, ...]:
@@ -375,10 +363,9 @@ def belt_cameras(cell: Cell) -> tuple[str, ...]:
 
 def visibility_monitor(
     cell: Cell, size: tuple[int, int], metrics: EpisodeMetrics
-) -> Callable[[Episode], None]:
+) -> Callable[[EpisodeParts], None]:
     """The visible fraction of each item's top area at every camera observation, booked in
-    `metrics` (`never_visible`; `sim.monitors.visibility`), timed in the episode's `timings`
-    ("visibility").
+    `metrics` (`never_visible`; `sim.monitors.visibility`), timed as "visibility".
 
     Args:
         cell: The cell (its belt cameras, items).
@@ -400,11 +387,10 @@ def visibility_monitor(
     watch = VisibilityWatch(renders, cell.items)
     metrics.on_visibility({})
 
-    def book(episode: Episode) -> None:
+    def book(parts: EpisodeParts) -> None:
         t0 = time.perf_counter()
-        sighting = watch.measure(episode.held())
-        episode.metrics.on_visibility(sighting.fractions, sighting.passed)
-        timings = episode.timings
-        timings["visibility"] = timings.get("visibility", 0.0) + time.perf_counter() - t0
+        sighting = watch.measure(parts.held())
+        metrics.on_visibility(sighting.fractions, sighting.passed)
+        parts.timings.add("visibility", time.perf_counter() - t0)
 
     return book

@@ -24,7 +24,7 @@ from typing import Protocol
 
 import mujoco
 
-from sim.episode.scheduler import is_due
+from sim.episode.parts import is_due
 
 MAX_CHUNK_STEPS = 1000
 """Most steps in one chunk (the item checks, every 20 ms, end most chunks long before)."""

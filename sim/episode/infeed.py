@@ -20,13 +20,10 @@ time has come or one is held back.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 from sim.cell.items import Items
+from sim.cell.riding import ItemRiding
 from sim.flow.config import X_INFEED
-
-if TYPE_CHECKING:
-    from sim.episode.loop import Episode
+from sim.results.metrics import EpisodeMetrics
 
 DEEP_M = 0.004
 """An item dropped into another deeper than this is held back [m]. The items' contacts push an
@@ -51,10 +48,13 @@ class Infeed:
         items: The cell's items.
         flow: The episode's flow (`sim.flow.generator.Flow`).
         hold: Hold back an item that would drop into another (`[belt] infeed_hold`).
+        riding: The items' riding (an item dropped partly onto a flat one wakes that one).
+        metrics: Where the items dropped are booked as entered.
     """
 
-    def __init__(self, items: Items, flow, hold: bool):
+    def __init__(self, items: Items, flow, hold: bool, riding: ItemRiding, metrics: EpisodeMetrics):
         self.items, self.flow, self.hold = items, flow, bool(hold)
+        self.riding, self.metrics = riding, metrics
         self.next_index = 0
         """Flow index of the next item to drop."""
         self.holds = 0
@@ -82,7 +82,7 @@ class Infeed:
             return float(self.flow.t_spawn[self.next_index])
         return None
 
-    def fire(self, episode: Episode) -> None:
+    def fire(self, parts: object) -> None:
         """Hand the due items over to the belt (at its speed, as from an infeed conveyor) and
         book them as entered; an item dropped partly onto a flat one wakes that one."""
         first, flow, items = self.next_index, self.flow, self.items
@@ -94,9 +94,9 @@ class Infeed:
         items.kinematics()  # poses of the new items for the checks
         landing = [i for i in dropped if flow.z_drop[i] > 0]
         if landing:
-            episode.riding.wake_near(items.current(), [items.slot_of(i) for i in landing])
+            self.riding.wake_near(items.current(), [items.slot_of(i) for i in landing])
         for i in dropped:
-            episode.metrics.on_entered(i, int(flow.class_id[i]))
+            self.metrics.on_entered(i, int(flow.class_id[i]))
 
     def _feed_holding(self, first: int) -> tuple[int, list[int]]:
         """`Items.feed`, holding back an item that would drop into an item on the belt: it

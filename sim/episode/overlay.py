@@ -1,4 +1,4 @@
-"""The video's annotations of an episode's frame, read from the episode's own state.
+"""The video's annotations of an episode's frame, read from the episode's parts.
 
 `overlay_of` is what the loop hands a frame sink (`sim.render.sink.FrameSink`) with each frame:
 the tracked items with their predicted classes, the picks under way, every bin with its
@@ -54,16 +54,16 @@ def bin_rims(model: mujoco.MjModel, data: mujoco.MjData, materials):
     return out
 
 
-def bin_labels(episode) -> list[BinLabel]:
+def bin_labels(parts) -> list[BinLabel]:
     """Each bin's label: its material, the items that landed in it, those of another material.
 
     A landing (`sim.monitors.bins.Landing`) counts in the nearest bin of its material (a
     line's robots each have one per material).
     """
-    rims = bin_rims(episode.model, episode.data, episode.metrics.materials)
+    rims = bin_rims(parts.model, parts.data, parts.metrics.materials)
     counts = np.zeros(len(rims), dtype=int)
     wrong = np.zeros(len(rims), dtype=int)
-    for landing in episode.bins.landed:
+    for landing in parts.bins.landed:
         near = [
             (np.hypot(r[2][0] - landing.position[0], r[2][1] - landing.position[1]), k)
             for k, r in enumerate(rims)
@@ -78,11 +78,11 @@ def bin_labels(episode) -> list[BinLabel]:
     ]
 
 
-def overlay_of(episode, t: float, planner: str | None = None) -> Overlay:
+def overlay_of(parts, t: float, planner: str | None = None) -> Overlay:
     """The annotations of an episode's frame.
 
     Args:
-        episode: The running episode.
+        parts: The running episode's parts (`sim.episode.parts.EpisodeParts`).
         t: Its sim time [s].
         planner: The name the counters give the decision maker (None: the config's planner;
             an environment's agent says "agent").
@@ -91,23 +91,23 @@ def overlay_of(episode, t: float, planner: str | None = None) -> Overlay:
         The overlay.
     """
     items = []
-    tracks = episode.tracker.tracks()
-    under_way = [s.current_pick for s in episode.stations if s.current_pick is not None]
+    tracks = parts.tracker.tracks()
+    under_way = [s.current_pick for s in parts.stations if s.current_pick is not None]
     tracks.extend(under_way)
     for tr in tracks:
         cls = tr.predicted_class
-        items.append((tr.track_id, tr.x_at(t, episode.speed), tr.y, 0.03, cls, tr.probs[cls - 1]))
-    m = episode.metrics
+        items.append((tr.track_id, tr.x_at(t, parts.speed), tr.y, 0.03, cls, tr.probs[cls - 1]))
+    m = parts.metrics
     short, colours = class_labels(m.materials)
     wrong = sum(true != bin_ for true, bin_ in m.binned.values())
     counters = [
-        f"t {t:5.1f} s  x{episode.config.speed_factor:g}  {planner or episode.config.planner}  "
-        f"{episode.config.perception}",
+        f"t {t:5.1f} s  x{parts.config.speed_factor:g}  {planner or parts.config.planner}  "
+        f"{parts.config.perception}",
         f"entered {m.n_entered}  picked {m.n_picked}  missed {len(m.missed)}",
         f"wrong bin {wrong}  profit {m.profit:.2f} EUR",
         "purity " + purity_text(m.binned, short),
     ]
-    pick = None if episode.current_pick is None else episode.current_pick.track_id
+    pick = None if parts.current_pick is None else parts.current_pick.track_id
     picks = tuple(track.track_id for track in under_way)
     return Overlay(
         items=items,
@@ -116,6 +116,6 @@ def overlay_of(episode, t: float, planner: str | None = None) -> Overlay:
         short=short,
         colours=colours,
         next_picks=picks,
-        bins=bin_labels(episode),
+        bins=bin_labels(parts),
         wrong_line=2 if wrong else None,
     )

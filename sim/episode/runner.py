@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from sim.cell.cell import Cell
 from sim.episode.config import EpisodeConfig
 from sim.episode.loop import Episode, make_decision_manager
+from sim.episode.parts import EpisodeParts
 from sim.model.scene_edits import CellSettings
 from sim.results.code_digest import code_digest
 from sim.results.economics import ECONOMICS_COLUMNS, per_hour_columns
@@ -171,45 +172,66 @@ def run_episode(
     wall0, cpu0 = time.perf_counter(), time.process_time()
     if cell is None:
         cell = config_cell(config, sized=True)
-    video = recorder
-    if video_path is not None:
-        from sim.render.video import VideoRecorder
-
-        v = config.video
-        video = VideoRecorder(cell.model, video_path, v.fps, v.width, v.height)
+    video = recorder if video_path is None else episode_video(config, cell, video_path)
     with Episode(config, cell, video, progress, planner=planner) as episode:
         episode.reset()
         episode.run()
     wall = time.perf_counter() - wall0
-    sim_s = float(cell.data.time)
+    label = config.planner if planner is None else planner_name(planner)
+    parts = episode.parts
+    row = episode_row(parts, label, variant, wall)
+    timings = dict(parts.timings.seconds)
+    # Physics: stepping, the executor's control loop, the cup and bins (everything else).
+    timings["physics"] = wall - sum(v for k, v in timings.items() if k != "physics")
+    timings["total"] = wall
+    timings["cpu"] = time.process_time() - cpu0  # this process's CPU time (shared machines)
+    timings["decisions"] = parts.timings.decisions
+    # The video process's own CPU time (frames, encoder) [s]; a live viewer keeps none.
+    timings |= {f"video_{k}": float(v) for k, v in getattr(video, "stats", {}).items()}
+    latencies = parts.timings.latencies
+    return EpisodeResult(config, variant, row, parts.metrics.pick_rows(), timings, latencies)
+
+
+def episode_video(config: EpisodeConfig, cell: Cell, path):
+    """The MP4 recorder of an episode on `cell`, as the config's `[video]` asks
+    (`sim.render.video.VideoRecorder`)."""
+    from sim.render.video import VideoRecorder
+
+    v = config.video
+    return VideoRecorder(cell.model, path, v.fps, v.width, v.height)
+
+
+def episode_row(parts: EpisodeParts, planner: str, variant: str, wall_s: float) -> dict:
+    """The episode's episodes.csv row, assembled in this one place: the config's columns, the
+    metrics' (`EpisodeMetrics.row`, a line's `EpisodeMetrics.line_row`), the times, the code's
+    digest and the per-hour columns.
+
+    Args:
+        parts: The finished episode's parts.
+        planner: The decision manager's name.
+        variant: Name of the sweep variant.
+        wall_s: Wall time the episode took [s].
+    """
+    config, metrics = parts.config, parts.metrics
+    sim_s = float(parts.data.time)
+    energies = [s.energy.reading()[1] for s in parts.stations]
     row = {
         "seed": config.seed,
-        "planner": config.planner if planner is None else planner_name(planner),
+        "planner": planner,
         "speed_factor": config.speed_factor,
         "belt_speed_mps": config.belt_speed_mps,
         "n_items": config.items,
-        **episode.metrics.row(),
+        **metrics.row(),
         "sim_s": sim_s,
-        "wall_s": wall,
+        "wall_s": wall_s,
         "variant": variant,
         "perception": config.perception,
         "energy_price_eur_per_kwh": config.energy_price_eur_per_kwh,
         "min_class_confidence": config.applied_min_class_confidence,
         "items_per_m": config.items / (config.duration_s * config.belt_speed_mps),
-        "real_time_factor": sim_s / wall if wall > 0 else 0.0,
-        **episode.robot_columns(sim_s),
+        "real_time_factor": sim_s / wall_s if wall_s > 0 else 0.0,
+        **metrics.line_row(sim_s, energies, config.coordination),
         "code_digest": code_digest(),
     }
     feed_s = min(config.duration_s, config.horizon_s or config.duration_s)  # items fed [s]
-    row |= per_hour_columns(row, feed_s, config.robot_count, _economics(config))
-    timings = dict(episode.timings)
-    # Physics: stepping, the executor's control loop, the cup and bins (everything else).
-    timings["physics"] = wall - sum(v for k, v in timings.items() if k != "physics")
-    timings["total"] = wall
-    timings["cpu"] = time.process_time() - cpu0  # this process's CPU time (shared machines)
-    timings["decisions"] = episode.decisions
-    # The video process's own CPU time (frames, encoder) [s]; a live viewer keeps none.
-    timings |= {f"video_{k}": float(v) for k, v in getattr(video, "stats", {}).items()}
-    return EpisodeResult(
-        config, variant, row, episode.metrics.pick_rows(), timings, episode.latencies
-    )
+    return row | per_hour_columns(row, feed_s, config.robot_count, _economics(config))

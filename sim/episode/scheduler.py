@@ -3,38 +3,30 @@ scheduler of events, in the manner of dm_control's composer.
 
 Hooks (`Hooks`): every function registered on `"before_step"` runs before each physics step
 (or each block of steps while every robot idles), every one on `"after_step"` after it, in the
-order registered: the robots' set-points, then the riders' belt time, the actuator log, the
-cups, then a user's. Events (`Scheduler`): the infeed's drops, the observations, the item checks
-(warnings, throws, items out of reach, bins, riding), the video frames and a user's periodic
-functions (`PeriodicEvent`) and the episode's horizon (`Horizon`), each with the next time it
-is due. After each step the loop fires
-every event due, in the order registered, with the items brought up to date first; while every
-robot idles it steps in one block up to the earliest next time (or decision). One due test,
-`is_due`, serves both.
+order registered: the episode's own (`BEFORE_STEP`: the robots' set-points; `AFTER_STEP`: the
+riders' belt time, the actuator log, the cups), then a user's. Events (`Scheduler`): the
+infeed's drops, the observations, the item checks (warnings, throws, items out of reach, bins,
+riding), the video frames, a user's periodic functions (`PeriodicEvent`) and the episode's
+horizon (`sim.episode.parts.Horizon`), each with the next time it is due. After each step the
+loop fires every event due, in the order registered, with the items brought up to date first;
+while every robot idles it steps in one block up to the earliest next time (or decision). One
+due test, `is_due`, serves both. Hooks and events are called with the episode's parts
+(`sim.episode.parts.EpisodeParts`), not the episode.
 """
 
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Protocol
+from typing import Protocol
 
+from sim.episode.parts import DUE_TOLERANCE_S, EpisodeParts, is_due
 from sim.errors import InvalidInput
 
-if TYPE_CHECKING:
-    from sim.episode.loop import Episode
-
-DUE_TOLERANCE_S = 1e-9
-"""An event whose time is at most this far ahead of the clock is due [s] (the clock sums
-steps: 0.001 s steps reach 0.5 s a rounding error early)."""
 HOOK_STAGES = ("before_step", "after_step")
 """Where a hook may run: before or after each physics step."""
-
-
-def is_due(t: float, when: float) -> bool:
-    """Whether something due at `when` [s] is due at sim time `t` [s]."""
-    return t + DUE_TOLERANCE_S >= when
 
 
 def steps_until_due(t: float, when: float, dt: float) -> int:
@@ -52,22 +44,22 @@ class Event(Protocol):
     def next_time(self, t: float) -> float | None:
         """When it is due next [s] (None: never again), seen at sim time `t` [s]."""
 
-    def fire(self, episode: Episode) -> None:
+    def fire(self, parts: EpisodeParts) -> None:
         """Do what is due."""
 
 
 @dataclass(eq=False)
 class PeriodicEvent:
-    """A function called with the episode every `period_s` of simulated time.
+    """A function called with the episode's parts every `period_s` of simulated time.
 
     Attributes:
         period_s: Its period [s].
-        fn: Called with the episode.
+        fn: Called with the episode's parts.
         next_s: When it is due next [s].
     """
 
     period_s: float
-    fn: Callable[[Episode], object]
+    fn: Callable[[EpisodeParts], object]
     next_s: float = 0.0
 
     def __post_init__(self) -> None:
@@ -86,9 +78,9 @@ class PeriodicEvent:
         """When it is due next [s]."""
         return self.next_s
 
-    def fire(self, episode: Episode) -> None:
+    def fire(self, parts: EpisodeParts) -> None:
         """Call the function; due again a period later."""
-        self.fn(episode)
+        self.fn(parts)
         self.next_s += self.period_s
 
 
@@ -98,10 +90,10 @@ class FrameEvent:
 
     Args:
         sink: Where the frames go.
-        overlay: Builds a frame's overlay from the episode and the sim time [s].
+        overlay: Builds a frame's overlay from the episode's parts and the sim time [s].
     """
 
-    def __init__(self, sink, overlay: Callable[[Episode, float], object]):
+    def __init__(self, sink, overlay: Callable[[EpisodeParts, float], object]):
         self.sink, self.overlay = sink, overlay
 
     def due(self, t: float) -> bool:
@@ -112,39 +104,16 @@ class FrameEvent:
         """When the sink wants its next frame [s]."""
         return self.sink.next_frame_time
 
-    def fire(self, episode: Episode) -> None:
-        """Hand the sink the cell as it is now and the overlay."""
-        t = float(episode.data.time)
-        episode.sink_frame(self.sink, self.overlay(episode, t))
-
-
-class Horizon:
-    """The time an episode ends at, whatever is left (the config's `horizon_s`): an event,
-    so the physics is stepped up to it exactly (the loop ends the episode once it is reached).
-
-    Args:
-        at_s: The horizon [s].
-    """
-
-    def __init__(self, at_s: float):
-        self.at_s = at_s
-        self.reached = False
-
-    def due(self, t: float) -> bool:
-        """Whether the horizon has come at sim time `t` [s]."""
-        return not self.reached and is_due(t, self.at_s)
-
-    def next_time(self, t: float) -> float | None:
-        """The horizon [s] (None once reached)."""
-        return None if self.reached else self.at_s
-
-    def fire(self, episode: Episode) -> None:
-        """Mark the horizon reached: the episode ends after this step."""
-        self.reached = True
+    def fire(self, parts: EpisodeParts) -> None:
+        """Hand the sink the cell as it is now and the overlay (timed as "video")."""
+        t0 = time.perf_counter()
+        overlay = self.overlay(parts, float(parts.data.time))
+        self.sink.capture(parts.cell.items.current(), overlay)
+        parts.timings.add("video", time.perf_counter() - t0)
 
 
 class Scheduler:
-    """The events of an episode, in the order they fire when due together."""
+    """The events of an parts, in the order they fire when due together."""
 
     def __init__(self):
         self.events: list[Event] = []
@@ -162,12 +131,12 @@ class Scheduler:
             return []
         return [event for event in self.events if event.due(t)]
 
-    def fire_due(self, episode: Episode, t: float, prepare: Callable[[], object]) -> None:
+    def fire_due(self, parts: EpisodeParts, t: float, prepare: Callable[[], object]) -> None:
         """Fire every event due at sim time `t` [s], in order, after `prepare()` (once, when
         any is due); then note when the next one is due.
 
         Args:
-            episode: Handed to each event.
+            parts: Handed to each event.
             t: Sim time now [s].
             prepare: Called before the first event fires (the items brought up to date).
         """
@@ -175,7 +144,7 @@ class Scheduler:
         if due:
             prepare()
             for event in due:
-                event.fire(episode)
+                event.fire(parts)
         if due or self._earliest == -math.inf:
             self._earliest = self.next_time(t)
 
@@ -196,14 +165,16 @@ class Hooks:
     """Functions run around each physics step, stage by stage, in the order registered."""
 
     def __init__(self):
-        self._stages: dict[str, list[Callable[[Episode], object]]] = {s: [] for s in HOOK_STAGES}
+        self._stages: dict[str, list[Callable[[EpisodeParts], object]]] = {
+            s: [] for s in HOOK_STAGES
+        }
 
-    def add(self, stage: str, fn: Callable[[Episode], object]) -> None:
-        """Run `fn(episode)` at `stage` ("before_step" or "after_step") from now on.
+    def add(self, stage: str, fn: Callable[[EpisodeParts], object]) -> None:
+        """Run `fn(parts)` at `stage` ("before_step" or "after_step") from now on.
 
         Args:
             stage: One of `HOOK_STAGES`.
-            fn: Called with the episode.
+            fn: Called with the episode's parts.
         """
         if stage not in self._stages:
             raise InvalidInput("stage", " | ".join(HOOK_STAGES), stage)
@@ -211,7 +182,35 @@ class Hooks:
             raise InvalidInput("fn", "a function of the episode", fn)
         self._stages[stage].append(fn)
 
-    def run(self, stage: str, episode: Episode) -> None:
-        """Run every hook of `stage` with `episode`."""
+    def run(self, stage: str, parts: EpisodeParts) -> None:
+        """Run every hook of `stage` with `parts`."""
         for fn in self._stages[stage]:
-            fn(episode)
+            fn(parts)
+
+
+def set_points(parts: EpisodeParts) -> None:
+    """Before a step: the busy robots' set-points of the coming control period."""
+    for station in parts.clock.busy:
+        station.robot.before_step()
+
+
+def carry_riders(parts: EpisodeParts) -> None:
+    """After a step: the belt's time the riders are owed (`sim.cell.riding`)."""
+    parts.riding.carry(parts.clock.last_step_s)
+
+
+def log_actuators(parts: EpisodeParts) -> None:
+    """After a step: the actuators' power over it, for the energy meters."""
+    parts.actuator_log.record(parts.clock.last_step_s)
+
+
+def cups(parts: EpisodeParts) -> None:
+    """After a step: the busy robots' cups (seal, hold, release)."""
+    for station in parts.clock.busy:
+        station.robot.after_step()
+
+
+BEFORE_STEP = (set_points,)
+"""The episode's own before-step hooks, in order."""
+AFTER_STEP = (carry_riders, log_actuators, cups)
+"""The episode's own after-step hooks, in order."""

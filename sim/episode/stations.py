@@ -1,5 +1,6 @@
 """The robots of an episode: each robot's station (pick controller, energy meter, decision
-context and manager, the pick under way) and what a line's coordination offers each.
+context and manager, the pick under way), what the line offers the decision managers
+(`Offers`) and how a line's coordination shares it out.
 
 A cell has one robot, a line up to four; the one loop steps them all (`sim.episode.loop`).
 """
@@ -7,19 +8,19 @@ A cell has one robot, a line up to four; the one loop steps them all (`sim.episo
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+
+import numpy as np
 
 from planner.decision.interface import Choice, DecisionContext, TrackedItem
 from planner.decision.line_coordination import LineRobot, offered_items
 from sim.cell.riding import PlannedPath
+from sim.cell.suction import SuctionEvent
 from sim.episode.pick_control import PickController, PickOutcome
+from sim.flow.generator import Flow
 from sim.monitors.energy import EnergyMeter
 from sim.results.metrics import EpisodeMetrics, PickRecord
 from sim.sensing.confidence import sure_items
-from sim.sensing.tracking import Track
-
-if TYPE_CHECKING:
-    from sim.episode.loop import Episode
+from sim.sensing.tracking import Track, Tracker
 
 MAX_FAILURES = 2
 """Attempts after which truth mode gives an item up (it is re-detected every period)."""
@@ -29,8 +30,9 @@ headline episode's mean cycle is 0.73 s)."""
 
 
 @dataclass(frozen=True)
-class StartedPick:
-    """A pick under way, as it started.
+class PickUnderWay:
+    """A pick under way, as it started (the pick controller keeps its plan,
+    `sim.episode.pick_control.StartedPick`).
 
     Attributes:
         track: The track picked.
@@ -74,12 +76,26 @@ class RobotStation:
         self.context, self.planner, self.path_reach = context, planner, path_reach
         self.next_decision = 0.0
         """When the robot, idle, asks its decision manager next [s]."""
-        self.pick: StartedPick | None = None
+        self.pick: PickUnderWay | None = None
         """The pick under way (None: idle)."""
         self.path: PlannedPath | None = None
         """The cup's planned path of the pick under way (riders it passes are woken)."""
         self.picks_done, self.pick_time_sum = 0, 0.0  # its finished picks and their time [s]
         self.cup_events_seen = 0
+
+    def start(self, pick: PickUnderWay, path: PlannedPath | None) -> None:
+        """The pick `pick` is under way along `path` (None: riders are not woken by it)."""
+        self.pick, self.path = pick, path
+
+    def decide_at(self, t: float) -> None:
+        """Ask the decision manager next at sim time `t` [s]."""
+        self.next_decision = t
+
+    def new_cup_events(self) -> list[SuctionEvent]:
+        """The cup's events since this was last asked."""
+        events = self.robot.suction.events
+        new, self.cup_events_seen = events[self.cup_events_seen :], len(events)
+        return new
 
     @property
     def current_pick(self) -> Track | None:
@@ -124,29 +140,30 @@ def line_offer(
     return offered_items(coordination, items, line, station.index, t, station.mean_pick_s)
 
 
-def book_pick(episode: Episode, station: RobotStation, outcome: PickOutcome) -> None:
-    """Book a robot's finished pick in the episode's metrics; an item the cup failed on counts
-    a failure (truth mode gives it up after `MAX_FAILURES`), the item sealed is tracked no more.
-
-    Args:
-        episode: The episode.
-        station: The robot whose pick finished.
-        outcome: What the pick did.
+def book_pick(
+    station: RobotStation,
+    outcome: PickOutcome,
+    flow: Flow,
+    offers: Offers,
+    metrics: EpisodeMetrics,
+) -> None:
+    """Book a robot's finished pick in `metrics`; an item the cup failed on counts a failure in
+    `offers` (truth mode gives it up after `MAX_FAILURES`), the item sealed is tracked no more.
     """
-    pick, flow = station.pick, episode.flow
+    pick = station.pick
     track, choice, (mech0, elec0) = pick.track, pick.choice, pick.energy_at_start
     station.pick = None
     station.picks_done += 1
     station.pick_time_sum += outcome.t_end - outcome.t_start
     mech, elec = station.energy.reading()
     if not outcome.held_to_bin and track.true_id is not None:
-        episode.failures[track.true_id] = episode.failures.get(track.true_id, 0) + 1
+        offers.failed(track.true_id)
     if outcome.item_id >= 0:  # the cup may have sealed on a neighbour: forget its track too
-        episode.tracker.remove_true(outcome.item_id)
+        offers.tracker.remove_true(outcome.item_id)
     true_class = int(flow.class_id[outcome.item_id]) if outcome.item_id >= 0 else None
     if true_class is None and track.true_id is not None:
         true_class = int(flow.class_id[track.true_id])
-    episode.metrics.on_pick(
+    metrics.on_pick(
         PickRecord(
             t_start_s=outcome.t_start,
             t_end_s=outcome.t_end,
@@ -164,46 +181,50 @@ def book_pick(episode: Episode, station: RobotStation, outcome: PickOutcome) -> 
     )
 
 
-def robot_columns(
-    stations: list[RobotStation], metrics: EpisodeMetrics, coordination: str, sim_s: float
-) -> dict[str, object]:
-    """A line's episodes.csv columns: robots, coordination, each robot's picks, picks per
-    minute, utilisation and energy (`sim.results.outputs.line_columns`); `robots` alone for
-    one robot.
+class Offers:
+    """What the decision managers are offered: the tracked items not given up, not waiting for
+    a retry and sure enough (the confidence rule, `sim.sensing.confidence`); owns the failed
+    attempts per true item, when each track may be offered again and the item each track was
+    offered as last.
 
     Args:
-        stations: Every robot's station.
-        metrics: The episode's metrics.
-        coordination: The line's coordination.
-        sim_s: Simulated time of the episode [s].
+        tracker: The episode's tracker.
+        belt_speed: The belt's speed [m/s].
+        min_confidence: The confidence rule's threshold in [0, 1].
     """
-    if len(stations) <= 1:
-        return {"robots": len(stations)}
-    out: dict[str, object] = {"robots": len(stations), "coordination": coordination}
-    for s in stations:
-        out |= metrics.robot_row(s.index, sim_s, s.energy.reading()[1])
-    return out
 
+    def __init__(self, tracker: Tracker, belt_speed: float, min_confidence: float):
+        self.tracker, self.belt_speed, self.min_confidence = tracker, belt_speed, min_confidence
+        self.failures: dict[int, int] = {}  # failed attempts per true item id (truth mode)
+        self.not_before: dict[int, float] = {}  # track id -> when it may be offered again [s]
+        # track id -> (its probabilities, its item) as `items` last made them
+        self.track_items: dict[int, tuple[np.ndarray, TrackedItem]] = {}
 
-def offerable_items(episode: Episode, t: float) -> list[TrackedItem]:
-    """The tracked items every decision manager chooses among at sim time `t` [s]: not
-    given up, not waiting for a retry, sure enough (the confidence rule,
-    `sim.sensing.confidence`), once for all robots."""
-    items, made = [], {}
-    for tr in episode.tracker.tracks():
-        if episode.failures.get(tr.true_id, 0) >= MAX_FAILURES:
-            continue  # truth mode: an item the cup failed on twice is given up
-        if episode.not_before.get(tr.track_id, 0.0) > t:
-            continue  # the cup could not meet it a moment ago
-        x = tr.x_at(t, episode.speed)
-        # The track's item of the last call, moved, while its probabilities are the same
-        # array (the tracker replaces the array when it updates them).
-        probs, item = episode.track_items.get(tr.track_id, (None, None))
-        if probs is tr.probs:
-            item = item.at(x, tr.y)
-        else:
-            item = TrackedItem(tr.track_id, x, tr.y, tuple(tr.probs))
-        made[tr.track_id] = (tr.probs, item)
-        items.append(item)
-    episode.track_items = made
-    return sure_items(items, episode.config.applied_min_class_confidence)
+    def failed(self, true_id: int) -> None:
+        """The cup failed on true item `true_id` once more."""
+        self.failures[true_id] = self.failures.get(true_id, 0) + 1
+
+    def retry_after(self, track_id: int, t: float) -> None:
+        """Track `track_id` is not offered before sim time `t` [s]."""
+        self.not_before[track_id] = t
+
+    def items(self, t: float) -> list[TrackedItem]:
+        """The items offered at sim time `t` [s], once for all robots."""
+        items, made = [], {}
+        for tr in self.tracker.tracks():
+            if self.failures.get(tr.true_id, 0) >= MAX_FAILURES:
+                continue  # truth mode: an item the cup failed on twice is given up
+            if self.not_before.get(tr.track_id, 0.0) > t:
+                continue  # the cup could not meet it a moment ago
+            x = tr.x_at(t, self.belt_speed)
+            # The track's item of the last call, moved, while its probabilities are the same
+            # array (the tracker replaces the array when it updates them).
+            probs, item = self.track_items.get(tr.track_id, (None, None))
+            if probs is tr.probs:
+                item = item.at(x, tr.y)
+            else:
+                item = TrackedItem(tr.track_id, x, tr.y, tuple(tr.probs))
+            made[tr.track_id] = (tr.probs, item)
+            items.append(item)
+        self.track_items = made
+        return sure_items(items, self.min_confidence)

@@ -90,7 +90,7 @@ class Audit:
 def _poses(episode: Episode) -> Poses:
     """True poses of the items resting on the belt from just before the camera line on."""
     items = episode.cell.items
-    held = set(int(s) for s in episode.held())
+    held = set(int(s) for s in episode.parts.held())
     slots = [int(s) for s in items.active_slots() if int(s) not in held]
     if not slots:
         empty = np.zeros(0)

@@ -143,7 +143,7 @@ def soak_episode(config: EpisodeConfig) -> SoakResult:
     identity = metrics.accounting_failures()
     if row["entered"] != config.items:
         identity.append(f"entered {row['entered']} of the flow's {config.items} items")
-    if cell.data.time >= episode.timeline.t_cap:
+    if cell.data.time >= episode.parts.timeline.t_cap:
         identity.append(f"hit the time cap at {cell.data.time:.1f} s")
     failures += identity
     if metrics.mujoco_warnings:
@@ -165,6 +165,6 @@ def soak_episode(config: EpisodeConfig) -> SoakResult:
         warning_kinds=dict(metrics.warning_kinds),
         nonfinite=nonfinite,
         identity_failures=len(identity),
-        peak_loose_speed=episode.throw_watch.peak_speed,
+        peak_loose_speed=episode.parts.throw_watch.peak_speed,
         cpu_s=time.process_time() - cpu0,
     )

@@ -78,6 +78,7 @@ Accounting identities, true of every finished episode (`accounting_failures` che
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from perception.codes import ALUMINIUM, PAPER, PLASTIC, THESIS_MATERIALS, Materials
@@ -350,6 +351,19 @@ class EpisodeMetrics:
             "mass_entered_kg": sum(mass[i] for i in sorted(self.entered_ids)),
             "mass_recovered_kg": sum(mass[i] for i in sorted(own)),
         }
+
+    def line_row(
+        self, sim_s: float, energy_elec_j: Sequence[float], coordination: str
+    ) -> dict[str, object]:
+        """A line's columns: robots, coordination and each robot's `robot_row` (its motors'
+        electrical energy `energy_elec_j[k]` [J], upstream first; `sim.results.outputs.
+        line_columns`); `robots` alone for one robot. `sim_s` is the episode's length [s]."""
+        if len(energy_elec_j) <= 1:
+            return {"robots": len(energy_elec_j)}
+        out: dict[str, object] = {"robots": len(energy_elec_j), "coordination": coordination}
+        for k, energy in enumerate(energy_elec_j):
+            out |= self.robot_row(k, sim_s, energy)
+        return out
 
     def robot_row(self, robot: int, sim_s: float, energy_elec_j: float) -> dict[str, object]:
         """A line's columns of one robot (`robot<k>_...`): its items binned, binned per minute,

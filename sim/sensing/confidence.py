@@ -4,7 +4,7 @@ A plant would rather let an item ride on to the residue line than risk contamina
 a tracked item whose most probable material (paper, plastic or aluminium) has a posterior
 probability below `min_class_confidence` (`sim.episode.config`) is not offered to the decision
 manager. The episode applies the rule in one place, where it builds the tracked items every
-decision manager chooses among (`sim.episode.stations.offerable_items`), so every planner
+decision manager chooses among (`sim.episode.stations.Offers.items`), so every planner
 (and any agent stepping the episode) sees the same filtered items. At a threshold of 0 nothing
 is held back. Tracks held back until they leave the tracker are counted in `left_unsure`
 (`sim.results.metrics`).
