@@ -202,16 +202,6 @@ def test_no_import_circles():
     assert cycles(import_graph(typing=False)) == []
 
 
-def test_no_import_circle_in_the_experiments_even_for_types():
-    """`sim.experiments`' modules import each other one way, type-only imports included."""
-    graph = {
-        name: {t for t in targets if t.startswith("sim.experiments")}
-        for name, targets in import_graph().items()
-        if name.startswith("sim.experiments")
-    }
-    assert cycles(graph) == []
-
-
 def test_no_package_module_reads_the_tests_folder():
     offenders = [
         name
@@ -290,10 +280,8 @@ def test_item_poses_are_read_through_the_cells_accessors():
     assert [n for n, text in outside.items() if re.search(r"riding\.sync\(", text)] == []
 
 
-CIRCLE_FREE_ROOMS = ("sim.episode",)
+CIRCLE_FREE_ROOMS = ("sim.episode", "sim.experiments")
 """Rooms whose modules import no circle among themselves, type-checking imports counted."""
-CIRCLE_FREE_ROOMS_PENDING = ("sim.experiments",)
-"""Rooms to join `CIRCLE_FREE_ROOMS` once their own circle (reproduce*.py) is removed."""
 
 
 def room_cycles(room: str) -> list[list[str]]:
