@@ -116,12 +116,7 @@ def _run(args: argparse.Namespace, config) -> int:
     sweep.write_manifest(config, args.out)
     from sim.evaluation.item_features import prepare_camera
 
-    prepared = set()
-    for spec in config.episodes:  # a custom catalogue's item classifier table, recorded once
-        key = (spec.config.catalogue, repr(spec.config.flow), spec.config.classifier)
-        if key not in prepared and spec.config.perception == "camera":
-            prepared.add(key)
-            prepare_camera(spec.config)
+    prepare_camera(*(spec.config for spec in config.episodes))
 
     log = logging.getLogger("sim.experiments.sweep")
     # On a terminal a bar with the ETA is redrawn in place (the per-episode lines go to

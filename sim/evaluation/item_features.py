@@ -190,14 +190,22 @@ def ensure_catalogue_table(catalogue, mix: dict | None = None) -> Path:
     return path
 
 
-def prepare_camera(config) -> None:
-    """Before a camera episode (`EpisodeConfig`) on another catalogue than the default with an
-    item classifier: its training table, recorded once (minutes of CPU the first time)."""
-    if config.perception != "camera" or config.classifier == "hmm":
-        return
-    if is_default_catalogue(config.item_catalogue):
-        return
-    ensure_catalogue_table(config.item_catalogue, config.mix_kwargs)
+def prepare_camera(*configs) -> None:
+    """Before camera episodes (`EpisodeConfig`s): the item classifier's training table of each
+    other catalogue than the default (and its mix), recorded once (minutes of CPU the first
+    time). Every command that runs camera episodes calls this, and only this: recording runs
+    episodes, so the episode's builder, below this room, cannot record on demand; it refuses
+    an unrecorded catalogue in one line instead."""
+    seen = set()
+    for config in configs:
+        if config.perception != "camera" or config.classifier == "hmm":
+            continue
+        if is_default_catalogue(config.item_catalogue):
+            continue
+        key = (config.catalogue, repr(config.mix_kwargs))
+        if key not in seen:
+            seen.add(key)
+            ensure_catalogue_table(config.item_catalogue, config.mix_kwargs)
 
 
 def accuracy_table(table: dict, classifier: ItemClassifier) -> list[str]:

@@ -183,9 +183,4 @@ def _check_camera(sweep: sweep_config.SweepConfig) -> None:
 
     CameraCalibration.load(DEFAULT_CALIBRATION)
     check_backend()
-    seen = set()
-    for config in camera:
-        key = (config.catalogue, repr(config.flow), config.classifier)
-        if key not in seen:
-            seen.add(key)
-            prepare_camera(config)
+    prepare_camera(*camera)
