@@ -15,6 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from perception.errors import PerceptionInputError
+
 CLASS_NAMES = ("void", "paper", "plastic", "aluminium")
 VOID, PAPER, PLASTIC, ALUMINIUM = 1, 2, 3, 4
 N_STATES = 4
@@ -44,21 +46,19 @@ class Materials:
     def __post_init__(self) -> None:
         names, values = tuple(self.names), tuple(self.values_eur)
         if not 1 <= len(names) <= MAX_MATERIALS:
-            raise ValueError(f"materials: allowed 1..{MAX_MATERIALS} (got {len(names)})")
+            raise PerceptionInputError("materials", f"1..{MAX_MATERIALS}", len(names))
         for name in names:
             if not isinstance(name, str) or not _MATERIAL_NAME.fullmatch(name):
-                raise ValueError(
-                    f"material name: allowed a lowercase identifier of up to 24 characters "
-                    f"(got {name!r})"
-                )
+                allowed = "a lowercase identifier of up to 24 characters"
+                raise PerceptionInputError("material name", allowed, name)
         if len(set(names)) != len(names) or {"void", "none"} & set(names):
-            raise ValueError(f"material names: allowed unique names, not void/none (got {names})")
+            raise PerceptionInputError("material names", "unique names, not void/none", names)
         ok = len(values) == len(names) and all(
             isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) and v >= 0
             for v in values
         )
         if not ok:
-            raise ValueError(f"material values: allowed one finite value >= 0 EUR each ({values})")
+            raise PerceptionInputError("material values", "one finite value >= 0 EUR each", values)
         object.__setattr__(self, "names", names)
         object.__setattr__(self, "values_eur", tuple(float(v) for v in values))
 
@@ -138,7 +138,7 @@ def decode(code: int) -> tuple[str, str] | None:
     if code == EMPTY_CODE:
         return None
     if not 1 <= code < EMPTY_CODE:
-        raise ValueError(f"observation code: allowed 1..19 (got {code})")
+        raise PerceptionInputError("observation code", "1..19", code)
     size_index, colour_index = divmod(code - 1, len(COLOURS))
     return SIZES[size_index], COLOURS[colour_index]
 

@@ -1,9 +1,9 @@
-"""The planner's errors: its refused input, the project's one refusal
-(`perception.errors.RefusedInput`), and a decision manager that misbehaved."""
+"""The planner's errors, under the project's root (`perception.project_errors`): its refused
+input and a decision manager that misbehaved."""
 
 from __future__ import annotations
 
-from perception.errors import RefusedInput, SortsimError
+from perception.project_errors import RefusedInput, SortsimError
 
 
 class PlannerInputError(RefusedInput):

@@ -1,15 +1,15 @@
 """Errors the command line turns into exit codes.
 
-Every refusal derives from `perception.errors.RefusedInput` (the project's one root, importable
-by the pure packages too): the CLI prints its one-line message and exits with code 2. Anything
-else is a bug or an environment failure: exit code 1.
+Every refusal derives from `RefusedInput` of the project's one root,
+`perception.project_errors` (importable by the pure packages too): the CLI prints its one-line
+message and exits with code 2. Anything else is a bug or an environment failure: exit code 1.
 """
 
 from __future__ import annotations
 
-from perception.errors import RefusedInput, SortsimError
+from perception.project_errors import RefusedInput, SortsimError
 
-__all__ = ["InvalidInput", "ModelFileError", "RefusedInput", "SortsimError"]
+__all__ = ["CallOrderError", "InvalidInput", "ModelFileError", "RefusedInput", "SortsimError"]
 
 
 class InvalidInput(RefusedInput):
@@ -30,3 +30,8 @@ class ModelFileError(InvalidInput):
 
     def __reduce__(self):
         return (type(self), (self.path, self.reason))
+
+
+class CallOrderError(SortsimError, RuntimeError):
+    """A method called when the object's state does not allow it (a fault of the calling code,
+    not of the user's input: exit code 1)."""

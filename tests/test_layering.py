@@ -16,20 +16,22 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("perception", "planner", "sim")
 
-# Each room and the rooms it may import besides its own modules.
+# The shared base: modules every room may import, which import nothing of the project.
+BASE = ("perception.project_errors",)
+# Each room and the rooms it may import besides its own modules and the base.
 ALLOWED = {
     "perception.errors": set(),
-    "perception.codes": set(),
+    "perception.codes": {"perception.errors"},
     "perception.camera": {"perception.errors", "perception.codes"},
     "perception.hmm": {"perception.errors", "perception.codes"},
     "perception.items": {"perception.errors", "perception.codes"},
-    "planner.errors": {"perception.errors"},
-    "planner.motion": {"planner.errors", "perception.errors"},
+    "planner.errors": set(),
+    "planner.motion": {"planner.errors"},
     "planner.decision": {"planner.motion", "planner.errors", "perception.codes"},
     "sim.paths": set(),
-    "sim.errors": {"perception.errors"},
-    "sim.checks": {"sim.errors", "perception.errors"},
-    "sim.user_cache": {"sim.paths", "sim.errors", "perception.errors"},
+    "sim.errors": set(),
+    "sim.checks": {"sim.errors"},
+    "sim.user_cache": {"sim.paths", "sim.errors"},
 }
 # sim's rooms, lowest first: each may import the ones below it and the pure packages whole.
 SIM_ROOMS = (
@@ -50,6 +52,10 @@ PURE = ("perception", "planner")
 for i, room in enumerate(SIM_ROOMS):
     ALLOWED[room] = {"sim.paths", "sim.errors", "sim.checks", "sim.user_cache"}
     ALLOWED[room] |= {*SIM_ROOMS[:i], *PURE}
+for room in ALLOWED:
+    ALLOWED[room] |= set(BASE)
+for base in BASE:
+    ALLOWED[base] = set()
 
 
 def room_of(module: str) -> str | None:
@@ -219,12 +225,38 @@ def test_no_package_module_reads_the_tests_folder():
         ("sim.monitors.bins", "sim.results.metrics"),  # a lower room imports a higher one
         ("sim.episode.loop", "sim.cli.run"),  # a library module imports a CLI module
         ("planner.motion.intercept", "planner.decision.managers.fifo"),
+        ("planner.motion.intercept", "perception.errors"),  # perception's own errors
+        ("perception.project_errors", "perception.codes"),  # the base imports nothing
     ],
 )
 def test_the_checker_flags_a_wrong_import(importer, target):
     graph = import_graph()
     graph[importer] = set(graph.get(importer, ())) | {target}
     assert any(v.startswith(f"{importer} -> {target}") for v in violations(graph))
+
+
+def test_the_base_imports_nothing_of_the_project():
+    graph = import_graph()
+    assert {base: graph[base] for base in BASE} == {base: set() for base in BASE}
+
+
+def test_one_exception_root():
+    """Every error class of the three packages derives from the base's `SortsimError`, and
+    every refusal from its `RefusedInput`."""
+    import importlib
+    import inspect
+
+    from perception.project_errors import RefusedInput, SortsimError
+
+    found = []
+    for name in ("perception.errors", "planner.errors", "sim.errors"):
+        module = importlib.import_module(name)
+        found += [c for _, c in inspect.getmembers(module, inspect.isclass) if c.__module__ == name]
+    assert found and all(issubclass(c, SortsimError) for c in found)
+    refusals = [
+        c for c in found if c.__name__.endswith("InputError") or c.__name__ == "InvalidInput"
+    ]
+    assert len(refusals) == 3 and all(issubclass(c, RefusedInput) for c in refusals)
 
 
 def test_the_checker_flags_a_circle():

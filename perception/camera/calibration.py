@@ -32,16 +32,66 @@ MAX_DISTORTION = 1e3
 """Largest magnitude of a distortion coefficient accepted (real lenses: |k| < 10)."""
 
 
-def _no_nan(name: str) -> float:
-    raise ValueError(f"{name} is not a finite number")
-
-
 def _integer(value: object) -> bool:
     return isinstance(value, int | np.integer) and not isinstance(value, bool)
 
 
 def _real(value: object) -> bool:
     return isinstance(value, int | float | np.number) and not isinstance(value, bool)
+
+
+def _no_nan(name: str) -> float:
+    # json's hook for NaN and Infinity: refused where they are read.
+    raise PerceptionInputError("file", "finite numbers", name)
+
+
+def _read_json(path: Path, where: str) -> object:
+    """The JSON value of the file at `path`, refused in one line naming `where`."""
+    try:
+        return json.loads(path.read_bytes().decode("utf-8"), parse_constant=_no_nan)
+    except OSError as err:
+        reason = err.strerror or type(err).__name__
+        raise PerceptionInputError("file", "a readable JSON file", reason, where) from None
+    except UnicodeDecodeError as err:
+        got = f"not UTF-8 at byte {err.start}"
+        raise PerceptionInputError("file", "UTF-8 JSON text", got, where) from None
+    except PerceptionInputError as err:
+        raise PerceptionInputError(err.field, err.allowed, err.got, where) from None
+    except ValueError as err:
+        reason = " ".join(str(err).split())[:120]
+        raise PerceptionInputError("file", "JSON of `sortsim calibrate`", reason, where) from None
+
+
+def _check_layout(raw: object) -> None:
+    """Refuse JSON not laid out as `save` writes it: an object of the five fields, the
+    distortion by name, the sizes integers, the matrix 3x3, every value a number."""
+    if not isinstance(raw, dict):
+        raise PerceptionInputError("file", "a JSON object", type(raw).__name__)
+    for key in ("image_size", "camera_matrix", "dist_coeffs", "rms_px", "n_views"):
+        if key not in raw:
+            raise PerceptionInputError(key, "present (as `sortsim calibrate` writes it)")
+    dist = raw["dist_coeffs"]
+    if not isinstance(dist, dict) or set(dist) != set(DIST_NAMES):
+        raise PerceptionInputError("dist_coeffs", f"an object of {DIST_NAMES}", dist)
+    size = raw["image_size"]
+    if not isinstance(size, list) or len(size) != 2 or not all(_integer(v) for v in size):
+        raise PerceptionInputError("image_size", "[width, height] integers [px]", size)
+    if not _integer(raw["n_views"]):
+        raise PerceptionInputError("n_views", "an integer >= 1", raw["n_views"])
+    _check_numbers(raw["camera_matrix"], dist, raw["rms_px"])
+
+
+def _check_numbers(rows: object, dist: dict, rms_px: object) -> None:
+    """Refuse a camera matrix that is not 3 rows of 3 numbers, or distortion or RMS that are
+    not numbers."""
+    square = isinstance(rows, list) and len(rows) == 3
+    if not square or not all(isinstance(r, list) and len(r) == 3 for r in rows):
+        raise PerceptionInputError("camera_matrix", "a 3x3 matrix (3 rows of 3)", None)
+    for key, values in (("camera_matrix", sum(rows, [])), ("dist_coeffs", dist.values())):
+        if not all(_real(v) for v in values):
+            raise PerceptionInputError(key, "numbers", None)
+    if not _real(rms_px):
+        raise PerceptionInputError("rms_px", "a number [px]", rms_px)
 
 
 def check_calibration(cal: CameraCalibration) -> None:
@@ -127,53 +177,21 @@ class CameraCalibration:
             raise
 
     @classmethod
-    def load(cls, path: Path) -> CameraCalibration:  # noqa: C901
+    def load(cls, path: Path) -> CameraCalibration:
         """Reads a calibration written by `save`.
 
         Raises:
             PerceptionInputError: one line naming the file and what is wrong with it.
         """
         where = f"calibration file {path}"
+        raw = _read_json(Path(path), where)
         try:
-            raw = json.loads(Path(path).read_bytes().decode("utf-8"), parse_constant=_no_nan)
-        except OSError as err:
-            reason = err.strerror or type(err).__name__
-            raise PerceptionInputError("file", "a readable JSON file", reason, where) from None
-        except UnicodeDecodeError as err:
-            got = f"not UTF-8 at byte {err.start}"
-            raise PerceptionInputError("file", "UTF-8 JSON text", got, where) from None
-        except ValueError as err:
-            reason = " ".join(str(err).split())[:120]
-            raise PerceptionInputError(
-                "file", "JSON of `sortsim calibrate`", reason, where
-            ) from None
-        try:
-            if not isinstance(raw, dict):
-                raise PerceptionInputError("file", "a JSON object", type(raw).__name__)
-            for key in ("image_size", "camera_matrix", "dist_coeffs", "rms_px", "n_views"):
-                if key not in raw:
-                    raise PerceptionInputError(key, "present (as `sortsim calibrate` writes it)")
+            _check_layout(raw)
             dist = raw["dist_coeffs"]
-            if not isinstance(dist, dict) or set(dist) != set(DIST_NAMES):
-                raise PerceptionInputError("dist_coeffs", f"an object of {DIST_NAMES}", dist)
-            size = raw["image_size"]
-            if not isinstance(size, list) or len(size) != 2 or not all(_integer(v) for v in size):
-                raise PerceptionInputError("image_size", "[width, height] integers [px]", size)
-            if not _integer(raw["n_views"]):
-                raise PerceptionInputError("n_views", "an integer >= 1", raw["n_views"])
-            rows = raw["camera_matrix"]
-            square = isinstance(rows, list) and len(rows) == 3
-            if not square or not all(isinstance(r, list) and len(r) == 3 for r in rows):
-                raise PerceptionInputError("camera_matrix", "a 3x3 matrix (3 rows of 3)", None)
-            for key, values in (("camera_matrix", sum(rows, [])), ("dist_coeffs", dist.values())):
-                if not all(_real(v) for v in values):
-                    raise PerceptionInputError(key, "numbers", None)
-            if not _real(raw["rms_px"]):
-                raise PerceptionInputError("rms_px", "a number [px]", raw["rms_px"])
             return cls(
                 camera_matrix=np.array(raw["camera_matrix"], dtype=np.float64),
                 dist_coeffs=np.array([dist[k] for k in DIST_NAMES], dtype=np.float64),
-                image_size=(size[0], size[1]),
+                image_size=(raw["image_size"][0], raw["image_size"][1]),
                 rms_px=float(raw["rms_px"]),
                 n_views=raw["n_views"],
             )

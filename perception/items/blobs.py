@@ -87,25 +87,81 @@ def item_blobs(
     Returns:
         The blobs, in no particular order.
     """
-    parts = [
-        (r, j, np.asarray(b, float), np.asarray(y, float))
-        for r, row in enumerate(pixel_b)
-        for j, b in enumerate(row)
-        if len(b)
-        for y in [pixel_y[r][j]]
-    ]
-    if not parts:
+    pixels = _WindowPixels.of(pixel_b, pixel_y)
+    if pixels is None:
         return []
-    b = np.concatenate([p[2] for p in parts])
-    y = np.concatenate([p[3] for p in parts])
-    sizes = [len(p[2]) for p in parts]
-    row = np.repeat(np.array([p[0] for p in parts], dtype=np.int64), sizes)
-    stripe = np.repeat(np.array([p[1] for p in parts], dtype=np.int64), sizes)
+    b, y, row = pixels.b, pixels.y, pixels.row
     early = reported is not None and split is not None and complete_row is not None
-    done = None
-    if early:
-        done = np.concatenate([np.asarray(reported[p[0]][p[1]], bool) for p in parts])
+    done = pixels.gathered(reported, bool) if early else None
     label_of_pixel, count = _regions(b, y, raster_m, done)
+    wanted, growing = _regions_due(label_of_pixel, count, row, complete_row, early, min_pixels)
+    height = None
+    if split is not None and pixel_height is not None:
+        height = pixels.gathered(pixel_height, float)
+    pieces = []
+    for label in wanted:
+        pieces += _pieces(np.flatnonzero(label_of_pixel == label), b, y, height, split)
+    for label in growing:
+        cut = _pieces(np.flatnonzero(label_of_pixel == label), b, y, height, split)
+        pieces += [mine for mine in cut if row[mine].max() < complete_row]
+    if early:
+        for mine in pieces:
+            done[mine] = True
+        _flag(reported, pixels.parts, done)
+    big = [mine for mine in pieces if len(mine) >= min_pixels]
+    if big and callable(posteriors):
+        posteriors = posteriors()
+    return [_blob(mine, b, y, row, pixels.stripe, posteriors) for mine in big]
+
+
+@dataclass(frozen=True, eq=False)
+class _WindowPixels:
+    """The window's item pixels in one order (row by row, stripe by stripe, each cell's pixels
+    in their given order): belt coordinate `b` and lateral `y` [m], grid row and stripe.
+    `parts` lists the non-empty cells (row, stripe, their b, their y) in that order."""
+
+    parts: list
+    b: np.ndarray
+    y: np.ndarray
+    row: np.ndarray
+    stripe: np.ndarray
+
+    @classmethod
+    def of(cls, pixel_b: list[list[np.ndarray]], pixel_y: list[list[np.ndarray]]):
+        """The pixels of [row][stripe] arrays; None when there are none."""
+        parts = [
+            (r, j, np.asarray(b, float), np.asarray(y, float))
+            for r, row in enumerate(pixel_b)
+            for j, b in enumerate(row)
+            if len(b)
+            for y in [pixel_y[r][j]]
+        ]
+        if not parts:
+            return None
+        sizes = [len(p[2]) for p in parts]
+        return cls(
+            parts,
+            np.concatenate([p[2] for p in parts]),
+            np.concatenate([p[3] for p in parts]),
+            np.repeat(np.array([p[0] for p in parts], dtype=np.int64), sizes),
+            np.repeat(np.array([p[1] for p in parts], dtype=np.int64), sizes),
+        )
+
+    def gathered(self, per_cell: list[list[np.ndarray]], dtype) -> np.ndarray:
+        """[row][stripe] arrays of one value per pixel, in the window's order."""
+        return np.concatenate([np.asarray(per_cell[p[0]][p[1]], dtype) for p in self.parts])
+
+
+def _regions_due(
+    label_of_pixel: np.ndarray,
+    count: int,
+    row: np.ndarray,
+    complete_row: int | None,
+    early: bool,
+    min_pixels: int,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(labels of the regions returned whole, labels of the growing regions whose finished
+    pieces are returned early), each of at least `min_pixels` pixels (see `item_blobs`)."""
     newest = np.zeros(count + 1, dtype=np.int64)
     np.maximum.at(newest, label_of_pixel, row)
     wanted = np.arange(1, count + 1)
@@ -120,25 +176,7 @@ def item_blobs(
         else:
             wanted = wanted[newest[1:] == complete_row]
     sizes = np.bincount(label_of_pixel, minlength=count + 1)
-    wanted = wanted[sizes[wanted] >= min_pixels]
-    growing = growing[sizes[growing] >= min_pixels]
-    height = None
-    if split is not None and pixel_height is not None:
-        height = np.concatenate([np.asarray(pixel_height[p[0]][p[1]], float) for p in parts])
-    pieces = []
-    for label in wanted:
-        pieces += _pieces(np.flatnonzero(label_of_pixel == label), b, y, height, split)
-    for label in growing:
-        cut = _pieces(np.flatnonzero(label_of_pixel == label), b, y, height, split)
-        pieces += [mine for mine in cut if row[mine].max() < complete_row]
-    if early:
-        for mine in pieces:
-            done[mine] = True
-        _flag(reported, parts, done)
-    big = [mine for mine in pieces if len(mine) >= min_pixels]
-    if big and callable(posteriors):
-        posteriors = posteriors()
-    return [_blob(mine, b, y, row, stripe, posteriors) for mine in big]
+    return wanted[sizes[wanted] >= min_pixels], growing[sizes[growing] >= min_pixels]
 
 
 def _regions(

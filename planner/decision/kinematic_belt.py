@@ -26,7 +26,7 @@ from planner.decision.interface import (
     TrackedItem,
 )
 from planner.decision.oracle import Plan, best_sequence
-from planner.errors import PlannerInputError
+from planner.errors import PlannerError, PlannerInputError
 from planner.motion.belt_speeds import SPEED_X1_MPS
 
 THESIS_SPEED_X1 = SPEED_X1_MPS
@@ -151,7 +151,7 @@ def simulate(
         tracked = next(s for s in seen if s.item_id == choice.item_id)
         cand = evaluate(context, tcp, t, tracked, choice.bin_class)
         if cand is None:
-            raise RuntimeError(f"{planner.name} chose item {choice.item_id}, which is out of reach")
+            raise PlannerError(f"{planner.name} chose item {choice.item_id}, which is out of reach")
         earned = context.value_of(item.true_class) if choice.bin_class == item.true_class else 0.0
         picks.append(
             Pick(

@@ -32,7 +32,7 @@ from planner.motion.pick_cycle import (
     plan_pick,
 )
 from planner.motion.ruckig_trajectory import RuckigTrajectoryGenerator
-from planner.motion.trajectory import State
+from planner.motion.trajectory import Chain, State
 
 SCAN_DT = 0.02
 """Grid step of the reachable-window scan [s]."""
@@ -119,7 +119,7 @@ def window_span(inside_at, count: int) -> tuple[int, int] | None:
     return None if first is None else (first, count - 1)
 
 
-def intercept_item(  # noqa: C901, PLR0915
+def intercept_item(
     start: State,
     item_xy: Sequence[float],
     belt_speed: float,
@@ -151,81 +151,135 @@ def intercept_item(  # noqa: C901, PLR0915
         raise PlannerInputError("generator.geometry", "a DeltaGeometry (for the window)", None)
     if not (np.isfinite(belt_speed) and belt_speed >= 0.0):
         raise PlannerInputError("belt_speed", "a finite speed >= 0 [m/s]", belt_speed)
-    config = config or PickPlaceConfig()
-    x0, y = float(item_xy[0]), float(item_xy[1])
-    times = np.arange(0.0, HORIZON + SCAN_DT, SCAN_DT)
-    travel = 0.0
-    if config.lift_with_belt:
-        travel = lift_travel(config.lift_height, belt_speed, generator)
-    xs = x0 + belt_speed * times
-    span = window_span(
-        lambda part: window_mask(geom, xs[part], y, pick_z, belt_speed, config, travel), len(xs)
-    )
-    if span is None:
-        line = np.linspace(x0 - 3.0, x0 + 3.0, 601)
-        crossed = window_mask(geom, line, y, pick_z, belt_speed, config, travel)
-        if np.any(crossed) and x0 > line[crossed].max():
-            return _refuse("the item has already left the reachable window")
-        return _refuse("the item's path never enters the reachable window")
-    first_in, last_in = span
-
-    wps_at = lambda t: pick_place_waypoints(  # noqa: E731
-        (x0 + belt_speed * t, y, pick_z), belt_speed, drop_xyz, config, axis4
-    )
-
-    def earliest_contact(t: float):
-        """The time-optimal pick half for meeting the item where it is at `t`, and its contact
-        time; (None, inf) when it cannot be planned."""
-        try:
-            pick = plan_pick(start, wps_at(t), generator, config)
-        except PlannerInputError:
-            return None, np.inf
-        return pick, pick.phase_start("seal")
-
-    # Fixed point T = contact(T): the item moves far slower than the cup, so a few plans do.
-    # At the window's edge a plan may fail (a path leaving the workspace): try a little later.
-    t = float(times[first_in])
-    t_exit = float(times[last_in])
-    pick, contact = earliest_contact(t)
-    for _ in range(MAX_PLANS):
-        if contact <= t + 1e-9:
-            break
-        t = contact + TIME_TOL if np.isfinite(contact) else t + SCAN_DT
-        if t > t_exit:
-            break
-        pick, contact = earliest_contact(t)
+    meeting = _ItemMeeting(
+        start, float(item_xy[0]), float(item_xy[1]), pick_z, belt_speed, drop_xyz,
+        generator, geom, config or PickPlaceConfig(), axis4,
+    )  # fmt: skip
+    window = meeting.window()
+    if window is None:
+        return _refuse(meeting.outside_reason())
+    t_enter, t_exit = window
+    pick, contact, t = meeting.meeting_time(t_enter, t_exit)
     if pick is None or contact > t + 1e-9 or t > t_exit:
         needs = "" if not np.isfinite(contact) else f" (it needs {contact:.2f} s)"
         return _refuse(
             f"the item leaves the reachable window {t_exit:.2f} s from now, before the cup can "
             f"reach it{needs}"
         )
-    point = np.array([x0 + belt_speed * t, y, pick_z])
     if not with_plan:
-        return Intercept(True, "", t, point)
-    for _ in range(MAX_LATER + 1):
-        point = np.array([x0 + belt_speed * t, y, pick_z])
-        wps = wps_at(t)
+        return Intercept(True, "", t, meeting.point(t))
+    return meeting.planned(pick, t, t_exit)
+
+
+@dataclass(frozen=True, eq=False)
+class _ItemMeeting:
+    """One item riding the belt from (x0, y) [m] and the pick meeting it at `pick_z` [m]: what
+    every plan of one intercept shares. Each stage of `intercept_item` is a method."""
+
+    start: State
+    x0: float
+    y: float
+    pick_z: float
+    belt_speed: float
+    drop_xyz: Sequence[float]
+    generator: RuckigTrajectoryGenerator
+    geom: DeltaGeometry
+    config: PickPlaceConfig
+    axis4: tuple[float, float]
+
+    def point(self, t: float) -> np.ndarray:
+        """Where the item is `t` [s] from now [m]."""
+        return np.array([self.x0 + self.belt_speed * t, self.y, self.pick_z])
+
+    def waypoints(self, t: float):
+        """The pick and place's waypoints for meeting the item where it is at `t` [s]."""
+        return pick_place_waypoints(
+            (self.x0 + self.belt_speed * t, self.y, self.pick_z),
+            self.belt_speed, self.drop_xyz, self.config, self.axis4,
+        )  # fmt: skip
+
+    def _lift_travel(self) -> float:
+        if not self.config.lift_with_belt:
+            return 0.0
+        return lift_travel(self.config.lift_height, self.belt_speed, self.generator)
+
+    def window(self) -> tuple[float, float] | None:
+        """(first, last) time [s] on the scan's grid at which the item is inside the reachable
+        window, None when it is not within `HORIZON`."""
+        times = np.arange(0.0, HORIZON + SCAN_DT, SCAN_DT)
+        travel = self._lift_travel()
+        xs = self.x0 + self.belt_speed * times
+        span = window_span(
+            lambda part: window_mask(
+                self.geom, xs[part], self.y, self.pick_z, self.belt_speed, self.config, travel
+            ),
+            len(xs),
+        )
+        if span is None:
+            return None
+        return float(times[span[0]]), float(times[span[1]])
+
+    def outside_reason(self) -> str:
+        """Why an item never inside the window within `HORIZON` cannot be met."""
+        line = np.linspace(self.x0 - 3.0, self.x0 + 3.0, 601)
+        travel = self._lift_travel()
+        crossed = window_mask(
+            self.geom, line, self.y, self.pick_z, self.belt_speed, self.config, travel
+        )
+        if np.any(crossed) and self.x0 > line[crossed].max():
+            return "the item has already left the reachable window"
+        return "the item's path never enters the reachable window"
+
+    def earliest_contact(self, t: float):
+        """The time-optimal pick half for meeting the item where it is at `t`, and its contact
+        time; (None, inf) when it cannot be planned."""
         try:
-            pick, place = delay_and_place(pick, wps, generator, config, t)
-            plan = join_pick_place(pick, place, point, belt_speed)
-        except PlannerInputError as exc:
-            return _refuse(
-                f"no pick within the motor limits meets the item inside the window ({exc})"
-            )
-        low = (plan.chain.phase_start("descend"), plan.chain.phase_start("transfer"))
-        if path_inside(plan.chain, geom, *low):
-            return Intercept(True, "", t, point, plan)
-        # The descent swings a millimetre or two about the contact point as it matches the
-        # belt's velocity; at the window's edge that can leave the workspace between the
-        # generator's 2 ms checks: meet the item a little later, further inside.
-        t += SCAN_DT
-        if t > t_exit:
-            break
-        pick, contact = earliest_contact(t)
-        if pick is None or contact > t + 1e-9:
-            break
-    return _refuse("every plan meeting the item inside the window leaves the workspace")
+            pick = plan_pick(self.start, self.waypoints(t), self.generator, self.config)
+        except PlannerInputError:
+            return None, np.inf
+        return pick, pick.phase_start("seal")
+
+    def meeting_time(self, t: float, t_exit: float):
+        """(pick half, its contact time, t): the fixed point t = contact(t) sought from the
+        window's entry `t` [s]. The item moves far slower than the cup, so a few plans do; at
+        the window's edge a plan may fail (a path leaving the workspace): a little later is
+        tried. Met when contact <= t + 1e-9 and t <= `t_exit`."""
+        pick, contact = self.earliest_contact(t)
+        for _ in range(MAX_PLANS):
+            if contact <= t + 1e-9:
+                break
+            t = contact + TIME_TOL if np.isfinite(contact) else t + SCAN_DT
+            if t > t_exit:
+                break
+            pick, contact = self.earliest_contact(t)
+        return pick, contact, t
+
+    def planned(self, pick: Chain, t: float, t_exit: float) -> Intercept:
+        """The whole pick and place arriving at `t` [s], its low part checked finely inside
+        the workspace; met `SCAN_DT` later, further inside, when it leaves it."""
+        for _ in range(MAX_LATER + 1):
+            point = self.point(t)
+            wps = self.waypoints(t)
+            try:
+                pick, place = delay_and_place(pick, wps, self.generator, self.config, t)
+                plan = join_pick_place(pick, place, point, self.belt_speed)
+            except PlannerInputError as exc:
+                return _refuse(
+                    f"no pick within the motor limits meets the item inside the window ({exc})"
+                )
+            low = (plan.chain.phase_start("descend"), plan.chain.phase_start("transfer"))
+            if path_inside(plan.chain, self.geom, *low):
+                return Intercept(True, "", t, point, plan)
+            # The descent swings a millimetre or two about the contact point as it matches the
+            # belt's velocity; at the window's edge that can leave the workspace between the
+            # generator's 2 ms checks: meet the item a little later, further inside.
+            t += SCAN_DT
+            if t > t_exit:
+                break
+            pick, contact = self.earliest_contact(t)
+            if pick is None or contact > t + 1e-9:
+                break
+        return _refuse("every plan meeting the item inside the window leaves the workspace")
 
 
 def path_inside(

@@ -19,6 +19,7 @@ from sim.cell.item_pool import ItemPool
 from sim.cell.items import Items
 from sim.cell.riding import wake_line
 from sim.cell.robots import DESIGN_PAYLOAD_KG, PICK_Z_NOMINAL, RobotView
+from sim.errors import InvalidInput
 from sim.flow.catalogue import Catalogue, load_catalogue
 from sim.model.scene_edits import CUP_DIAMETER_M, CellSettings, compile_scene
 
@@ -52,7 +53,7 @@ class Cell:
         pool_capacity: int | None = None,
     ):
         if not prefixes:
-            raise ValueError("a cell has at least one robot (prefixes)")
+            raise InvalidInput("prefixes", "at least one robot's prefix", prefixes)
         self.catalogue = catalogue if catalogue is not None else load_catalogue()
         self.materials = self.catalogue.materials
         self.settings = settings or CellSettings()

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import os
+from dataclasses import dataclass
 from pathlib import Path
 
 
@@ -174,68 +175,73 @@ def _items(train, test, evaluation, batch_rows):
         )
 
 
-def main(args: argparse.Namespace) -> int:  # noqa: PLR0915
-    """Train, evaluate on held-out seeds, print table 4.1 and the comparisons."""
-    import time
+@dataclass(frozen=True)
+class _Recordings:
+    """The evaluation's recordings: labelled training, unlabelled re-estimation, held-out."""
 
-    from perception.hmm.evaluation import train_and_score
-    from perception.hmm.metrics import format_table
-    from perception.hmm.storage import save_models
-    from perception.hmm.training import TrainConfig
-    from sim.flow.catalogue import load_catalogue
+    train: list
+    extra: list
+    test: list
 
-    t0 = time.perf_counter()
-    camera = args.perception == "camera"
-    for name, truth_default, camera_default in DEFAULT_SEEDS:
-        if getattr(args, name) is None:
-            setattr(args, name, camera_default if camera else truth_default)
-    train_seeds = parse_seed_option(args.train_seeds, "--train-seeds")
-    test_seeds = parse_seed_option(args.test_seeds, "--test-seeds")
-    extra = args.extra_seeds
-    extra_seeds = parse_seed_option(extra, "--extra-seeds") if extra else []
-    if set(test_seeds) & (set(train_seeds) | set(extra_seeds)):
+    @classmethod
+    def of(cls, args: argparse.Namespace) -> _Recordings:
+        """The seed options resolved (the defaults of `--perception`), refused when the held-out
+        seeds were trained on, the options checked, then the recordings made."""
         from sim.errors import InvalidInput
+        from sim.flow.catalogue import load_catalogue
 
-        raise InvalidInput("--test-seeds", "seeds not used for training", args.test_seeds)
-    check(args)
-    if args.save:
-        from sim.paths import remove_stale_temporaries
+        camera = args.perception == "camera"
+        for name, truth_default, camera_default in DEFAULT_SEEDS:
+            if getattr(args, name) is None:
+                setattr(args, name, camera_default if camera else truth_default)
+        train_seeds = parse_seed_option(args.train_seeds, "--train-seeds")
+        test_seeds = parse_seed_option(args.test_seeds, "--test-seeds")
+        extra = args.extra_seeds
+        extra_seeds = parse_seed_option(extra, "--extra-seeds") if extra else []
+        if set(test_seeds) & (set(train_seeds) | set(extra_seeds)):
+            raise InvalidInput("--test-seeds", "seeds not used for training", args.test_seeds)
+        check(args)
+        if args.save:
+            from sim.paths import remove_stale_temporaries
 
-        remove_stale_temporaries(Path(args.save).parent)
-    catalogue = load_catalogue()
-    train_recs = _recordings(train_seeds, catalogue, args.perception)
-    extra_recs = _recordings(extra_seeds, catalogue, args.perception)
-    test_recs = _recordings(test_seeds, catalogue, args.perception)
-    refused = sum(r.refused_rows for r in train_recs + extra_recs + test_recs)
-    options = TrainConfig(
-        smoothing=args.smoothing, max_iter=args.iterations, tol=args.tol, anchor=args.anchor
-    )
-    results = train_and_score(
-        [r.classes for r in train_recs],
-        [r.codes for r in train_recs],
-        [r.codes for r in extra_recs],
-        [r.classes for r in test_recs],
-        [r.codes for r in test_recs],
-        options,
-        args.decode,
-    )
-    shown_coupled = args.coupling == "on"
-    models, ev = results[shown_coupled, "re-estimated"]
-    rows = sum(r.classes.shape[0] for r in test_recs)
+            remove_stale_temporaries(Path(args.save).parent)
+        catalogue = load_catalogue()
+        return cls(
+            _recordings(train_seeds, catalogue, args.perception),
+            _recordings(extra_seeds, catalogue, args.perception),
+            _recordings(test_seeds, catalogue, args.perception),
+        )
+
+    @property
+    def refused_rows(self) -> int:
+        """Camera frames the pipeline refused (the previous row's codes reused)."""
+        return sum(r.refused_rows for r in self.train + self.extra + self.test)
+
+
+def _print_table(args: argparse.Namespace, recs: _Recordings, ev) -> None:
+    """Table 4.1 of the shown model, and its one-step prediction."""
+    from perception.hmm.metrics import format_table
+
+    rows = sum(r.classes.shape[0] for r in recs.test)
     print(
-        f"Table 4.1 ({'coupled' if shown_coupled else 'independent'} stripes, re-estimated, "
-        f"{args.decode} decoding, {args.perception} codes): train seeds {args.train_seeds}, "
-        f"unlabelled {args.extra_seeds or 'none'}, held-out {args.test_seeds} "
-        f"({len(test_recs)} flows, {rows} rows x 5 stripes); thesis in brackets"
+        f"Table 4.1 ({'coupled' if args.coupling == 'on' else 'independent'} stripes, "
+        f"re-estimated, {args.decode} decoding, {args.perception} codes): train seeds "
+        f"{args.train_seeds}, unlabelled {args.extra_seeds or 'none'}, held-out "
+        f"{args.test_seeds} ({len(recs.test)} flows, {rows} rows x 5 stripes); thesis in brackets"
     )
     print(format_table(ev.table))
-    if camera:
-        print(f"(camera frames refused by the pipeline, previous row's codes reused: {refused})")
+    if args.perception == "camera":
+        print(f"(camera frames refused by the pipeline, previous row's codes reused: "
+              f"{recs.refused_rows})")  # fmt: skip
     print(
         f"\nOne-step prediction (row t's class before it is seen): accuracy "
         f"{ev.prediction_accuracy:.4f} of all cells, {ev.prediction_accuracy_items:.4f} of "
         f"cells holding an item; its table-4.1 average accuracy {ev.prediction_table[4, 0]:.4f}"
     )
+
+
+def _print_comparison(results: dict) -> None:
+    """Independent and coupled stripes, counted and re-estimated, side by side."""
     print("\nCoupling and re-estimation (held-out):")
     print(
         f"{'stripes':<12}{'model':<14}{'avg acc':>9}{'avg sens':>10}{'avg prec':>10}"
@@ -248,26 +254,57 @@ def main(args: argparse.Namespace) -> int:  # noqa: PLR0915
             f"{e.prediction_accuracy:>10.4f}{e.prediction_accuracy_items:>12.4f}"
             f"{e.loglik_per_row:>12.3f}"
         )
+
+
+def _print_online(models, test: list, coupled: bool) -> None:
+    """The shown models filtering row by row, fixed and re-estimated on-line."""
     from perception.hmm.evaluation import evaluate_online
     from perception.hmm.online import OnlineConfig
 
-    print(f"\nOnline, row by row ({'coupled' if shown_coupled else 'independent'}, filtered):")
+    print(f"\nOnline, row by row ({'coupled' if coupled else 'independent'}, filtered):")
     for every in (0, 1):
         online = OnlineConfig(window=40, reestimate_every=every, anchor=200.0)
-        e = evaluate_online(
-            models, [r.classes for r in test_recs], [r.codes for r in test_recs], online
-        )
+        e = evaluate_online(models, [r.classes for r in test], [r.codes for r in test], online)
         what = "re-estimated every row on 40 rows" if every else "fixed models"
         print(
             f"  {what:<34} avg acc {e.table[4, 0]:.4f}  avg sens {e.table[4, 1]:.4f}  "
             f"cell acc {e.cell_accuracy:.4f}  pred acc {e.prediction_accuracy:.4f}"
         )
+
+
+def main(args: argparse.Namespace) -> int:
+    """Train, evaluate on held-out seeds, print table 4.1 and the comparisons."""
+    import time
+
+    from perception.hmm.evaluation import train_and_score
+    from perception.hmm.storage import save_models
+    from perception.hmm.training import TrainConfig
+
+    t0 = time.perf_counter()
+    recs = _Recordings.of(args)
+    options = TrainConfig(
+        smoothing=args.smoothing, max_iter=args.iterations, tol=args.tol, anchor=args.anchor
+    )
+    results = train_and_score(
+        [r.classes for r in recs.train],
+        [r.codes for r in recs.train],
+        [r.codes for r in recs.extra],
+        [r.classes for r in recs.test],
+        [r.codes for r in recs.test],
+        options,
+        args.decode,
+    )
+    shown_coupled = args.coupling == "on"
+    models, ev = results[shown_coupled, "re-estimated"]
+    _print_table(args, recs, ev)
+    _print_comparison(results)
+    _print_online(models, recs.test, shown_coupled)
     if not args.no_items:
-        _items(train_recs, test_recs, ev, args.batch_rows)
+        _items(recs.train, recs.test, ev, args.batch_rows)
     if args.save:
         from sim.sensing.stripe_hmms import item_sizes
 
-        print(f"\nsaved {save_models(args.save, models, item_sizes(train_recs))}")
+        print(f"\nsaved {save_models(args.save, models, item_sizes(recs.train))}")
     print(
         f"\n({time.perf_counter() - t0:.1f} s) reproduce: sortsim hmm-eval --perception "
         f"{args.perception} --train-seeds {args.train_seeds} --extra-seeds '{args.extra_seeds}' "

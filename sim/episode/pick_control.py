@@ -139,6 +139,57 @@ class PickOutcome:
     held_to_bin: bool
 
 
+@dataclass(frozen=True, eq=False)
+class _Surroundings:
+    """The item a pick aims at and its neighbours, measured when the pick is planned.
+
+    Attributes:
+        top: The item's highest point [m] (`DEFAULT_TOP_Z` when no item is near).
+        yaw: Its heading [rad].
+        meets: Height at which the lip, coming straight down, first touches it [m].
+        neighbours: (slot, obstacle) of the other items over the belt.
+        overlaps: (slot, its centre's height over the item's [m]) of the neighbours whose
+            outline overlaps the item's.
+        touching: The same of those within `TOUCH_GAP_M` of its outline.
+    """
+
+    top: float
+    yaw: float
+    meets: float
+    neighbours: list[tuple[int, Obstacle]]
+    overlaps: list[tuple[int, float]]
+    touching: list[tuple[int, float]]
+
+    @property
+    def under(self) -> set[int]:
+        """Slots of the neighbours the item lies on (the top of a pile is picked first)."""
+        return {slot for slot, dz in self.overlaps if dz < -LIES_ON_DZ_M}
+
+    def below_lip(self) -> list[Obstacle]:
+        """The neighbours that stop the pick on its last way down: the lip meets the item first
+        and seals on it, so a neighbour no higher than where it meets the item is pressed at
+        most as deep as the item (`PRESS_DEPTH_M`); only a higher one stops it, the lip resting
+        on it short of the item. (Refusing the lower one too left two items lying side by side
+        refusing each other until both passed.)"""
+        under = self.under
+        return [o for slot, o in self.neighbours if slot not in under and o.top > self.meets]
+
+
+@dataclass(frozen=True, eq=False)
+class _Aim:
+    """Where a pick seals and lets go: the TCP's height at contact `pick_z` [m], the lift
+    height [m], the release point `drop` [m] and axis 4's turn on the way [rad]."""
+
+    pick_z: float
+    lift: float
+    drop: np.ndarray
+    turn: float
+
+
+def _refusal(reason: str) -> Intercept:
+    return Intercept(False, reason, float("nan"), np.full(3, np.nan))
+
+
 class PickController:
     """Plans and executes picks on a `Cell`.
 
@@ -401,97 +452,97 @@ class PickController:
         """
         self._request = (float(x), float(y), int(bin_class))
         target = self._planned_slot = self.slot_near(x, y)
+        around = self._surroundings(target, x, y)
+        reason = self._neighbours_forbid(target, around.overlaps, around.touching)
+        if reason:
+            self.neighbour_refusals += 1
+            return _refusal(reason)
+        return self._plan_clear_of((x, y), around, self._aim(around, bin_class))
+
+    def _surroundings(self, target: int | None, x: float, y: float) -> _Surroundings:
+        """The item in `target` (None: none near the detection at (x, y) [m]) and its
+        neighbours, measured now."""
         top, yaw = self.item_shape(target)
-        # Turn axis 4 on the way so the item's long axis ends along the bins' long side (x).
-        # An item looks the same turned by pi: of the turns that align it, take the one that
-        # ends axis 4 nearest zero, so its angle never drifts into the joint's +-pi limit.
-        turn = -float(np.arctan2(np.sin(yaw), np.cos(yaw)))
-        turn = (turn + np.pi / 2) % np.pi - np.pi / 2
-        turn = min((turn + k * np.pi for k in (-1, 0, 1)), key=lambda a: abs(self.axis4 + a))
         # Where the lip comes down onto the item: its highest point, or, on a tilted item, its
         # surface under the lip (a tilted sheet's highest corner is millimetres above it).
         meets = self.lip_meets(target, x, y, top) if target is not None else top
         neighbours = self.neighbours(exclude=target)
-        # (slot, height of its centre over the target's) of the neighbours overlapping it, and
-        # of those touching it edge to edge (within `TOUCH_GAP_M`).
         gaps = self._outline_gaps(target, neighbours) if target is not None else []
-        overlaps = [(slot, dz) for slot, dz, d in gaps if d <= 0.0]
-        touching = [(slot, dz) for slot, dz, d in gaps if d <= TOUCH_GAP_M]
-        reason = self._neighbours_forbid(target, overlaps, touching)
-        if reason:
-            self.neighbour_refusals += 1
-            return Intercept(False, reason, float("nan"), np.full(3, np.nan))
-        obstacles = [o for _, o in neighbours]
-        under = {slot for slot, dz in overlaps if dz < -LIES_ON_DZ_M}
+        return _Surroundings(
+            top, yaw, meets, neighbours,
+            overlaps=[(slot, dz) for slot, dz, d in gaps if d <= 0.0],
+            touching=[(slot, dz) for slot, dz, d in gaps if d <= TOUCH_GAP_M],
+        )  # fmt: skip
+
+    def _axis4_turn(self, yaw: float) -> float:
+        """Axis 4's turn [rad] on the way, so the item's long axis (heading `yaw` [rad]) ends
+        along the bins' long side (x). An item looks the same turned by pi: of the turns that
+        align it, the one that ends axis 4 nearest zero, so its angle never drifts into the
+        joint's +-pi limit."""
+        turn = -float(np.arctan2(np.sin(yaw), np.cos(yaw)))
+        turn = (turn + np.pi / 2) % np.pi - np.pi / 2
+        return min((turn + k * np.pi for k in (-1, 0, 1)), key=lambda a: abs(self.axis4 + a))
+
+    def _aim(self, around: _Surroundings, bin_class: int) -> _Aim:
+        """Where the cup seals on the item, how high it lifts it and where it lets it go."""
         # An item lying partly on a sheet is pressed only as deep as `ON_SHEET_PRESS_M`: pressed
         # flat, it drove its edge into the sheet's and the lift kicked the sheet off the belt.
-        on_sheet = any(self.top_of(s) - self.belt_top_z <= SHEET_TOP_M for s in under)
-        pick_z = max(meets - (ON_SHEET_PRESS_M if on_sheet else PRESS_DEPTH_M), 0.0)
-        height = max(top, 0.0)
+        on_sheet = any(self.top_of(s) - self.belt_top_z <= SHEET_TOP_M for s in around.under)
+        pick_z = max(around.meets - (ON_SHEET_PRESS_M if on_sheet else PRESS_DEPTH_M), 0.0)
+        height = max(around.top, 0.0)
         lift = max(self.config.lift_height, self.clear_z + height - pick_z)
         drop = np.array(self.view.drop_xyz[bin_class], dtype=float)
         # Long items overhang the bin towards the belt: keep them above the rails too.
         drop[2] = max(drop[2], self.clear_z + height)
-        # On the last way down the lip meets the item first and seals on it (its axis is over
-        # the item); a neighbour whose top is no higher than where the lip meets the item is
-        # pressed by the lip at most as deep as the item is (PRESS_DEPTH_M). Only a higher one
-        # stops the pick: the lip would rest on it short of the item. (Refusing the lower one
-        # too left two items lying side by side refusing each other until both passed.)
-        below_lip = [o for slot, o in neighbours if slot not in under and o.top > meets]
+        return _Aim(pick_z, lift, drop, self._axis4_turn(around.yaw))
+
+    def _plan_clear_of(
+        self, item_xy: tuple[float, float], around: _Surroundings, aim: _Aim
+    ) -> Intercept:
+        """The intercept whose empty cup passes every neighbour, the corner above the item
+        raised over those passed too low (at most `MAX_RAISES` times); refused when the lip
+        would land on a neighbour higher than where it meets the item."""
+        obstacles = [o for _, o in around.neighbours]
+        below_lip = around.below_lip()
         approach = self.config.approach_height
         for _ in range(MAX_RAISES + 1):
-            config = replace(self.config, lift_height=lift, approach_height=approach)
+            config = replace(self.config, lift_height=aim.lift, approach_height=approach)
             try:
                 hit = intercept_item(
-                    State.at_rest(self.rest),
-                    (x, y),
-                    self.belt_speed,
-                    drop,
-                    self.view.generator,
-                    pick_z,
-                    config,
-                    axis4=(self.axis4, self.axis4 + turn),
-                )
+                    State.at_rest(self.rest), item_xy, self.belt_speed, aim.drop,
+                    self.view.generator, aim.pick_z, config,
+                    axis4=(self.axis4, self.axis4 + aim.turn),
+                )  # fmt: skip
             except PlannerInputError as exc:
                 self.plan_failures += 1
-                return Intercept(False, str(exc), float("nan"), np.full(3, np.nan))
+                return _refusal(str(exc))
             if not hit.feasible:
                 return hit
             chain, radius = hit.plan.chain, self.suction.radius
             t_down = chain.phase_start("descend")
             # The way down onto the item, nearly vertical: only a neighbour the lip would
             # touch stops the pick (no corner height helps).
-            landing = path_conflicts(
-                chain,
-                hit.plan.contact_time,
-                below_lip,
-                self.belt_speed,
-                radius,
-                margin_xy=TOUCH_MARGIN_XY,
-                margin_z=0.0,
-                t_start=t_down,
-            )
-            if landing:
-                conflicts = landing
+            conflicts = path_conflicts(
+                chain, hit.plan.contact_time, below_lip, self.belt_speed, radius,
+                margin_xy=TOUCH_MARGIN_XY, margin_z=0.0, t_start=t_down,
+            )  # fmt: skip
+            if conflicts:
                 break
             # The flight to the corner above the item: a neighbour passed too low or too close
             # is flown over instead (the corner raised over its top), then straight down.
             conflicts = path_conflicts(chain, t_down, obstacles, self.belt_speed, radius)
             if not conflicts:
                 return self._playable(hit)
-            need = max(c.top for c in conflicts) + APPROACH_CLEARANCE_M - pick_z
+            need = max(c.top for c in conflicts) + APPROACH_CLEARANCE_M - aim.pick_z
             if need <= approach + 1e-6:
                 break
             approach = need
             self.raises += 1
         self.neighbour_refusals += 1
         c = max(conflicts, key=lambda c: c.top - c.cup_z)
-        return Intercept(
-            False,
+        return _refusal(
             f"the cup would pass {c.gap * 1e3:.0f} mm beside a neighbour whose top is "
-            f"{c.top - c.cup_z:+.3f} m above the lip",
-            float("nan"),
-            np.full(3, np.nan),
+            f"{c.top - c.cup_z:+.3f} m above the lip"
         )
 
     def _playable(self, hit: Intercept) -> Intercept:

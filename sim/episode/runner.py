@@ -24,6 +24,7 @@ from sim.cell.cell import Cell
 from sim.episode.config import EpisodeConfig
 from sim.episode.loop import Episode, make_decision_manager
 from sim.episode.parts import EpisodeParts
+from sim.errors import InvalidInput
 from sim.model.scene_edits import CellSettings
 from sim.results.code_digest import code_digest
 from sim.results.economics import ECONOMICS_COLUMNS, per_hour_columns
@@ -168,7 +169,7 @@ def run_episode(
             not with `video_path`.
     """
     if recorder is not None and video_path is not None:
-        raise ValueError("run_episode takes a video_path or a recorder, not both")
+        raise InvalidInput("recorder", "a video_path or a recorder, not both", recorder)
     wall0, cpu0 = time.perf_counter(), time.process_time()
     if cell is None:
         cell = config_cell(config, sized=True)

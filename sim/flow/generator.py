@@ -41,7 +41,7 @@ from sim.flow.config import (
 )
 from sim.flow.footprint_polygons import polygon, shift_intervals
 from sim.flow.mix import HELD_SHARES_MAX_DRAWS, HELD_SHARES_STREAM, held_items
-from sim.flow.world import draw_variation, variation_rng
+from sim.flow.world import ItemVariation, draw_variation, variation_rng
 
 EDGE_MARGIN_M = 0.005
 YAW_TRIES = 8
@@ -233,7 +233,7 @@ def _draw_within(weights: list[np.ndarray], group: np.ndarray, u: np.ndarray) ->
     return out
 
 
-def generate_flow(config: FlowConfig, catalogue: Catalogue, pool_size: int | None = None) -> Flow:  # noqa: PLR0915
+def generate_flow(config: FlowConfig, catalogue: Catalogue, pool_size: int | None = None) -> Flow:
     """Generates the flow of `config` from `catalogue` (deterministic in `config.seed`).
 
     Args:
@@ -246,101 +246,159 @@ def generate_flow(config: FlowConfig, catalogue: Catalogue, pool_size: int | Non
         InvalidInput: An item type too wide for a stripe, or a flow the pool cannot hold.
     """
     pool_size = POOL_CAPACITY_REQUIRED if pool_size is None else pool_size
-    rng = np.random.default_rng(config.seed)
-    n = config.n_items
-    v = config.belt_speed_mps
     materials = catalogue.materials
     if config.n_materials != materials.count:
         allowed = f"the catalogue's {materials.count} materials ({'/'.join(materials.names)})"
         raise InvalidInput("n_materials", allowed, config.n_materials)
-    t_slot, stripes, classes = arrivals(config, rng)
-    type_groups = [np.array(catalogue.of_material(m)) for m in materials.names]
-    type_weights = _type_weights(config, catalogue, type_groups)
-    within = _draw_within(type_weights, classes, rng.random(n))
-    type_index = np.array([type_groups[c][k] for c, k in zip(classes, within, strict=True)])
-    colour_weights = [np.array(t.colour_probs) for t in catalogue.types]
-    colours = _draw_within(colour_weights, type_index, rng.random(n))
-    u_y = rng.random(n)
-    u_yaw = rng.uniform(-math.pi, math.pi, size=(n, YAW_TRIES))
-    world = config.world
-    varied = draw_variation(world, catalogue, type_index, colours, variation_rng(config.seed))
-    types = [
-        catalogue.types[k].scaled(f) for k, f in zip(varied.variant, varied.scale, strict=True)
-    ]
-    flat = np.array([t.is_flat for t in types], dtype=bool)
-    gap = world.min_gap_m
-
-    t_spawn = np.empty(n)
-    y = np.empty(n)
-    yaw = np.empty(n)
-    z_drop = np.zeros(n)
-    polygons = np.empty((n, 16, 2))
-    reach = np.empty(n)
-    half_y = np.empty(n)
-    reach_max = max(math.hypot(t.half_length, t.half_width) for t in (*catalogue.types, *types))
-    last_in_stripe = [0.0] * N_STRIPES
-    latest = np.empty(n)
-    for i in range(n):
-        item_type = types[i]
-        y[i], yaw[i] = _lateral(item_type, int(stripes[i]), u_y[i], u_yaw[i], config)
-        t_i = max(float(t_slot[i]), last_in_stripe[stripes[i]])
-        shape = polygon(item_type, 0.0, y[i], yaw[i])
-        reach[i] = math.hypot(item_type.half_length, item_type.half_width)
-        half_y[i] = float(item_type.half_extents(yaw[i])[1])
-        near = _neighbours(i, t_i, v, y[i], half_y, reach, reach_max, latest, y, gap)
-        if len(near):
-            # Belt frame at time 0: an item dropped at t sits at x = -v t.
-            offset = np.zeros((len(near), 1, 2))
-            offset[:, 0, 0] = v * t_spawn[near]
-            others = polygons[near] - offset
-            clearance = np.full((len(near), 1), gap)
-            base = np.zeros(len(near), dtype=bool)
-            if varied.overlap[i]:
-                # Only over a flat item dropped before it (it lands on that one) and lying on
-                # the belt itself, by at most a quarter of that item's width.
-                base = flat[near] & (t_spawn[near] <= t_i) & (z_drop[near] == 0.0)
-                widths = np.array([types[j].half_width for j in near])
-                depth = np.minimum(world.overlap_depth_m, 0.5 * widths)
-                clearance[base, 0] = -depth[base]
-            lo, hi = shift_intervals(shape - [v * t_i, 0.0], others, clearance)
-            delta = 0.0
-            for a, b in sorted(zip(lo[lo < hi].tolist(), hi[lo < hi].tolist(), strict=True)):
-                if a < delta < b:
-                    delta = b
-            t_i += delta / v
-            if base.any():
-                lo, hi = shift_intervals(shape - [v * t_i, 0.0], others[base], 0.0)
-                under = near[base][(lo < 0.0) & (0.0 < hi)]
-                if len(under):
-                    z_drop[i] = max(2.0 * types[j].rest_height for j in under)
-        t_spawn[i] = last_in_stripe[stripes[i]] = t_i
-        latest[i] = t_i if i == 0 else max(t_i, latest[i - 1])
-        polygons[i] = shape
-    order = np.argsort(t_spawn, kind="stable")
-
-    flow = Flow(
-        config=config,
-        t_spawn=t_spawn[order],
-        y=y[order],
-        yaw=yaw[order],
-        type_index=type_index[order].astype(np.int64),
-        class_id=np.asarray(materials.ids)[classes[order]],
-        colour=colours[order].astype(np.int64),
-        stripe=stripes[order].astype(np.int64),
-        variant=varied.variant[order].astype(np.int64),
-        scale=varied.scale[order],
-        rgba=varied.rgba[order],
-        label_rgba=varied.label_rgba[order],
-        z_drop=z_drop[order],
-    )
+    draws = _ItemDraws.drawn(config, catalogue)
+    belt = _BeltPlacement(config, catalogue, draws)
+    for i in range(config.n_items):
+        belt.place(i)
+    flow = belt.flow(materials.ids)
     most = max_items_on_belt(flow)
     if most > pool_size:
         allowed = (
             f"flows with at most {pool_size} items on the belt at once (this one has {most}; "
             f"at most {MAX_ITEMS_PER_METRE:g} items per metre of belt on average)"
         )
-        raise InvalidInput("n_items", allowed, n)
+        raise InvalidInput("n_items", allowed, config.n_items)
     return flow
+
+
+@dataclass(frozen=True, eq=False)
+class _ItemDraws:
+    """What the flow's random streams give each item, in slot order, before it is placed:
+    its slot time [s], stripe, material index, base type and colour, the uniforms of its
+    lateral place and yaws, and the world's variation (the scaled types dropped)."""
+
+    t_slot: np.ndarray
+    stripes: np.ndarray
+    classes: np.ndarray
+    type_index: np.ndarray
+    colours: np.ndarray
+    u_y: np.ndarray
+    u_yaw: np.ndarray
+    varied: ItemVariation
+    types: list[ItemType]
+    flat: np.ndarray
+
+    @classmethod
+    def drawn(cls, config: FlowConfig, catalogue: Catalogue) -> _ItemDraws:
+        """The draws in the generator's fixed order (same seed, same draws)."""
+        rng = np.random.default_rng(config.seed)
+        n = config.n_items
+        t_slot, stripes, classes = arrivals(config, rng)
+        type_groups = [np.array(catalogue.of_material(m)) for m in catalogue.materials.names]
+        type_weights = _type_weights(config, catalogue, type_groups)
+        within = _draw_within(type_weights, classes, rng.random(n))
+        type_index = np.array([type_groups[c][k] for c, k in zip(classes, within, strict=True)])
+        colour_weights = [np.array(t.colour_probs) for t in catalogue.types]
+        colours = _draw_within(colour_weights, type_index, rng.random(n))
+        u_y = rng.random(n)
+        u_yaw = rng.uniform(-math.pi, math.pi, size=(n, YAW_TRIES))
+        varied = draw_variation(
+            config.world, catalogue, type_index, colours, variation_rng(config.seed)
+        )
+        types = [
+            catalogue.types[k].scaled(f) for k, f in zip(varied.variant, varied.scale, strict=True)
+        ]
+        flat = np.array([t.is_flat for t in types], dtype=bool)
+        return cls(t_slot, stripes, classes, type_index, colours, u_y, u_yaw, varied, types, flat)
+
+
+class _BeltPlacement:
+    """The belt as the items are placed on it one by one, in slot order: each item's drop
+    time [s], lateral place [m], yaw [rad] and landing height [m], and what its successors
+    are kept clear of (footprints in the belt frame at time 0, reaches, lateral half-extents)."""
+
+    def __init__(self, config: FlowConfig, catalogue: Catalogue, draws: _ItemDraws):
+        n = config.n_items
+        self.config = config
+        self.draws = draws
+        self.t_spawn = np.empty(n)
+        self.y = np.empty(n)
+        self.yaw = np.empty(n)
+        self.z_drop = np.zeros(n)
+        self.polygons = np.empty((n, 16, 2))
+        self.reach = np.empty(n)
+        self.half_y = np.empty(n)
+        self.reach_max = max(
+            math.hypot(t.half_length, t.half_width) for t in (*catalogue.types, *draws.types)
+        )
+        self.last_in_stripe = [0.0] * N_STRIPES
+        self.latest = np.empty(n)
+
+    def place(self, i: int) -> None:
+        """Item `i` placed: its lateral place and yaw, then dropped late enough to keep clear
+        of the items before it (and never before the previous item of its stripe)."""
+        d, v = self.draws, self.config.belt_speed_mps
+        item_type = d.types[i]
+        stripe = d.stripes[i]
+        self.y[i], self.yaw[i] = _lateral(item_type, int(stripe), d.u_y[i], d.u_yaw[i], self.config)
+        t_i = max(float(d.t_slot[i]), self.last_in_stripe[stripe])
+        shape = polygon(item_type, 0.0, self.y[i], self.yaw[i])
+        self.reach[i] = math.hypot(item_type.half_length, item_type.half_width)
+        self.half_y[i] = float(item_type.half_extents(self.yaw[i])[1])
+        near = _neighbours(
+            i, t_i, v, self.y[i], self.half_y, self.reach, self.reach_max, self.latest, self.y,
+            self.config.world.min_gap_m,
+        )  # fmt: skip
+        if len(near):
+            t_i = self._clear_of(i, near, t_i, shape)
+        self.t_spawn[i] = self.last_in_stripe[stripe] = t_i
+        self.latest[i] = t_i if i == 0 else max(t_i, self.latest[i - 1])
+        self.polygons[i] = shape
+
+    def _clear_of(self, i: int, near: np.ndarray, t_i: float, shape: np.ndarray) -> float:
+        """The drop time of item `i` delayed by just enough belt travel to clear its `near`
+        neighbours; an item allowed to overlap may lie partly over a flat one dropped before
+        it, and then lands on it (its `z_drop` that item's top)."""
+        v, world, types = self.config.belt_speed_mps, self.config.world, self.draws.types
+        # Belt frame at time 0: an item dropped at t sits at x = -v t.
+        offset = np.zeros((len(near), 1, 2))
+        offset[:, 0, 0] = v * self.t_spawn[near]
+        others = self.polygons[near] - offset
+        clearance = np.full((len(near), 1), world.min_gap_m)
+        base = np.zeros(len(near), dtype=bool)
+        if self.draws.varied.overlap[i]:
+            # Only over a flat item dropped before it (it lands on that one) and lying on
+            # the belt itself, by at most a quarter of that item's width.
+            base = self.draws.flat[near] & (self.t_spawn[near] <= t_i) & (self.z_drop[near] == 0.0)
+            widths = np.array([types[j].half_width for j in near])
+            depth = np.minimum(world.overlap_depth_m, 0.5 * widths)
+            clearance[base, 0] = -depth[base]
+        lo, hi = shift_intervals(shape - [v * t_i, 0.0], others, clearance)
+        delta = 0.0
+        for a, b in sorted(zip(lo[lo < hi].tolist(), hi[lo < hi].tolist(), strict=True)):
+            if a < delta < b:
+                delta = b
+        t_i += delta / v
+        if base.any():
+            lo, hi = shift_intervals(shape - [v * t_i, 0.0], others[base], 0.0)
+            under = near[base][(lo < 0.0) & (0.0 < hi)]
+            if len(under):
+                self.z_drop[i] = max(2.0 * types[j].rest_height for j in under)
+        return t_i
+
+    def flow(self, material_ids) -> Flow:
+        """The placed items as a flow, in order of arrival at the infeed."""
+        d = self.draws
+        order = np.argsort(self.t_spawn, kind="stable")
+        return Flow(
+            config=self.config,
+            t_spawn=self.t_spawn[order],
+            y=self.y[order],
+            yaw=self.yaw[order],
+            type_index=d.type_index[order].astype(np.int64),
+            class_id=np.asarray(material_ids)[d.classes[order]],
+            colour=d.colours[order].astype(np.int64),
+            stripe=d.stripes[order].astype(np.int64),
+            variant=d.varied.variant[order].astype(np.int64),
+            scale=d.varied.scale[order],
+            rgba=d.varied.rgba[order],
+            label_rgba=d.varied.label_rgba[order],
+            z_drop=self.z_drop[order],
+        )
 
 
 def _lateral(

@@ -16,6 +16,7 @@ from __future__ import annotations
 import mujoco
 
 from perception.codes import THESIS_MATERIALS, Materials
+from sim.errors import InvalidInput
 
 SIDE_Y_M = 0.59
 """Distance of a bin's centre from the belt's centre line [m] (the paper bin's)."""
@@ -41,7 +42,7 @@ DROP_HEIGHT_M = 0.26
 def bin_centres(count: int) -> list[tuple[float, float]]:
     """(x, y) of the bins' centres [m] for `count` materials, in material order."""
     if not 1 <= count <= 2 * MAX_PER_SIDE:
-        raise ValueError(f"bins: allowed 1..{2 * MAX_PER_SIDE} (got {count})")
+        raise InvalidInput("bins", f"1..{2 * MAX_PER_SIDE}", count)
     sides = ([k for k in range(count) if k % 2 == 0], [k for k in range(count) if k % 2 == 1])
     out: dict[int, tuple[float, float]] = {}
     for sign, members in zip((-1.0, 1.0), sides, strict=True):

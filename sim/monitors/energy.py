@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from sim.errors import InvalidInput
+from sim.errors import CallOrderError, InvalidInput
 
 JOULES_PER_KWH = 3.6e6
 
@@ -93,7 +93,7 @@ class ActuatorLog:
         """Record the trees' sleep too (a meter of a robot that may sleep reads it)."""
         if self.tree_asleep is None:
             if self.rows:
-                raise RuntimeError("watch_sleep after steps were recorded")
+                raise CallOrderError("watch_sleep after steps were recorded")
             self.tree_asleep = np.empty((self.BUFFER_ROWS, len(self.data.tree_asleep)), np.int32)
 
     def record(self, duration_s: float) -> None:

@@ -37,6 +37,7 @@ import numpy as np
 from sim.cell.camera import camera_id, camera_pose_of
 from sim.cell.held_slots import NONE_HELD, held_mask
 from sim.cell.items import Items
+from sim.errors import InvalidInput
 from sim.flow.config import BELT_HALF_WIDTH
 
 VISIBLE_SHARE = 0.3
@@ -117,7 +118,7 @@ def outline(kind: int, size: np.ndarray, pos: np.ndarray, mat: np.ndarray, eye: 
         axis = half * mat[:, 2]
         return np.vstack([pos + axis + rim, pos - axis + rim])
     if kind != _CAPSULE:
-        raise ValueError(f"no outline for geom type {kind}")
+        raise InvalidInput("kind", "a box, cylinder or capsule geom type", kind)
     points = []
     for end in (-half, half):
         centre = pos + end * mat[:, 2]
@@ -156,7 +157,7 @@ def outlines(kind: int, sizes: np.ndarray, pos: np.ndarray, mats: np.ndarray) ->
     if kind == _BOX:
         return pos[:, None] + (_CORNERS * sizes[:, None, :3]) @ mats.transpose(0, 2, 1)
     if kind != _CYLINDER:
-        raise ValueError(f"no batched outline for geom type {kind}")
+        raise InvalidInput("kind", "a box or cylinder geom type (batched)", kind)
     rim = sizes[:, 0, None, None] * _CIRCLE @ mats[:, :, :2].transpose(0, 2, 1)
     axis = sizes[:, 1, None] * mats[:, :, 2]
     return np.concatenate([(pos + axis)[:, None] + rim, (pos - axis)[:, None] + rim], axis=1)

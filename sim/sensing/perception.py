@@ -398,7 +398,7 @@ class LineCameraPerception:
 
     def __init__(self, cameras: list[CameraPerception]):
         if not cameras:
-            raise ValueError("a line's perception has at least one camera")
+            raise InvalidInput("cameras", "at least one camera's perception", cameras)
         self.cameras = tuple(cameras)
 
     def observe(self, t: float) -> list[Detection]:
