@@ -20,17 +20,9 @@ def _catalogue_at(path: str, mtime_ns: int, size: int) -> Catalogue:
 
 
 def episode_catalogue(path: str) -> Catalogue:
-    """The item catalogue of a config's `catalogue` key, read once per file version.
-
-    Args:
-        path: The key's value: a TOML file; "": the built-in `sim/data/items.toml`.
-
-    Returns:
-        The catalogue.
-
-    Raises:
-        InvalidInput: One line naming `catalogue` (and the file) when it cannot be used.
-    """
+    """The item catalogue of a config's `catalogue` key (a TOML file; "": the built-in
+    `sim/data/items.toml`), read once per file version; refused in one line naming `catalogue`
+    (and the file) when it cannot be used."""
     file = Path(path) if path else DEFAULT_CATALOGUE
     try:
         stat = file.stat()
@@ -64,19 +56,9 @@ class CatalogueFile:
 
     @classmethod
     def read(cls, path: object, where: str | None = None) -> CatalogueFile:
-        """The catalogue of a config's `catalogue` key, read now (`episode_catalogue`).
-
-        Args:
-            path: The key's value ("": the built-in catalogue).
-            where: The config file the key came from, if any.
-
-        Returns:
-            The catalogue with its key and digest.
-
-        Raises:
-            InvalidInput: One line naming `catalogue` and the file when the key is not a
-                path or its file cannot be used.
-        """
+        """The catalogue of a config's `catalogue` key (from config file `where`), read now
+        (`episode_catalogue`); refused naming `catalogue` and the file when the key is not a
+        path or its file cannot be used."""
         ok = isinstance(path, str) and "\0" not in path
         check(ok, "catalogue", "a path to an item catalogue TOML file", path, where)
         try:

@@ -101,12 +101,7 @@ class FlowMix:
 
     def check_names(self, catalogue: Catalogue, where: str | None) -> None:
         """Refuse a `mix` that does not name every material of `catalogue` (and nothing else),
-        a `mix_types` naming anything but its base item types.
-
-        Args:
-            catalogue: The episode's item catalogue.
-            where: The config file, named by the refusal.
-        """
+        a `mix_types` naming anything but its base item types (naming the file `where`)."""
         names = catalogue.materials.names
         if self.mix is not None:
             given = [k for k, _ in self.mix]

@@ -112,15 +112,7 @@ class RobotSpec:
 
 
 def check_count(value: object, where: str | None) -> int:
-    """`value` as a robot count (`robots = N`), refused unless an int in 1..`MAX_ROBOTS`.
-
-    Args:
-        value: The count as given.
-        where: The file it came from, if any.
-
-    Returns:
-        The count.
-    """
+    """`value` as a robot count (`robots = N`), refused unless an int in 1..`MAX_ROBOTS`."""
     ok = is_integer(value) and 1 <= value <= MAX_ROBOTS
     check(ok, "robots", f"1..{MAX_ROBOTS}", value, where)
     return value
@@ -135,15 +127,7 @@ def named(exc: InvalidInput, prefix: str, where: str | None) -> InvalidInput:
 def robot_specs(value: object, where: str | None = None) -> tuple[RobotSpec, ...]:
     """The robots of a config's `robots` key: a count (`robots = N`: N robots at the default
     spacing) or an array of `[[robots]]` tables, each table's keys and types checked; the
-    line's rules are `check_robots`'.
-
-    Args:
-        value: The count or the array of tables as parsed.
-        where: The file it came from, if any.
-
-    Returns:
-        The robots, upstream first.
-    """
+    line's rules are `check_robots`'. Returns the robots, upstream first."""
     if not isinstance(value, list | tuple):
         return (RobotSpec(),) * check_count(value, where)
     check(1 <= len(value) <= MAX_ROBOTS, "robots", _COUNT_OR_TABLES, value, where)
@@ -164,30 +148,14 @@ def robot_specs(value: object, where: str | None = None) -> tuple[RobotSpec, ...
 def resized(specs: Sequence[RobotSpec], n: int) -> tuple[RobotSpec, ...]:
     """`n` robots at the default spacing sorting every material, keeping the pauses: robot k
     takes robot k's values of `SECTION_KEYS`, a robot past the last takes the last's (what
-    `--robots N` and a sweep's `robots = N` do to robots given one by one).
-
-    Args:
-        specs: The robots before (at least one).
-        n: How many robots after (1..`MAX_ROBOTS`).
-
-    Returns:
-        The `n` robots.
-    """
+    `--robots N` and a sweep's `robots = N` do to robots given one by one)."""
     return tuple(RobotSpec(**specs[min(k, len(specs) - 1)].section()) for k in range(n))
 
 
 def resized_tables(tables: Sequence[object], n: int) -> list[dict[str, Any]]:
     """`resized` on `[[robots]]` tables as parsed (a sweep's base under a variant's count):
-    robot k keeps only table k's keys of `SECTION_KEYS` (the last table's past the last).
-
-    Args:
-        tables: The tables before (at least one); a non-table entry gives no keys (it is
-            refused where it is read, if it is kept).
-        n: How many robots after.
-
-    Returns:
-        `n` tables.
-    """
+    robot k keeps only table k's keys of `SECTION_KEYS` (the last table's past the last; a
+    non-table entry gives no keys: it is refused where it is read, if it is kept)."""
     out = []
     for k in range(n):
         table = tables[min(k, len(tables) - 1)]
@@ -197,13 +165,8 @@ def resized_tables(tables: Sequence[object], n: int) -> list[dict[str, Any]]:
 
 
 def check_robots(specs: Sequence[RobotSpec], materials: Materials, where: str | None) -> None:
-    """Refuse robots that break the line's rules (module docstring), naming the field.
-
-    Args:
-        specs: The robots, upstream first.
-        materials: The catalogue's materials (the names `materials` may hold).
-        where: The file they came from, if any.
-    """
+    """Refuse robots (upstream first) that break the line's rules (module docstring) or name
+    a material not of the catalogue's `materials`, naming the field and the file `where`."""
     for index, spec in enumerate(specs):
         ok = isinstance(spec, RobotSpec)
         check(ok, f"robots[{index}]", "a table of " + ", ".join(ROBOT_KEYS), spec, where)

@@ -57,14 +57,7 @@ class Values:
 
     @classmethod
     def from_table(cls, table: dict[str, Any]) -> Values:
-        """The `[values]` table.
-
-        Args:
-            table: {material or item type name: EUR}, and `per_kg`: {name: EUR/kg}.
-
-        Returns:
-            The values as given.
-        """
+        """The `[values]` table as parsed: {name: EUR}, and `per_kg`: {name: EUR/kg}."""
         per_kg = table.get("per_kg", {})
         allowed = "a table of EUR per kg by material or item type"
         check(isinstance(per_kg, dict), "values.per_kg", allowed, per_kg, None)
@@ -72,45 +65,24 @@ class Values:
         return cls(eur, tuple(per_kg.items()))
 
     def given(self) -> dict[str, float]:
-        """The values per item as set.
-
-        Returns:
-            {material or item type name: EUR}.
-        """
+        """{material or item type name: EUR per item} as set."""
         return {k: float(v) for k, v in self.eur}
 
     def given_per_kg(self) -> dict[str, float]:
-        """The values per kilogram as set.
-
-        Returns:
-            {material or item type name: EUR/kg}.
-        """
+        """{material or item type name: EUR/kg} as set."""
         return {k: float(v) for k, v in self.per_kg}
 
     def of_materials(self, materials: Materials) -> tuple[float, ...]:
-        """Each material's value per item, the catalogue's where not set.
-
-        Args:
-            materials: The catalogue's materials.
-
-        Returns:
-            EUR per material, in the materials' order (the decision managers' order).
-        """
+        """Each material's value per item [EUR], the catalogue's where not set, in the
+        materials' order (the decision managers')."""
         given = self.given()
         return tuple(
             given.get(n, d) for n, d in zip(materials.names, materials.values_eur, strict=True)
         )
 
     def for_planning(self, catalogue: Catalogue) -> tuple[float, ...]:
-        """Each material's value per item as the decision managers weigh it: a material priced
-        per kg at its mean item's mass (`mean_masses`), the others as `of_materials`.
-
-        Args:
-            catalogue: The item catalogue.
-
-        Returns:
-            EUR per material, in the materials' order.
-        """
+        """Each material's value per item [EUR] as the decision managers weigh it: a material
+        priced per kg at its mean item's mass (`mean_masses`), the others as `of_materials`."""
         per_kg = self.given_per_kg()
         if not per_kg:
             return self.of_materials(catalogue.materials)
@@ -123,26 +95,12 @@ class Values:
         )
 
     def by_class(self, materials: Materials) -> dict[int, float]:
-        """Each material's value by class id.
-
-        Args:
-            materials: The catalogue's materials.
-
-        Returns:
-            {material class id (2, 3, ...): EUR}.
-        """
+        """{material class id (2, 3, ...): EUR per item}."""
         return dict(zip(materials.ids, self.of_materials(materials), strict=True))
 
     def of_types(self, catalogue: Catalogue) -> dict[int, float]:
-        """The values of the item types given a value per item of their own (their shape
-        variants, a crushed can of a can type, take it too).
-
-        Args:
-            catalogue: The item catalogue the names are of.
-
-        Returns:
-            {catalogue type index: EUR}.
-        """
+        """{catalogue type index: EUR} of the item types given a value per item of their own
+        (their shape variants, a crushed can of a can type, take it too)."""
         given = self.given()
         out = {}
         for k, t in enumerate(catalogue.types):
@@ -152,18 +110,10 @@ class Values:
         return out
 
     def of_items(self, catalogue: Catalogue, types, masses) -> dict[int, float]:
-        """The values of single items that are not their material's value per item: their
-        type's own value per item, else their mass times their type's or material's price
-        per kg.
-
-        Args:
-            catalogue: The item catalogue.
-            types: Each item's base type index (`Flow.type_index`), by item id.
-            masses: Each item's mass as varied [kg], by item id.
-
-        Returns:
-            {item id: EUR} of those items.
-        """
+        """{item id: EUR} of the items not worth their material's value per item: their
+        type's own value per item, else their mass as varied [kg] (`masses`, by item id) times
+        their type's or material's price per kg; `types`: each item's base type index
+        (`Flow.type_index`)."""
         by_type = self.of_types(catalogue)
         per_kg = self.given_per_kg()
         out = {}
@@ -178,12 +128,8 @@ class Values:
         return out
 
     def check_names(self, catalogue: Catalogue, where: str | None) -> None:
-        """Refuse a name that is neither a material nor a base item type of `catalogue`.
-
-        Args:
-            catalogue: The item catalogue the names must be of.
-            where: The config file, named by the refusal.
-        """
+        """Refuse a name that is neither a material nor a base item type of `catalogue`,
+        naming the config file `where`."""
         names = set(catalogue.materials.names)
         names |= {t.name for t in catalogue.types if not t.variant_of}
         allowed = "a material (" + ", ".join(catalogue.materials.names) + ") or item type"
@@ -193,15 +139,8 @@ class Values:
             check(name in names, f"values.per_kg.{name}", allowed, None, where)
 
     def table(self, materials: Materials) -> dict[str, Any]:
-        """The resolved `[values]` table.
-
-        Args:
-            materials: The catalogue's materials.
-
-        Returns:
-            {name: EUR}: every material's value per item (but those priced per kg), then the
-            item types' given; `per_kg` {name: EUR/kg} when any is set.
-        """
+        """The resolved `[values]` table: {name: EUR}, every material's value per item (but
+        those priced per kg), then the item types' given; `per_kg` {name: EUR/kg} when set."""
         per_kg = self.given_per_kg()
         out = {
             n: v
@@ -220,15 +159,8 @@ def _range(name: str) -> Range:
 
 
 def mean_masses(catalogue: Catalogue) -> dict[str, float]:
-    """Each material's mean item mass by the catalogue's weights of its base types (nominal
-    sizes) [kg].
-
-    Args:
-        catalogue: The item catalogue.
-
-    Returns:
-        {material name: kg}.
-    """
+    """{material name: its mean item mass [kg]} by the catalogue's weights of its base types
+    (nominal sizes)."""
     out = {}
     for name in catalogue.materials.names:
         types = [catalogue.types[k] for k in catalogue.of_material(name)]

@@ -207,18 +207,8 @@ def _tables(value: object) -> bool:
 
 @dataclass(frozen=True)
 class SweepTable:
-    """The `[sweep]` table: the grid's axes (each a non-empty list) and its names.
-
-    Attributes:
-        name: The sweep's name (default: the file's stem).
-        table: The thesis table printed beside it (`sim/data/thesis_tables.toml`).
-        speed_factors: Belt speed factors (default [1.0]), or `belt_speeds_mps` [m/s].
-        items: Item counts (default [100], or the base's `[infeed]` rate).
-        planners: Decision managers (default ["qlearning"]).
-        seeds: A count (`seed_offset` .. `seed_offset` + n - 1) or a list of seeds.
-        seed_offset: The first seed of a count.
-        duration_s_by_items: The flow's duration [s] by item count (keys of `items`).
-    """
+    """The `[sweep]` table's keys (the layout: module docstring); the axes are lists, checked
+    where the grid is built, every grid point by the episode's schema."""
 
     name: object = None
     table: object = None
@@ -226,7 +216,7 @@ class SweepTable:
     belt_speeds_mps: object = None
     items: object = None
     planners: object = None
-    seeds: object = setting(1)
+    seeds: object = 1
     seed_offset: int = setting(0, range=Range(0, 2**63 - 1, "an integer >= 0", integer=True))
     duration_s_by_items: object = None
 
