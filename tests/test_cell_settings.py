@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 
 from perception.codes import EMPTY_CODE
+from sim import config
 from sim.cell.conveyor import Belt
 from sim.cell.item_pool import ItemPool
 from sim.cell.suction import SuctionConfig, SuctionCup
 from sim.config.plant import BELT_LENGTH_M, CUP_DIAMETER_M, CellSettings
-from sim.episode import config
 from sim.episode.loop import Episode
 from sim.episode.runner import shared_cell
 from sim.errors import InvalidInput

@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import pytest
 
+from sim import config as episode_config
 from sim.config.plant import CUP_DIAMETER_M, LINE_CUP_DIAMETER_M
-from sim.episode import config as episode_config
 from sim.experiments import sweep_config
 
 

@@ -11,8 +11,8 @@ import mujoco
 import pytest
 
 import sim
+from sim import config as episode_config
 from sim.cli.sweep import seeds, sweep_manifest_config
-from sim.episode import config as episode_config
 from sim.errors import InvalidInput
 from sim.experiments import sweep_config
 from sim.paths import REPO_ROOT

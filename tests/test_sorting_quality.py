@@ -8,8 +8,8 @@ import pytest
 
 from perception.codes import ALUMINIUM, PAPER, PLASTIC
 from planner.decision.interface import TrackedItem
+from sim import config
 from sim.config.settings import ITEM_CLASSIFIER_MIN_CONFIDENCE
-from sim.episode import config
 from sim.episode.loop import Episode
 from sim.episode.runner import run_episode
 from sim.errors import InvalidInput

@@ -197,7 +197,7 @@ def test_bad_settings_are_refused_by_name():
 
 
 def test_episode_config_world_keys():
-    from sim.episode import config
+    from sim import config
     from sim.experiments.sweep_config import LATER_KEYS, LATER_TABLE_KEYS, settings_applied
 
     assert config.WORLD_NUMBERS == tuple(f.name for f in dataclasses.fields(WorldVariation))
@@ -253,7 +253,7 @@ def test_varied_episode_settles_every_item_at_its_scaled_rest_height(cell):
     """A varied 100-item episode in the cell (truth perception, every item picked): no MuJoCo
     warning; every item crosses the camera line at rest, on the belt at its scaled rest height
     (or on the flat item it partly lies over), with its scaled mass."""
-    from sim.episode import config
+    from sim import config
     from sim.episode.loop import Episode
     from sim.flow.config import X_CAMERA
 

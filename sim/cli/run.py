@@ -490,7 +490,7 @@ ONE_OF = (("--speed-factor", "--belt-speed"), ("--items", "--items-per-m"))
 def load_config(args: argparse.Namespace):
     """The episode's validated config: `--config`'s TOML with the options given applied (an
     option in one unit replaces the file's setting in the other)."""
-    from sim.episode import config as episode_config
+    from sim import config as episode_config
     from sim.errors import InvalidInput
 
     for pair in ONE_OF:

@@ -22,8 +22,8 @@ from sim.cell.cell import PICK_Z_NOMINAL, Cell
 from sim.cell.depth_noise import ZED_CLASS
 from sim.cell.riding import ItemRiding
 from sim.cell.suction import SuctionConfig
+from sim.config import EpisodeConfig
 from sim.episode import step_hooks
-from sim.episode.config import EpisodeConfig
 from sim.episode.cycle_timing import cell_cycle_model
 from sim.episode.pick_control import PRESS_DEPTH_M, PickController
 from sim.episode.scheduler import Horizon, PeriodicEvent, Scheduler

@@ -29,9 +29,9 @@ from planner.decision.registry import ask_manager
 from sim.cell.cell import Cell
 from sim.cell.held_slots import held_slots
 from sim.cell.riding import PlannedPath
+from sim.config import EpisodeConfig
 from sim.episode import builder, chunks, item_checks, stations, step_hooks
 from sim.episode.builder import CHECK_PERIOD_S, SETTLE_S, make_decision_manager
-from sim.episode.config import EpisodeConfig
 from sim.episode.infeed import Infeed
 from sim.episode.overlay import overlay_of
 from sim.episode.pick_control import PickController

@@ -21,8 +21,8 @@ import time
 from dataclasses import dataclass, field
 
 from sim.cell.cell import Cell
+from sim.config import EpisodeConfig
 from sim.config.plant import CellSettings
-from sim.episode.config import EpisodeConfig
 from sim.episode.loop import Episode, make_decision_manager
 from sim.results.code_digest import code_digest
 from sim.results.economics import ECONOMICS_COLUMNS, per_hour_columns

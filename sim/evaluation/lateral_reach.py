@@ -58,7 +58,7 @@ def band_outcomes(
     width_m: float, seeds, items: int, duration_s: float, perception: str, planner: str
 ) -> tuple[np.ndarray, np.ndarray, int, int]:
     """(entered per band, not picked per band, missed, dropped) over the seeds' episodes."""
-    from sim.episode import config as episode_config
+    from sim import config as episode_config
     from sim.episode.runner import run_episode
     from sim.flow.generator import generate_flow
 
