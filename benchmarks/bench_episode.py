@@ -23,7 +23,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np  # noqa: E402
 
-from sim.episode import config as episode_config  # noqa: E402
+from sim import config as episode_config  # noqa: E402
 from sim.episode.runner import Cell, run_episode  # noqa: E402
 
 

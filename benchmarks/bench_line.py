@@ -20,7 +20,7 @@ from pathlib import Path
 os.environ.setdefault("MUJOCO_GL", "egl")
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from sim.episode import config as episode_config  # noqa: E402
+from sim import config as episode_config  # noqa: E402
 from sim.episode.runner import config_cell, run_episode  # noqa: E402
 
 ITEMS, DURATION_S, FIRST_SEED = 400, 120.0, 7

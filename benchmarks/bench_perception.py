@@ -197,7 +197,7 @@ def main() -> int:
     parser.add_argument("--width", type=int, default=None)
     parser.add_argument("--height", type=int, default=None)
     args = parser.parse_args()
-    from sim.episode import config as episode_config
+    from sim import config as episode_config
     from sim.episode.runner import config_cell, run_episode
 
     quick = dict(items=30, duration_s=30.0) if args.quick else {}

@@ -30,7 +30,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import numpy as np  # noqa: E402
 
 import sim.episode.item_checks as item_checks  # noqa: E402
-from sim.episode import config as episode_config  # noqa: E402
+from sim import config as episode_config  # noqa: E402
 from sim.episode.loop import Episode  # noqa: E402
 from sim.episode.runner import config_cell  # noqa: E402
 from sim.sensing.tracking import Track  # noqa: E402

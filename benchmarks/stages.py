@@ -163,7 +163,7 @@ def main() -> int:
     parser.add_argument("--per-robot-camera", action="store_true")
     args = parser.parse_args()
     _instrument()
-    from sim.episode import config as episode_config
+    from sim import config as episode_config
     from sim.episode.runner import run_episode
 
     overrides = dict(seed=args.seed, items=args.items, duration_s=args.duration)

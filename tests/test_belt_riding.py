@@ -16,9 +16,9 @@ import pytest
 
 from planner.motion.kinematics import reachable_mask
 from planner.motion.trajectory import Chain, Dwell, State
+from sim import config as episode_config
 from sim.cell.cell import Cell
 from sim.cell.riding import ItemRiding
-from sim.episode import config as episode_config
 from sim.errors import InvalidInput
 
 CHECK_S = 0.02

@@ -10,9 +10,9 @@ import pytest
 
 from perception.camera.depth_footprint import BELT_EDGE_M
 from perception.codes import Materials
+from sim import config as episode_config
 from sim.cell.camera import BeltCamera, belt_edge_margin, belt_grid, camera_pipeline
 from sim.cell.cell import PICK_Z_NOMINAL, Cell
-from sim.episode import config as episode_config
 from sim.episode.runner import run_episode
 from sim.errors import InvalidInput
 from sim.experiments import sweep_config

@@ -7,7 +7,7 @@ import pytest
 
 import sim.sensing.perception as perception_module
 from perception.errors import PerceptionError
-from sim.episode import config
+from sim import config
 from sim.episode.loop import Episode
 
 EPISODE = dict(items=12, duration_s=8.0, perception="camera", planner="qlearning", seed=11)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from planner.motion.cycle_model import PICK_COEF, PLACE_COEF
-from sim.episode.config import EpisodeConfig
+from sim.config import EpisodeConfig
 from sim.episode.cycle_timing import (
     CELL_PICK_COEF,
     CELL_PLACE_COEF,

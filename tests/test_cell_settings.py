@@ -13,10 +13,11 @@ import numpy as np
 import pytest
 
 from perception.codes import EMPTY_CODE
+from sim import config
 from sim.cell.conveyor import Belt
 from sim.cell.item_pool import ItemPool
 from sim.cell.suction import SuctionConfig, SuctionCup
-from sim.episode import config
+from sim.config.plant import BELT_LENGTH_M, CUP_DIAMETER_M, CellSettings
 from sim.episode.loop import Episode
 from sim.episode.runner import shared_cell
 from sim.errors import InvalidInput
@@ -24,13 +25,7 @@ from sim.evaluation.perception_eval import evaluate_camera
 from sim.flow.catalogue import load_catalogue
 from sim.flow.world import WorldVariation
 from sim.model.mjcf import CELL_ELEMENTS, compile_spec, load_scene, load_spec
-from sim.model.scene_edits import (
-    BELT_LENGTH_M,
-    CUP_DIAMETER_M,
-    CellSettings,
-    apply_settings,
-    compile_scene,
-)
+from sim.model.scene_edits import apply_settings, compile_scene
 from sim.paths import SCENE_XML
 
 CATALOGUE = load_catalogue()

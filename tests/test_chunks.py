@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
+from sim import config
 from sim.cell.cell import Cell
-from sim.episode import config
 from sim.episode.chunks import steps_until_due_stepwise
 from sim.episode.loop import Episode
 from sim.episode.scheduler import is_due

@@ -7,8 +7,8 @@ import argparse
 
 import pytest
 
+from sim import config as episode_config
 from sim.cli.run import add_arguments
-from sim.episode import config as episode_config
 from sim.errors import InvalidInput
 
 

@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from sim.episode import config
+from sim import config
 from sim.errors import InvalidInput
 from sim.experiments import sweep_config
 from sim.paths import EXPERIMENTS_DIR

@@ -12,9 +12,8 @@ import shutil
 
 import pytest
 
-from sim import checks
-from sim.episode import config
-from sim.episode.line_robots import RobotSpec
+from sim import checks, config
+from sim.config.robots import RobotSpec
 from sim.errors import InvalidInput
 from sim.experiments import sweep_config
 from sim.paths import EXPERIMENTS_DIR, REPO_ROOT

@@ -1,7 +1,7 @@
 """Every documented range holds end to end.
 
 The cases are generated from the validation tables themselves, never written out by hand:
-`sim.episode.config.RANGES` (every numeric key of a config file) and the item catalogue's
+`sim.config.RANGES` (every numeric key of a config file) and the item catalogue's
 limits (`HALF_SIZE_RANGE_M`, `MASS_RANGE_KG`, `FRICTION_RANGES`). Each key is set, in a config
 file, at both ends of its range and just outside them: inside loads (and a short episode runs
 for a few representative keys), outside is refused when the file loads, in one line naming the
@@ -15,8 +15,8 @@ import re
 
 import pytest
 
-from sim.episode import config as episode_config
-from sim.episode.config import RANGES, Range
+from sim import config as episode_config
+from sim.config import RANGES, Range
 from sim.episode.runner import run_episode
 from sim.errors import InvalidInput
 from sim.flow import catalogue as catalogue_module

@@ -148,7 +148,7 @@ def test_cell_context_reads_bins_from_the_model():
 
 
 def test_the_episode_configures_qlearning_and_rollout_from_its_qlearning_section():
-    from sim.episode import config
+    from sim import config
     from sim.episode.loop import make_decision_manager
 
     base = config.load(None, seed=5, planner="qlearning", observation_period_s=0.25)

@@ -13,8 +13,8 @@ from planner.decision.interface import RobotState, TrackedItem
 from planner.decision.kinematic_belt import random_belt, simulate
 from planner.decision.registry import make_planner
 from planner.errors import PlannerInputError
+from sim import config as episode_config
 from sim.cli.main import main
-from sim.episode import config as episode_config
 from sim.episode.decision_view import cell_context
 from sim.episode.runner import run_episode
 from sim.results import outputs

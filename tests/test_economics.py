@@ -7,8 +7,8 @@ import math
 
 import pytest
 
-from sim.episode import config as episode_config
-from sim.episode.config import EpisodeConfig, from_dict, mean_masses
+from sim import config as episode_config
+from sim.config import EpisodeConfig, from_dict, mean_masses
 from sim.episode.runner import run_episode
 from sim.errors import InvalidInput
 from sim.results.economics import payback_years, robot_cost_per_h

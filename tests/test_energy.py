@@ -11,9 +11,9 @@ import pytest
 
 from planner.decision.energy_cost import EnergyPrice
 from planner.errors import PlannerInputError
+from sim import config
 from sim.cell.idle_sleep import robot_trees
 from sim.cell.robot import motor_qpos, set_motor_targets
-from sim.episode import config
 from sim.episode.runner import run_episode
 from sim.errors import InvalidInput
 from sim.monitors.energy import ActuatorLog, DriveModel, EnergyMeter

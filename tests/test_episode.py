@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from sim.episode import config
+from sim import config
 from sim.episode.runner import run_episode
 from sim.results import outputs
 
@@ -70,7 +70,7 @@ def test_another_seed_gives_another_flow(cell, short_run):
 
 _CHILD = """
 import sys
-from sim.episode import config
+from sim import config
 from sim.results import outputs
 from sim.episode.runner import run_episode
 c = config.load(None, items=5, duration_s=4.0, perception="truth", planner="qlearning", seed=11)

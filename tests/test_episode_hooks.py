@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from sim import config
 from sim.cell.cell import Cell
-from sim.episode import config
 from sim.episode.loop import Episode
 from sim.episode.scheduler import DUE_TOLERANCE_S, is_due, steps_until_due
 from sim.errors import InvalidInput

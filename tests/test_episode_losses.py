@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from perception.codes import ALUMINIUM, PAPER, PLASTIC
-from sim.episode import config
+from sim import config
 from sim.episode.loop import Episode
 
 LOSSY = dict(

@@ -9,7 +9,7 @@ import itertools
 import numpy as np
 import pytest
 
-from sim.episode import config as episode_config
+from sim import config as episode_config
 from sim.errors import InvalidInput
 from sim.flow import mix as flow_mix
 from sim.flow.config import DEFAULT_TRANSITIONS, FlowConfig

@@ -10,9 +10,9 @@ import mujoco
 import numpy as np
 import pytest
 
+from sim import config
 from sim.cell.camera import camera_pose
 from sim.cli.main import main
-from sim.episode import config
 from sim.episode.runner import Episode, config_cell
 from sim.evaluation import frames
 from sim.flow.config import X_CAMERA

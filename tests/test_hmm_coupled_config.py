@@ -8,8 +8,8 @@ import pytest
 
 from perception.codes import EMPTY_CODE
 from perception.hmm.online import OnlineStripeHmms
+from sim import config
 from sim.cli.main import main
-from sim.episode import config
 from sim.errors import InvalidInput
 from sim.sensing.perception import hmm_cache_path, stripe_models
 

@@ -8,8 +8,8 @@ import mujoco
 import numpy as np
 import pytest
 
+from sim import config
 from sim.cell.cell import Cell
-from sim.episode import config
 from sim.episode.infeed import DEEP_M
 from sim.episode.loop import Episode
 from sim.episode.runner import config_cell

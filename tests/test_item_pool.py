@@ -159,8 +159,8 @@ def test_a_dense_flow_rides_the_whole_belt_and_every_item_is_missed_in_order():
 
 
 def test_a_pool_sized_for_its_flow_gives_the_results_of_the_full_pool():
+    from sim import config as episode_config
     from sim.cell.item_pool import pool_size_for
-    from sim.episode import config as episode_config
     from sim.episode.runner import config_cell, run_episode
 
     cfg = episode_config.load(None, perception="truth", seed=12, items=30, duration_s=20.0)

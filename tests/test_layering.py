@@ -36,6 +36,7 @@ ALLOWED = {
 # sim's rooms, lowest first: each may import the ones below it and the pure packages whole.
 SIM_ROOMS = (
     "sim.flow",
+    "sim.config",
     "sim.model",
     "sim.cell",
     "sim.monitors",

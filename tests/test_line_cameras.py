@@ -10,6 +10,7 @@ import pytest
 
 from perception.camera.grid import BeltGrid
 from perception.camera.lens import ZED_HD_LEFT
+from sim import config as episode_config
 from sim.cell.camera import (
     BeltCamera,
     camera_line,
@@ -19,7 +20,6 @@ from sim.cell.camera import (
     marker_names,
     true_camera_matrix,
 )
-from sim.episode import config as episode_config
 from sim.episode.loop import Episode
 from sim.episode.runner import config_cell
 from sim.errors import InvalidInput

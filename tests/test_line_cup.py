@@ -6,9 +6,9 @@ from __future__ import annotations
 
 import pytest
 
-from sim.episode import config as episode_config
+from sim import config as episode_config
+from sim.config.plant import CUP_DIAMETER_M, LINE_CUP_DIAMETER_M
 from sim.experiments import sweep_config
-from sim.model.scene_edits import CUP_DIAMETER_M, LINE_CUP_DIAMETER_M
 
 
 @pytest.mark.parametrize(("robots", "diameter"), [(1, 0.06), (2, 0.05), (3, 0.05), (4, 0.05)])

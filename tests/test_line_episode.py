@@ -9,8 +9,8 @@ import mujoco
 import numpy as np
 import pytest
 
+from sim import config as episode_config
 from sim.cell.robot import loop_closure_error
-from sim.episode import config as episode_config
 from sim.episode.loop import Episode
 from sim.episode.runner import run_episode, shared_cell
 

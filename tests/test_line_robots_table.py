@@ -9,8 +9,8 @@ import json
 
 import pytest
 
-from sim.episode import config as episode_config
-from sim.episode.line_robots import RobotSpec
+from sim import config as episode_config
+from sim.config.robots import RobotSpec
 from sim.episode.loop import Episode
 from sim.episode.runner import config_cell, shared_cell
 from sim.errors import InvalidInput

@@ -11,7 +11,7 @@ import mujoco
 import pytest
 
 import sim
-from sim.episode import config as episode_config
+from sim import config as episode_config
 from sim.errors import InvalidInput
 from sim.experiments import sweep_config
 from sim.experiments.sweep_runner import manifest_config, seeds

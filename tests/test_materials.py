@@ -17,8 +17,8 @@ from perception.items.from_grid import cells_per_item, items_components
 from planner.decision.interface import DecisionContext, TrackedItem
 from planner.errors import PlannerInputError
 from planner.motion.kinematics import reachable_mask
+from sim import config as episode_config
 from sim.cell.robot import geometry_from_model
-from sim.episode import config as episode_config
 from sim.errors import InvalidInput
 from sim.flow.catalogue import load_catalogue
 from sim.flow.config import FlowConfig

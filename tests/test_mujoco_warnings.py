@@ -12,8 +12,8 @@ import mujoco
 import numpy as np
 import pytest
 
+from sim import config as episode_config
 from sim.cell.cell import Cell
-from sim.episode import config as episode_config
 from sim.episode.loop import Episode
 from sim.monitors.mj_warnings import KINDS, MujocoWarning, WarningCounter
 

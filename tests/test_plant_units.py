@@ -10,9 +10,9 @@ import json
 import numpy as np
 import pytest
 
+from sim import config as episode_config
 from sim.cli.main import main
 from sim.cli.run import add_episode_arguments, load_config
-from sim.episode import config as episode_config
 from sim.episode.loop import Episode
 from sim.episode.runner import config_cell, run_episode
 from sim.errors import InvalidInput

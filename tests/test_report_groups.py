@@ -11,10 +11,11 @@ import shutil
 
 import pytest
 
+from sim import config as episode_config
 from sim.cli import main as cli
 from sim.cli.run import write_run
-from sim.episode import config as episode_config
 from sim.episode.runner import run_episode
+from sim.errors import InvalidInput
 from sim.experiments.report import read_folders, summarise, write_report
 from sim.experiments.reporting.groups import grouping_text, point_of
 from sim.results import outputs
@@ -103,7 +104,7 @@ def test_a_group_of_runs_that_differ_in_an_unnamed_setting_is_refused(line_runs,
     manifest = json.loads((copy / "manifest.json").read_text())
     manifest["config"]["qlearning"]["gamma"] = 0.5
     (copy / "manifest.json").write_text(json.dumps(manifest))
-    with pytest.raises(episode_config.InvalidInput) as refused:
+    with pytest.raises(InvalidInput) as refused:
         read_folders([line_runs[0], copy])
     assert refused.value.field == "qlearning.gamma"
     assert "0.5" in str(refused.value) and str(copy) in str(refused.value)

@@ -8,7 +8,8 @@ import pytest
 
 from perception.codes import ALUMINIUM, PAPER, PLASTIC
 from planner.decision.interface import TrackedItem
-from sim.episode import config
+from sim import config
+from sim.config.settings import ITEM_CLASSIFIER_MIN_CONFIDENCE
 from sim.episode.loop import Episode
 from sim.episode.runner import run_episode
 from sim.errors import InvalidInput
@@ -16,12 +17,7 @@ from sim.experiments import sweep_config
 from sim.results import outputs
 from sim.results.metrics import EpisodeMetrics, PickRecord
 from sim.sensing.attribution import attributed_item
-from sim.sensing.confidence import (
-    ITEM_CLASSIFIER_MIN_CONFIDENCE,
-    is_unsure,
-    sure_items,
-    top_class_probability,
-)
+from sim.sensing.confidence import is_unsure, sure_items, top_class_probability
 from sim.sensing.tracking import Detection, Track
 
 VALUES = {PAPER: 0.22, PLASTIC: 0.25, ALUMINIUM: 0.27}

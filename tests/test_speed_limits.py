@@ -20,8 +20,8 @@ from __future__ import annotations
 import pytest
 
 from planner.motion.belt_speeds import SPEED_RANGE_MPS, SPEED_X1_MPS
+from sim import config
 from sim.cell.conveyor import Belt, check_speed
-from sim.episode import config
 from sim.errors import InvalidInput
 from sim.flow.config import FlowConfig
 from tests.utils import scene_at_home

@@ -327,8 +327,8 @@ def test_an_item_touching_another_robots_target_waits(cell):
 
 
 def test_a_lines_controllers_see_what_the_others_aim_at():
+    from sim import config as episode_config
     from sim.episode import builder
-    from sim.episode import config as episode_config
     from sim.episode.runner import config_cell
 
     config = episode_config.from_dict({"perception": "truth", "robots": 2, "items": 5})

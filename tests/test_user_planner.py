@@ -12,7 +12,7 @@ import pytest
 
 from planner.decision.registry import make_planner
 from planner.errors import PlannerInputError
-from sim.episode import config as episode_config
+from sim import config as episode_config
 from sim.episode.runner import run_episode
 from sim.results import outputs
 

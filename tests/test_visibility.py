@@ -9,8 +9,9 @@ import mujoco
 import numpy as np
 import pytest
 
-from sim.cell.camera import FRAME_SIZE, camera_id, camera_pose, renderer_with_samples
-from sim.episode import config
+from sim import config
+from sim.cell.camera import camera_id, camera_pose, renderer_with_samples
+from sim.config.plant import FRAME_SIZE
 from sim.episode.builder import belt_cameras, visibility_monitor
 from sim.episode.runner import run_episode
 from sim.flow.config import X_CAMERA

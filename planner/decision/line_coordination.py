@@ -31,10 +31,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from planner.decision.interface import DecisionContext, TrackedItem
+from planner.decision.registry import COORDINATIONS
 from planner.decision.robot_materials import items_sorted_by, sorts
 from planner.errors import PlannerInputError
 
-COORDINATIONS = ("independent", "coordinated")
 CLAIM_SLACK = 1.6
 """A downstream robot's predicted picks are spaced by its pick time times this (its picks vary
 about their mean: a claim it cannot keep costs the item). Chosen among 1.3, 1.6 and 2.0 on

@@ -28,6 +28,10 @@ from pathlib import Path
 
 from planner.errors import PlannerError, PlannerInputError
 
+COORDINATIONS = ("independent", "coordinated")
+"""How a line's robots share the belt (`planner.decision.line_coordination`); here, where no
+numerics are imported, so a config's schema and the command line read them."""
+
 # Imported only when built, so that the command line's --help stays light.
 _BUILT_IN = {
     "qlearning": "planner.decision.managers.qlearning:QLearningPlanner",

@@ -30,7 +30,7 @@ from planner.motion.trajectory import Chain, State
 MAX_DWELL_S = 3.0
 """Longest dwell with the cup on the item, or over the bin [s]: the vacuum's 35 ms
 (`planner.motion.limits`) and the longest extra pause an episode allows (2 s,
-`sim.episode.line_robots.MAX_PAUSE_S`), with room."""
+`sim.config.robots.MAX_PAUSE_S`), with room."""
 
 
 @dataclass(frozen=True)

@@ -82,8 +82,6 @@ from sim.user_cache import cache_dir
 CAMERA_NAME = "belt_camera"
 MARKER_NAMES = ("marker_0", "marker_1", "marker_2", "marker_3")
 DEFAULT_CALIBRATION = CAMERA_CALIBRATION_JSON
-FRAME_SIZE = (640, 360)
-"""The belt camera's frame size by default [px] (an episode config's `[camera]` may change it)."""
 
 
 def camera_name(prefix: str = "") -> str:

@@ -19,9 +19,10 @@ from sim.cell.item_pool import ItemPool
 from sim.cell.items import Items
 from sim.cell.riding import wake_line
 from sim.cell.robots import DESIGN_PAYLOAD_KG, PICK_Z_NOMINAL, RobotView
+from sim.config.plant import CUP_DIAMETER_M, CellSettings
 from sim.errors import InvalidInput
 from sim.flow.catalogue import Catalogue, load_catalogue
-from sim.model.scene_edits import CUP_DIAMETER_M, CellSettings, compile_scene
+from sim.model.scene_edits import compile_scene
 
 __all__ = ["DESIGN_PAYLOAD_KG", "PICK_Z_NOMINAL", "Cell"]
 

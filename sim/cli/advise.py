@@ -105,7 +105,7 @@ def sweep_data(plant: dict, options: dict, seeds: int, name: str) -> dict:
 
 def main(args: argparse.Namespace) -> int:
     """Check everything, run the rounds of seeds, write and print the answer."""
-    from sim.episode import config as episode_config
+    from sim import config as episode_config
     from sim.experiments import sweep_config
 
     plant = episode_config.read_toml(args.config)

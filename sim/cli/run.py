@@ -27,25 +27,10 @@ import struct
 import sys
 from pathlib import Path
 
-from planner.decision.registry import PLANNERS
+from sim.config.options import add_options, load_keywords
 
 SWEEP_FILE = "sweep.json"
 """`sim.experiments.sweep_runner.IDENTITY_FILE`: what marks a sweep's folder."""
-
-# `sim.episode.config.WORLD_NUMBERS`, spelled out so the parser imports no numerics
-# (tests/test_world_variation.py checks they agree).
-WORLD_NUMBERS = (
-    "size_jitter",
-    "crushed_share",
-    "crumpled_share",
-    "folded_share",
-    "hue_jitter_deg",
-    "colour_jitter",
-    "label_share",
-    "min_gap_m",
-    "overlap_share",
-    "overlap_depth_m",
-)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -61,137 +46,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def add_episode_arguments(parser: argparse.ArgumentParser) -> None:
-    """The options that make the episode's config (`load_config`), shared by `sortsim view`."""
+    """The options that make the episode's config (`load_config`), shared by `sortsim view`:
+    `--config` and the config's own (`sim.config.options`)."""
     parser.add_argument(
         "--config",
         type=Path,
         help="TOML file, or a run folder's manifest.json to repeat that run; command-line "
         "options override it",
     )
-    parser.add_argument(
-        "--seed",
-        type=int,
-        default=None,
-        help="the episode's seed, 0..2^63-1: the flow, the world's variation and every random "
-        "draw; the same seed and config give the same CSVs (default 0)",
-    )
-    parser.add_argument(
-        "--items",
-        type=int,
-        default=None,
-        help="items dropped on the belt, 1..20000, at most 30 per metre of belt travel over "
-        "the flow (default 100)",
-    )
-    parser.add_argument(
-        "--items-per-m",
-        type=float,
-        default=None,
-        metavar="N",
-        help="the feed as items per metre of belt, 0.01..30, instead of --items: N x belt "
-        "speed x --duration items, rounded (the config's [infeed] items_per_m)",
-    )
-    parser.add_argument(
-        "--speed-factor",
-        type=float,
-        default=None,
-        help="belt speed over x1 = 0.185 m/s: any factor from 0.73 to 1.5 (0.135..0.277 m/s, "
-        "the conveyor's range; the thesis ran 1, 1.2 and 1.5) (default 1)",
-    )
-    parser.add_argument(
-        "--belt-speed",
-        type=float,
-        default=None,
-        metavar="M/S",
-        help="belt speed in m/s, 0.135..0.277, instead of --speed-factor (the config's [belt] "
-        "speed_mps)",
-    )
-    parser.add_argument(
-        "--planner",
-        default=None,
-        metavar="NAME|module:Class",
-        help=f"decision manager: {' | '.join(PLANNERS)}, or module:Class of your own "
-        "(default qlearning)",
-    )
-    parser.add_argument(
-        "--perception",
-        default=None,
-        choices=["camera", "truth"],
-        help="camera (default): rendered camera frames, items classed by --classifier; truth: "
-        "every item past the camera line where it is, its true class certain (no rendering)",
-    )
-    parser.add_argument(
-        "--classifier",
-        default=None,
-        choices=["fused", "features", "hmm"],
-        help="camera items' class: fused (features x stripe HMMs, default), features, hmm "
-        "(the thesis's path)",
-    )
-    parser.add_argument(
-        "--duration",
-        type=float,
-        default=None,
-        help="seconds over which the items arrive, 1..36000 (default 90)",
-    )
-    parser.add_argument(
-        "--horizon",
-        type=float,
-        default=None,
-        metavar="S",
-        help="end the run at S simulated seconds, 1..36000, counting the items still on the "
-        "belt and those not yet arrived (default: once every item has arrived and left the belt)",
-    )
-    parser.add_argument(
-        "--energy-price",
-        type=float,
-        default=None,
-        metavar="EUR_PER_KWH",
-        help="price of the motors' electrical energy, 0..1e6; > 0: every planner nets it "
-        "(default 0)",
-    )
-    parser.add_argument(
-        "--min-confidence",
-        type=float,
-        default=None,
-        metavar="P",
-        help="leave on the belt an item whose most probable class has a posterior below P, "
-        "0..1; 0: every item may be picked (default: the classifier's own, 0.9 for fused and "
-        "features, 0 for hmm and truth)",
-    )
-    parser.add_argument(
-        "--world",
-        default=None,
-        choices=["varied", "uniform"],
-        help="varied: item sizes, shapes, colours and gaps vary as on a real belt; uniform: "
-        "every item its catalogue type's (default varied; docs/world.md)",
-    )
-    parser.add_argument(
-        "--robots",
-        type=int,
-        default=None,
-        metavar="N",
-        help="IRB 360s in series over the belt, 1-4: a sorting line (default 1; docs/line.md)",
-    )
-    parser.add_argument(
-        "--coordination",
-        default=None,
-        choices=["independent", "coordinated"],
-        help="a line's robots: each on its own, or the upstream one leaving what a downstream "
-        "one can take (default coordinated)",
-    )
-    parser.add_argument(
-        "--catalogue",
-        default=None,
-        metavar="TOML",
-        help="item catalogue: its materials (one bin each), values and item types "
-        "(default sim/data/items.toml: paper, plastic, aluminium; docs/materials.md)",
-    )
-    for name in WORLD_NUMBERS:
-        parser.add_argument(
-            "--" + name.replace("_", "-"),
-            type=float,
-            default=None,
-            help=f"override the world preset's {name} (its range: docs/settings.md; docs/world.md)",
-        )
+    add_options(parser)
 
 
 class Progress:
@@ -624,30 +487,11 @@ ONE_OF = (("--speed-factor", "--belt-speed"), ("--items", "--items-per-m"))
 def load_config(args: argparse.Namespace):
     """The episode's validated config: `--config`'s TOML with the options given applied (an
     option in one unit replaces the file's setting in the other)."""
-    from sim.episode import config as episode_config
+    from sim import config as episode_config
     from sim.errors import InvalidInput
 
     for pair in ONE_OF:
         given = [o for o in pair if getattr(args, o[2:].replace("-", "_")) is not None]
         if len(given) > 1:
             raise InvalidInput(pair[1], f"one of {' or '.join(pair)}, not both", None)
-    return episode_config.load(
-        args.config,
-        seed=args.seed,
-        items=args.items,
-        items_per_m=args.items_per_m,
-        speed_factor=args.speed_factor,
-        belt_speed_mps=args.belt_speed,
-        horizon_s=args.horizon,
-        planner=args.planner,
-        perception=args.perception,
-        duration_s=args.duration,
-        energy_price_eur_per_kwh=args.energy_price,
-        min_class_confidence=args.min_confidence,
-        classifier=args.classifier,
-        world=args.world,
-        catalogue=args.catalogue,
-        robots=args.robots,
-        coordination=args.coordination,
-        **{name: getattr(args, name) for name in WORLD_NUMBERS},
-    )
+    return episode_config.load(args.config, **load_keywords(args))

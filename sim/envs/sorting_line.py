@@ -31,8 +31,8 @@ import gymnasium as gym
 import numpy as np
 
 from planner.decision.slot_features import N_FEATURES, bounds, choice_for, observe, slot_candidates
+from sim import config as episode_config
 from sim.envs.actions import check_invalid_action, slot_of
-from sim.episode import config as episode_config
 from sim.episode.loop import Episode
 from sim.episode.runner import config_cell
 from sim.errors import InvalidInput

@@ -18,8 +18,8 @@ from sim.cell.cell import PICK_Z_NOMINAL, Cell
 from sim.cell.depth_noise import ZED_CLASS
 from sim.cell.riding import ItemRiding
 from sim.cell.suction import SuctionConfig
+from sim.config import EpisodeConfig
 from sim.episode import item_checks
-from sim.episode.config import EpisodeConfig
 from sim.episode.cycle_timing import cell_cycle_model
 from sim.episode.infeed import Infeed
 from sim.episode.parts import EpisodeParts, StepClock, Timeline, Timings

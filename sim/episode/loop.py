@@ -29,9 +29,9 @@ from planner.decision.interface import Choice, DecisionContext, RobotState, Trac
 from planner.decision.registry import ask_manager
 from sim.cell.cell import Cell
 from sim.cell.riding import PlannedPath
+from sim.config import EpisodeConfig
 from sim.episode import builder, chunks, item_checks, stations
 from sim.episode.builder import make_decision_manager
-from sim.episode.config import EpisodeConfig
 from sim.episode.overlay import overlay_of
 from sim.episode.parts import SETTLE_S, EpisodeParts
 from sim.episode.pick_control import PickController

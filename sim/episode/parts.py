@@ -21,7 +21,7 @@ import numpy as np
 from sim.cell.cell import Cell
 from sim.cell.held_slots import held_slots
 from sim.cell.riding import ItemRiding
-from sim.episode.config import EpisodeConfig
+from sim.config import EpisodeConfig
 from sim.episode.infeed import Infeed
 from sim.episode.stations import Offers, RobotStation
 from sim.flow.config import X_INFEED

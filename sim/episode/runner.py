@@ -21,11 +21,11 @@ import time
 from dataclasses import dataclass, field
 
 from sim.cell.cell import Cell
-from sim.episode.config import EpisodeConfig
+from sim.config import EpisodeConfig
+from sim.config.plant import CellSettings
 from sim.episode.loop import Episode, make_decision_manager
 from sim.episode.parts import EpisodeParts
 from sim.errors import InvalidInput
-from sim.model.scene_edits import CellSettings
 from sim.results.code_digest import code_digest
 from sim.results.economics import ECONOMICS_COLUMNS, per_hour_columns
 

@@ -38,7 +38,7 @@ HELD_OUT = (
 
 def _started_picks(spec):
     """(belt speed [m/s], started picks) of one truth episode."""
-    from sim.episode.config import EpisodeConfig
+    from sim.config import EpisodeConfig
     from sim.episode.loop import Episode
     from sim.episode.runner import shared_cell
 

@@ -37,7 +37,7 @@ import numpy as np
 
 import sim.episode.item_checks as item_checks_module
 import sim.sensing.perception as perception_module
-from sim.episode import config as episode_config
+from sim import config as episode_config
 from sim.episode.loop import Episode
 from sim.episode.runner import config_cell
 from sim.flow.config import BELT_HALF_WIDTH, X_CAMERA

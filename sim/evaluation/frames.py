@@ -42,7 +42,7 @@ import numpy as np
 
 from sim.cell.camera import CAMERA_NAME
 from sim.cell.depth_noise import ZED_CLASS
-from sim.episode.config import EpisodeConfig
+from sim.config import EpisodeConfig
 from sim.episode.runner import Cell, Episode, config_cell
 from sim.errors import InvalidInput
 from sim.monitors.visibility import VisibilityWatch

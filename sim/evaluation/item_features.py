@@ -36,8 +36,9 @@ from perception.items.features import N_FEATURES
 from sim.cell.depth_noise import ZED_CLASS, StereoDepthNoise
 from sim.evaluation.flow_replay import FlowReplay
 from sim.flow.catalogue import load_catalogue
-from sim.flow.config import LINE_MAX_ITEMS_PER_METRE, FlowConfig
+from sim.flow.config import FlowConfig
 from sim.flow.ground_truth import flow_rows
+from sim.flow.limits import LINE_MAX_ITEMS_PER_METRE
 from sim.sensing.item_classifier import (
     CUSTOM_SPEED_FACTORS,
     CUSTOM_TRAIN_SEEDS,

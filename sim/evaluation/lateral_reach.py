@@ -29,7 +29,7 @@ def window_summary(width_m: float) -> dict[str, object]:
     y = 0 and at |y| = 0.55 m (0 where it does not reach), and the bins' release points
     (x, y, z) [m] by material."""
     from sim.cell.cell import Cell
-    from sim.model.scene_edits import CellSettings
+    from sim.config.plant import CellSettings
 
     cell = Cell(settings=CellSettings(belt_width_m=width_m))
     robot = cell.robots[0]
@@ -58,7 +58,7 @@ def band_outcomes(
     width_m: float, seeds, items: int, duration_s: float, perception: str, planner: str
 ) -> tuple[np.ndarray, np.ndarray, int, int]:
     """(entered per band, not picked per band, missed, dropped) over the seeds' episodes."""
-    from sim.episode import config as episode_config
+    from sim import config as episode_config
     from sim.episode.runner import run_episode
     from sim.flow.generator import generate_flow
 

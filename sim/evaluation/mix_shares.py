@@ -52,7 +52,7 @@ def shares(mix: list[float] | None, items: int, seeds) -> np.ndarray:
     Returns:
         (seeds, materials) shares.
     """
-    from sim.episode import config as episode_config
+    from sim import config as episode_config
     from sim.flow.config import FlowConfig
 
     probe = episode_config.EpisodeConfig()
@@ -81,7 +81,7 @@ def _counts(flow, n_materials: int) -> np.ndarray:
 
 def main(argv: list[str] | None = None) -> int:
     """Print the measured shares against the mix."""
-    from sim.episode import config as episode_config
+    from sim import config as episode_config
 
     parser = argparse.ArgumentParser(prog="python -m sim.evaluation.mix_shares")
     parser.add_argument("--mix", type=float, nargs=3, default=None, metavar="SHARE")

@@ -32,7 +32,7 @@ import numpy as np
 
 from perception.items.scoring import SEGMENT_KINDS, SegmentScore, pooled_segments
 from perception.items.split import SplitSettings
-from sim.episode import config as episode_config
+from sim import config as episode_config
 from sim.episode.loop import Episode
 from sim.episode.runner import config_cell
 from sim.evaluation.segmentation_eval import (

@@ -29,7 +29,7 @@ and about four fifths of what the cheapest item earns."""
 
 
 def _episode(args: tuple[int, str, float]) -> tuple[dict, list[dict]]:
-    from sim.episode import config
+    from sim import config
     from sim.episode.runner import run_episode
 
     seed, planner, price = args

@@ -4,14 +4,16 @@ meaning.
     python -m sim.experiments.settings_doc            # writes docs/settings.md
     python -m sim.experiments.settings_doc --check    # exit 1 if the file is not up to date
 
-Nothing is written by hand: the keys are the fields of `sim.episode.config.EpisodeConfig` and
-of its sections (`_SECTIONS`: `[video]`, `[camera]`, ...; the robots' `RobotSpec`), the defaults
-those dataclasses' (the world's numbers: the `varied` and `uniform` presets'), the ranges what
-the config's own validation answers when the key is given a value it refuses (each refusal's
-"allowed" text: the range cannot drift from the checks), the meanings the comments of the
-config module's TOML layout (top-level keys) or the section dataclasses' `Attributes:`
-docstrings, and the units the `[unit]` those texts give, else the key's suffix (`_s`, `_m`,
-`_pa`, ...). `tests/test_settings_doc.py` checks that the committed file is the generated one.
+Nothing is written by hand: the keys are the fields of the config's schema (`sim.config`:
+`EpisodeSettings`' top-level keys, its tables `SECTIONS`: `[video]`, `[camera]`, ...; the robots'
+`RobotSpec` and the old `[robot]` section, `sim.config.migration`), the defaults those
+dataclasses' (the world's numbers: the `varied` and `uniform` presets'), the ranges each field's
+`Setting` (`sim.config.fields`), else what the config's own validation answers when the key is
+given a value it refuses (each refusal's "allowed" text: the range cannot drift from the
+checks), the meanings the comments of the config's TOML layout (`sim.config`'s docstring, for
+the top-level keys) or the dataclasses' `Attributes:` docstrings, and the units the `Setting`'s
+`unit`, else the `[unit]` those texts give, else the key's suffix (`_s`, `_m`, `_pa`, ...).
+`tests/test_settings_doc.py` checks that the committed file is the generated one.
 """
 
 from __future__ import annotations
@@ -24,14 +26,19 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from sim.episode import config as episode_config
-from sim.episode.line_robots import RobotSpec
+import sim.config
+from sim.config import migration
+from sim.config.episode import SCALARS, SECTIONS, EpisodeConfig
+from sim.config.fields import SETTING, Setting
+from sim.config.loading import from_dict
+from sim.config.plant import CUP_DIAMETER_M, LINE_CUP_DIAMETER_M
+from sim.config.robots import SECTION_KEYS, RobotSpec
+from sim.config.settings import ITEM_CLASSIFIER_MIN_CONFIDENCE, WORLD_NUMBERS
+from sim.config.values import Values
 from sim.errors import InvalidInput
 from sim.flow.feed_rate import FEED_KEYS
 from sim.flow.world import WorldVariation
-from sim.model.scene_edits import CUP_DIAMETER_M, LINE_CUP_DIAMETER_M
 from sim.paths import REPO_ROOT
-from sim.sensing.confidence import ITEM_CLASSIFIER_MIN_CONFIDENCE
 
 OUT = REPO_ROOT / "docs" / "settings.md"
 PROBES = (-1e30, "\0?", [-1e30])
@@ -70,7 +77,7 @@ UNSET = {
 def default_mix() -> str:
     """The default flow's material shares: the stationary distribution of its transitions,
     what long flows carry (`EpisodeConfig.material_shares`)."""
-    config = episode_config.EpisodeConfig()
+    config = EpisodeConfig()
     shares = ", ".join(
         f"{n} {s:.3f}" for n, s in zip(config.materials.names, config.material_shares, strict=True)
     )
@@ -96,7 +103,7 @@ SECTION_TEXT = {
 
 
 @dataclasses.dataclass(frozen=True)
-class Setting:
+class Row:
     """One key of the episode config, as the settings reference lists it."""
 
     key: str
@@ -124,11 +131,11 @@ def _toml(value: Any) -> str:
 
 
 def layout_comments() -> dict[str, str]:
-    """{top-level key: its comment} from the config module's TOML layout (the docstring's
+    """{top-level key: its comment} from the config's TOML layout (`sim.config`'s docstring's
     block before its first table), continuation lines joined."""
     out: dict[str, str] = {}
     key = None
-    for line in (episode_config.__doc__ or "").splitlines():
+    for line in (sim.config.__doc__ or "").splitlines():
         stripped = line.strip()
         if stripped.startswith("["):
             if key is not None:
@@ -167,12 +174,22 @@ def attribute_docs(cls: type) -> dict[str, str]:
     return out
 
 
+def allowed_of(field: dataclasses.Field, data: dict[str, Any], key: str) -> str:
+    """What the config allows for `key`: its `Setting`'s words when it checks them itself,
+    else what its refusal says (`refusal`)."""
+    spec: Setting | None = field.metadata.get(SETTING)
+    checked_here = spec is not None and (spec.range is None or not spec.range.checked_by)
+    if checked_here and spec.allowed:
+        return spec.allowed
+    return refusal(data, key)
+
+
 def refusal(data: dict[str, Any], field: str) -> str:
     """What the config allows for `field`: the "allowed" text of its refusal of the first of
     `PROBES` it refuses (`data` builds the config with `{PROBE}` in place of the value)."""
     for probe in PROBES:
         try:
-            episode_config.from_dict(_put(data, probe))
+            from_dict(_put(data, probe))
         except InvalidInput as exc:
             if exc.field.split("[")[0] == field.split("[")[0] or exc.field == field:
                 return exc.allowed
@@ -189,8 +206,12 @@ def _put(data: Any, probe: Any) -> Any:
     return data
 
 
-def unit_of(key: str, *texts: str) -> str:
-    """The unit a key's texts give in brackets, else its suffix's, else '-'."""
+def unit_of(key: str, *texts: str, field: dataclasses.Field | None = None) -> str:
+    """The unit of a key: its `Setting`'s, else the one its texts give in brackets, else its
+    suffix's, else '-'."""
+    spec = field.metadata.get(SETTING) if field is not None else None
+    if spec is not None and spec.unit:
+        return spec.unit
     for text in texts:
         match = UNIT.search(text or "")
         if match:
@@ -202,15 +223,15 @@ def unit_of(key: str, *texts: str) -> str:
     return "-"
 
 
-def _scalars() -> list[Setting]:
+def _scalars() -> list[Row]:
     comments = layout_comments()
     world = attribute_docs(WorldVariation)
     varied, uniform = WorldVariation(), WorldVariation.uniform()
-    defaults = episode_config.EpisodeConfig.__dataclass_fields__
+    defaults = EpisodeConfig.__dataclass_fields__
     out = []
-    for name in sorted(episode_config._SCALARS, key=list(defaults).index):
+    for name in SCALARS:
         field = defaults[name]
-        if name in episode_config.WORLD_NUMBERS:
+        if name in WORLD_NUMBERS:
             a, b = getattr(varied, name), getattr(uniform, name)
             default = f"the world's: {_toml(a)} (varied), {_toml(b)} (uniform)"
             meaning = world.get(name, comments.get(name, ""))
@@ -223,12 +244,13 @@ def _scalars() -> list[Setting]:
         else:
             default = UNSET[name] if field.default is None else _toml(field.default)
             meaning = comments.get(name) or UNCOMMENTED.get(name, "")
-        allowed = refusal({name: ...}, name)
-        out.append(Setting(name, default, allowed, unit_of(name, meaning, allowed), meaning))
+        allowed = allowed_of(field, {name: ...}, name)
+        unit = unit_of(name, meaning, allowed, field=field)
+        out.append(Row(name, default, allowed, unit, meaning))
     return out
 
 
-def _section(name: str, cls: type) -> list[Setting]:
+def _section(name: str, cls: type) -> list[Row]:
     docs = attribute_docs(cls)
     out = []
     for field in dataclasses.fields(cls):
@@ -240,15 +262,16 @@ def _section(name: str, cls: type) -> list[Setting]:
         if default is None:
             default_text = UNSET.get(key, "the default mix (thesis's)")
             default_text = default_mix() if key == "flow.mix" else default_text
-        allowed = refusal({name: {field.name: ...}}, key)
+        allowed = allowed_of(field, {name: {field.name: ...}}, key)
         meaning = docs.get(field.name, "")
-        out.append(Setting(key, default_text, allowed, unit_of(key, meaning, allowed), meaning))
+        unit = unit_of(key, meaning, allowed, field=field)
+        out.append(Row(key, default_text, allowed, unit, meaning))
     return out
 
 
-def _values() -> list[Setting]:
-    doc = " ".join((inspect.getdoc(episode_config.Values) or "").split("Attributes:")[0].split())
-    prices = episode_config.EpisodeConfig().values.given()
+def _values() -> list[Row]:
+    doc = " ".join((inspect.getdoc(Values) or "").split("Attributes:")[0].split())
+    prices = EpisodeConfig().values.given()
     default = ", ".join(f"{k} {v:g}" for k, v in prices.items())
     allowed = refusal({"values": {"paper": ...}}, "values.paper")
     per_kg = refusal({"values": {"per_kg": {"paper": ...}}}, "values.per_kg.paper")
@@ -258,12 +281,12 @@ def _values() -> list[Setting]:
         "item is valued per item."
     )
     return [
-        Setting("values.<material or item type>", default, allowed, "EUR", doc),
-        Setting("values.per_kg.<material or item type>", "unset", per_kg, "EUR/kg", meaning),
+        Row("values.<material or item type>", default, allowed, "EUR", doc),
+        Row("values.per_kg.<material or item type>", "unset", per_kg, "EUR/kg", meaning),
     ]
 
 
-def _robots() -> list[Setting]:
+def _robots() -> list[Row]:
     docs = attribute_docs(RobotSpec)
     out = []
     spec = RobotSpec()
@@ -277,19 +300,23 @@ def _robots() -> list[Setting]:
             allowed = refusal({"robots": [{name: ...}]}, f"robots.{name}")
         meaning = docs.get(name, "")
         out.append(
-            Setting(f"[[robots]] {name}", text, allowed, unit_of(name, meaning, allowed), meaning)
+            Row(f"[[robots]] {name}", text, allowed, unit_of(name, meaning, allowed), meaning)
         )
-        if name in ("pick_pause_s", "place_pause_s", "idle_sleep"):
-            allowed = refusal({"robot": {name: ...}}, f"robot.{name}")
-            meaning = f"Every robot's default of `[[robots]] {name}` (a table's own key wins)."
-            out.append(Setting(f"robot.{name}", text, allowed, unit_of(name, allowed), meaning))
+        if name in SECTION_KEYS:
+            key = f"{migration.SECTION}.{name}"
+            allowed = refusal({migration.SECTION: {name: ...}}, key)
+            meaning = (
+                f"An old file's every robot's default of `[[robots]] {name}` (a table's own "
+                "key wins; read by `sim.config.migration`)."
+            )
+            out.append(Row(key, text, allowed, unit_of(name, allowed), meaning))
     return out
 
 
-def settings() -> list[tuple[str, list[Setting]]]:
+def settings() -> list[tuple[str, list[Row]]]:
     """The settings reference's tables: (heading, settings) per part of the config."""
     parts = [("Top-level keys", _scalars()), ("[values]", _values())]
-    for name, cls in episode_config._SECTIONS.items():
+    for name, cls in SECTIONS.items():
         if name != "values":
             parts.append((f"[{name}]", _section(name, cls)))
     parts.append(("[robot] and [[robots]]", _robots()))
@@ -301,13 +328,13 @@ def markdown() -> str:
     lines = [
         "# Episode settings reference",
         "",
-        f"Generated from `sim/episode/config.py` by `{REGENERATE}` (do not edit by hand; "
-        "`tests/test_settings_doc.py` checks the file is up to date). Every key a config file "
-        "(`sortsim run --config FILE`, a sweep's `[base]` and `[[variants]]`) may hold; "
-        "command-line options override them (`sortsim run --help`). *Allowed* is what the "
+        f"Generated from the config's schema (`sim/config/`) by `{REGENERATE}` (do not edit "
+        "by hand; `tests/test_settings_doc.py` checks the file is up to date). Every key a "
+        "config file (`sortsim run --config FILE`, a sweep's `[base]` and `[[variants]]`) may "
+        "hold; command-line options override them (`sortsim run --help`). *Allowed* is what the "
         "config's validation answers when it refuses a value (so it cannot drift from the "
         "checks); a refused value stops the command with that line before anything runs "
-        "(exit code 2). The layout of a file, with examples, is in `sim/episode/config.py`'s "
+        "(exit code 2). The layout of a file, with examples, is in `sim/config/__init__.py`'s "
         "docstring; `docs/episode.md` says what the settings change.",
         "",
     ]

@@ -21,12 +21,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from planner.decision.line_coordination import COORDINATIONS
-from sim.episode import config as episode_config
-from sim.episode.config import EpisodeConfig
+from planner.decision.registry import COORDINATIONS
+from sim import config as episode_config
+from sim.config import EpisodeConfig
 from sim.episode.loop import Episode
 from sim.episode.runner import config_cell
-from sim.flow.config import LINE_MAX_ITEMS_PER_METRE, MAX_ITEMS_PER_METRE
+from sim.flow.limits import LINE_MAX_ITEMS_PER_METRE, MAX_ITEMS_PER_METRE
 
 PLANNERS = ("qlearning", "proximity", "fifo", "greedy")
 SPEED_FACTORS = (1.0, 1.2, 1.5)

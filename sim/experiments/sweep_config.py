@@ -45,25 +45,19 @@ from pathlib import Path
 from typing import Any
 
 from sim.checks import check, is_integer
-from sim.episode import config as episode_config
-from sim.episode.config import EpisodeConfig, read_toml
-from sim.episode.line_robots import MAX_ROBOTS, SECTION_KEYS, resized_tables
+from sim.config.episode import SECTIONS, EpisodeConfig
+from sim.config.fields import Range, check_keys, setting, validate
+from sim.config.loading import from_dict as episode_from_dict
+from sim.config.loading import read_toml
+from sim.config.plant import CUP_DIAMETER_M, MAX_ROBOTS
+from sim.config.robots import SECTION_KEYS, resized_tables
+from sim.config.sections import InfeedRate
+from sim.config.settings import WORLD_NUMBERS
 from sim.errors import InvalidInput
 from sim.flow.feed_rate import FEED_KEYS
-from sim.model.scene_edits import CUP_DIAMETER_M
+from sim.flow.limits import BELT_WIDTH_M
 from sim.results import outputs
 
-_SWEEP_KEYS = {
-    "name",
-    "table",
-    "speed_factors",
-    "belt_speeds_mps",
-    "items",
-    "planners",
-    "seeds",
-    "seed_offset",
-    "duration_s_by_items",
-}
 _TOP_KEYS = {"sweep", "base", "variants"}
 _GRID_FIELDS = ("speed_factor", "items", "planner", "seed")
 VARIANT_PREFIX = "variant."
@@ -149,7 +143,7 @@ def variant_values(spec: EpisodeSpec, keys: tuple[str, ...]) -> dict[str, Any]:
         value: Any = settings
         for part in key.split("."):
             value = value.get(part) if isinstance(value, dict) else None
-        if value is None and key in episode_config.WORLD_NUMBERS:
+        if value is None and key in WORLD_NUMBERS:
             value = getattr(spec.config.world_variation, key)
         out[VARIANT_PREFIX + key] = value
     return out
@@ -211,6 +205,39 @@ def _tables(value: object) -> bool:
     return isinstance(value, list) and bool(value) and all(isinstance(t, dict) for t in value)
 
 
+@dataclass(frozen=True)
+class SweepTable:
+    """The `[sweep]` table's keys (the layout: module docstring); the axes are lists, checked
+    where the grid is built, every grid point by the episode's schema."""
+
+    name: object = None
+    table: object = None
+    speed_factors: object = None
+    belt_speeds_mps: object = None
+    items: object = None
+    planners: object = None
+    seeds: object = 1
+    seed_offset: int = setting(0, range=Range(0, 2**63 - 1, "an integer >= 0", integer=True))
+    duration_s_by_items: object = None
+
+
+@dataclass(frozen=True)
+class _Axes:
+    """The grid's axes, outermost first, and the flow's durations by item count."""
+
+    variants: list[dict[str, Any]]
+    planners: list
+    speeds: list[dict]
+    item_counts: list
+    seeds: list
+    by_items: dict
+
+    def size(self) -> tuple[int, str]:
+        lengths = [len(a) for a in (self.variants, self.planners, self.speeds)]
+        lengths += [len(self.item_counts), len(self.seeds)]
+        return math.prod(lengths), " x ".join(str(n) for n in lengths)
+
+
 def _list(sweep: dict[str, Any], key: str, default: list, where: str) -> list:
     value = sweep.get(key, default)
     if not isinstance(value, list) or not value:
@@ -221,80 +248,23 @@ def _list(sweep: dict[str, Any], key: str, default: list, where: str) -> list:
 def _seeds(sweep: dict[str, Any], where: str) -> list[int]:
     seeds = sweep.get("seeds", 1)
     offset = sweep.get("seed_offset", 0)
-    check(is_integer(offset) and offset >= 0, "sweep.seed_offset", "an integer >= 0", offset, where)
+    validate(SweepTable(seed_offset=offset), "sweep.", where)
     if is_integer(seeds):
         check(1 <= seeds <= 100000, "sweep.seeds", "1..100000 or a list of seeds", seeds, where)
         return list(range(offset, offset + seeds))
     return _list(sweep, "seeds", [], where)
 
 
-def from_dict(data: dict[str, Any], where: str) -> SweepConfig:  # noqa: C901, PLR0912, PLR0915
+def from_dict(data: dict[str, Any], where: str) -> SweepConfig:
     """A `SweepConfig` from a parsed TOML dict; every episode config validated."""
-    for key in data:
-        if key not in _TOP_KEYS:
-            raise InvalidInput(key, "one of " + ", ".join(sorted(_TOP_KEYS)), None, where)
-    sweep = data.get("sweep", {})
-    base = data.get("base", {})
-    variants = data.get("variants", [{"name": "base"}])
-    if not isinstance(sweep, dict) or not isinstance(base, dict):
-        raise InvalidInput("sweep/base", "TOML tables [sweep] and [base]", None, where)
-    for key in sweep:
-        if key not in _SWEEP_KEYS:
-            raise InvalidInput(
-                f"sweep.{key}", "one of " + ", ".join(sorted(_SWEEP_KEYS)), None, where
-            )
-    for key in _GRID_FIELDS:
-        if key in base:
-            raise InvalidInput(f"base.{key}", "set in [sweep] (it is a grid axis)", None, where)
-    speeds = _speed_axis(sweep, base, where)
-    by_items = sweep.get("duration_s_by_items", {})
-    if not isinstance(by_items, dict):
-        raise InvalidInput("sweep.duration_s_by_items", "a table items = seconds", by_items, where)
-    if not isinstance(variants, list) or not all(isinstance(v, dict) for v in variants):
-        raise InvalidInput("variants", "an array of tables [[variants]]", None, where)
-    names = [v.get("name", "") for v in variants]
-    if not all(isinstance(n, str) and n for n in names) or len(set(names)) != len(names):
-        raise InvalidInput("variants.name", "a unique, non-empty name per variant", names, where)
-    planners = _list(sweep, "planners", ["qlearning"], where)
-    item_counts = _list(sweep, "items", [100], where)
-    if "items" not in sweep and _section_key(base, "infeed", *FEED_KEYS):
-        item_counts = [None]  # the base's feed rate gives the count
-    seeds = _seeds(sweep, where)
-    axes = (variants, planners, speeds, item_counts, seeds)
-    size = math.prod(len(a) for a in axes)
-    if size > MAX_EPISODES:
-        sizes = " x ".join(str(len(a)) for a in axes)
-        allowed = (
-            f"at most {MAX_EPISODES} episodes (variants x planners x speed_factors x items x seeds)"
-        )
-        raise InvalidInput("sweep", allowed, f"{sizes} = {size}", where)
-    unknown = [k for k in by_items if k not in {str(n) for n in item_counts}]
-    if unknown:
-        allowed = "item counts of sweep.items"
-        raise InvalidInput("sweep.duration_s_by_items", allowed, unknown, where)
-    episodes, points = [], []
-    for variant in variants:
-        over = {k: v for k, v in variant.items() if k != "name"}
-        for planner in planners:
-            for speed in speeds:
-                for items in item_counts:
-                    point = {"planner": planner, **speed}
-                    if items is not None:
-                        point["items"] = items
-                    if str(items) in by_items:
-                        point["duration_s"] = by_items[str(items)]
-                    merged = _merge(_merge(base, over), point)
-                    first = None
-                    for seed in seeds:
-                        config = _grid_point(merged, seed, variant["name"], where, first)
-                        episodes.append(EpisodeSpec(variant=variant["name"], config=config))
-                        first = first or config
-                    points.append(_resolved(variant["name"], first))
+    sweep, base = _sweep_and_base(data, where)
+    axes = _axes(sweep, base, data.get("variants", [{"name": "base"}]), where)
+    episodes, points = _grid(base, axes, where)
     keys = [e.key for e in episodes]
     if len(set(keys)) != len(keys):
         raise InvalidInput("sweep", "grid axes without repeated values", None, where)
-    variant_keys = []
-    for variant in variants:
+    variant_keys: list[str] = []
+    for variant in axes.variants:
         for key in _dotted({k: v for k, v in variant.items() if k != "name"}):
             if key not in variant_keys:
                 variant_keys.append(key)
@@ -311,6 +281,75 @@ def from_dict(data: dict[str, Any], where: str) -> SweepConfig:  # noqa: C901, P
         identity=hashlib.sha256("\n".join(sorted(points)).encode()).hexdigest()[:16],
         variant_keys=tuple(variant_keys),
     )
+
+
+def _sweep_and_base(data: dict[str, Any], where: str) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The `[sweep]` and `[base]` tables, their keys checked (a grid axis is not a base key)."""
+    for key in data:
+        if key not in _TOP_KEYS:
+            raise InvalidInput(key, "one of " + ", ".join(sorted(_TOP_KEYS)), None, where)
+    sweep = data.get("sweep", {})
+    base = data.get("base", {})
+    if not isinstance(sweep, dict) or not isinstance(base, dict):
+        raise InvalidInput("sweep/base", "TOML tables [sweep] and [base]", None, where)
+    check_keys(SweepTable, sweep, "sweep.", where)
+    for key in _GRID_FIELDS:
+        if key in base:
+            raise InvalidInput(f"base.{key}", "set in [sweep] (it is a grid axis)", None, where)
+    return sweep, base
+
+
+def _axes(sweep: dict[str, Any], base: dict[str, Any], variants: object, where: str) -> _Axes:
+    """The grid's axes of the `[sweep]` table, its size at most `MAX_EPISODES`."""
+    speeds = _speed_axis(sweep, base, where)
+    by_items = sweep.get("duration_s_by_items", {})
+    if not isinstance(by_items, dict):
+        raise InvalidInput("sweep.duration_s_by_items", "a table items = seconds", by_items, where)
+    if not isinstance(variants, list) or not all(isinstance(v, dict) for v in variants):
+        raise InvalidInput("variants", "an array of tables [[variants]]", None, where)
+    names = [v.get("name", "") for v in variants]
+    if not all(isinstance(n, str) and n for n in names) or len(set(names)) != len(names):
+        raise InvalidInput("variants.name", "a unique, non-empty name per variant", names, where)
+    planners = _list(sweep, "planners", ["qlearning"], where)
+    item_counts = _list(sweep, "items", [100], where)
+    if "items" not in sweep and _section_key(base, "infeed", *FEED_KEYS):
+        item_counts = [None]  # the base's feed rate gives the count
+    axes = _Axes(variants, planners, speeds, item_counts, _seeds(sweep, where), by_items)
+    size, sizes = axes.size()
+    if size > MAX_EPISODES:
+        allowed = (
+            f"at most {MAX_EPISODES} episodes (variants x planners x speed_factors x items x seeds)"
+        )
+        raise InvalidInput("sweep", allowed, f"{sizes} = {size}", where)
+    unknown = [k for k in by_items if k not in {str(n) for n in item_counts}]
+    if unknown:
+        allowed = "item counts of sweep.items"
+        raise InvalidInput("sweep.duration_s_by_items", allowed, unknown, where)
+    return axes
+
+
+def _grid(base: dict[str, Any], axes: _Axes, where: str) -> tuple[list[EpisodeSpec], list[str]]:
+    """Every episode of the grid, its config validated by the episode's schema, and each grid
+    point's resolved config (seeds aside) for the identity."""
+    episodes, points = [], []
+    for variant in axes.variants:
+        over = {k: v for k, v in variant.items() if k != "name"}
+        for planner in axes.planners:
+            for speed in axes.speeds:
+                for items in axes.item_counts:
+                    point = {"planner": planner, **speed}
+                    if items is not None:
+                        point["items"] = items
+                    if str(items) in axes.by_items:
+                        point["duration_s"] = axes.by_items[str(items)]
+                    merged = _merge(_merge(base, over), point)
+                    first = None
+                    for seed in axes.seeds:
+                        config = _grid_point(merged, seed, variant["name"], where, first)
+                        episodes.append(EpisodeSpec(variant=variant["name"], config=config))
+                        first = first or config
+                    points.append(_resolved(variant["name"], first))
+    return episodes, points
 
 
 def _speed_axis(sweep: dict[str, Any], base: dict[str, Any], where: str) -> list[dict]:
@@ -345,7 +384,7 @@ def _grid_point(
     try:
         if like is not None:
             return like.replace(seed=seed)
-        return episode_config.from_dict({**merged, "seed": seed}, where)
+        return episode_from_dict({**merged, "seed": seed}, where)
     except InvalidInput as exc:
         belt = merged.get("belt")
         speed_mps = belt.get("speed_mps") if isinstance(belt, dict) else None
@@ -367,13 +406,13 @@ def _grid_point(
         raise InvalidInput(exc.field, exc.allowed, exc.got, at) from None
 
 
-LATER_TABLE_KEYS = {"belt": {"speed_mps": None, "width_m": episode_config.BELT_WIDTH_M}}
+LATER_TABLE_KEYS = {"belt": {"speed_mps": None, "width_m": BELT_WIDTH_M}}
 """Keys added to a table after sweeps were first identified, with the value of before: left
 out of their table at it (so of the identity too, below)."""
 LATER_KEYS = {
     "min_class_confidence": 0.0,
     "world": "uniform",
-    **{name: None for name in episode_config.WORLD_NUMBERS},
+    **{name: None for name in WORLD_NUMBERS},
     "classifier": "hmm",
     "depth_noise": False,
     "catalogue": "",
@@ -381,12 +420,12 @@ LATER_KEYS = {
     "robots": 1,
     "coordination": "coordinated",
     **{
-        name: dataclasses.asdict(episode_config._SECTIONS[name]())
+        name: dataclasses.asdict(SECTIONS[name]())
         for name in ("camera", "cup", "belt", "hmm", "economics")
     },
 }
 LATER_KEYS["belt"] = {**LATER_KEYS["belt"], "infeed_hold": False}  # no hold before it existed
-LATER_KEYS |= {"horizon_s": None, "infeed": dataclasses.asdict(episode_config.InfeedRate())}
+LATER_KEYS |= {"horizon_s": None, "infeed": dataclasses.asdict(InfeedRate())}
 for _table, _keys in LATER_TABLE_KEYS.items():
     LATER_KEYS[_table] = {k: v for k, v in LATER_KEYS[_table].items() if k not in _keys}
 LATER_KEYS["cup"] = {**LATER_KEYS["cup"], "diameter_m": CUP_DIAMETER_M}  # a line's cup was 60 mm

@@ -22,6 +22,7 @@ import numpy as np
 from perception.codes import COLOURS, THESIS_MATERIALS, Materials
 from sim.checks import is_finite_number
 from sim.errors import InvalidInput
+from sim.flow.limits import MASS_RANGE_KG
 from sim.paths import DATA_DIR
 
 MATERIALS = THESIS_MATERIALS.names
@@ -37,11 +38,6 @@ FAMILIES = ("box", "cylinder_standing", "cylinder_lying", "capsule_lying")
 HALF_SIZE_RANGE_M = (0.001, 0.5)
 """An item's half-sizes (a cylinder's radius and half-height, ...) [m]: from 1 mm (a 2 mm sheet,
 as thin as its contacts stay well conditioned at the 1 ms step) to 0.5 m."""
-MASS_RANGE_KG = (1e-4, 3.0)
-"""An item's mass [kg]: from 0.1 g (with the smallest size, an inertia of ~1e-10 kg m^2, far
-above MuJoCo's mjMINVAL of 1e-15, under which a body is refused) to the robot's rated 3 kg
-payload. The default cup holds 226 N (60 mm at 80 kPa): a 1 kg item is picked, a 3 kg one
-seals and is lost to the pick's accelerations (it rides on, missed)."""
 FRICTION_RANGES = ((0.05, 2.0), (0.0, 0.05), (0.0, 0.01))
 """MuJoCo's (sliding, torsional [m], rolling [m]) friction of an item on the belt. Sliding: 0
 carries nothing (the items slide off the belt's end), and past about 3 the contact solver

@@ -20,15 +20,15 @@ from planner.motion.belt_speeds import SPEED_TOLERANCE_MPS
 from planner.motion.belt_speeds import SPEED_X1_MPS as BELT_SPEED_X1_MPS
 from sim.checks import is_finite_in
 from sim.errors import InvalidInput
+from sim.flow.limits import (
+    BELT_HALF_WIDTH,
+    BELT_WIDTH_M,
+    BELT_WIDTH_RANGE_M,
+    BELT_X_RANGE,
+    MAX_ITEMS_PER_METRE,
+)
 from sim.flow.world import WorldVariation
 
-BELT_HALF_WIDTH = 0.4
-BELT_WIDTH_M = 2 * BELT_HALF_WIDTH
-"""The thesis's belt width [m]: the scene's belt (`models/cell/scene.xml`) and the default."""
-BELT_WIDTH_RANGE_M = (0.4, 1.2)
-"""Belt widths accepted [m]: 0.4 m (a narrow picking belt) to 1.2 m (wider than the IRB 360's
-1.13 m working circle: its outer edges are out of the robot's reach)."""
-BELT_X_RANGE = (-3.0, 1.5)
 X_INFEED = -2.75
 X_CAMERA = -1.48
 X_DISCHARGE = BELT_X_RANGE[1]
@@ -36,11 +36,6 @@ OBSERVATION_PERIOD_S = 0.5
 N_STRIPES = 5
 STRIPE_WIDTH = 2 * BELT_HALF_WIDTH / N_STRIPES
 ITEM_CLASSES = (2, 3, 4)
-# The densest thesis flows carry about 11 items per metre of belt (400 items in ~190 s and
-# 3000 items in 25 min at x1); we allow up to 12 and size the item pool for that.
-MAX_ITEMS_PER_METRE = 12.0
-LINE_MAX_ITEMS_PER_METRE = 30.0
-"""The densest belt a line of several robots takes (its pool has `LINE_POOL_SIZE` bodies)."""
 # x1.5 = 0.2775 m/s is the conveyor's top speed of 0.277 m/s, rounded.
 _SPEED_SLACK_MPS = SPEED_TOLERANCE_MPS + 1e-12  # the belt's own check, to the bit
 

@@ -21,28 +21,12 @@ from perception.codes import COLOURS
 from sim.checks import check, is_finite_in
 from sim.errors import InvalidInput
 from sim.flow.catalogue import Catalogue
+from sim.flow.limits import WORLD_LIMITS
 
-MAX_SIZE_JITTER = 0.3
-"""Largest size jitter accepted: factors stay within 0.7..1.3."""
-MAX_OVERLAP_DEPTH_M = 0.05
 LABEL_COLOURS = ("white", "blue", "red", "green")
 """Colours a printed label may have (opaque inks; never the item's own nominal colour)."""
 UNIFORM_GAP_M = 0.005
 """The uniform world's clearance between items [m]."""
-WORLD_LIMITS = {
-    "size_jitter": MAX_SIZE_JITTER,
-    "crushed_share": 1.0,
-    "crumpled_share": 1.0,
-    "folded_share": 1.0,
-    "hue_jitter_deg": 30.0,
-    "colour_jitter": 0.5,
-    "label_share": 1.0,
-    "min_gap_m": 0.05,
-    "overlap_share": 1.0,
-    "overlap_depth_m": MAX_OVERLAP_DEPTH_M,
-}
-"""Each setting's largest value (every one's smallest is 0); crumpled_share + folded_share
-<= 1 besides."""
 
 
 def _share(field: str, value: object, high: float = 1.0) -> float:

@@ -62,23 +62,18 @@ import numpy as np
 
 from perception.codes import THESIS_MATERIALS
 from sim.checks import is_finite_number, is_integer
+from sim.config.plant import (
+    DISCHARGE_PAST_LAST_M,
+    MAX_LAST_X_M,
+    MAX_ROBOTS,
+    MIN_SPACING_M,
+    CellSettings,
+)
 from sim.errors import InvalidInput
 from sim.flow.config import BELT_X_RANGE, X_CAMERA
-from sim.model.scene_edits import (
-    BELT_LENGTH_RANGE_M,
-    CellSettings,
-    set_belt_length,
-    set_cup_diameter,
-)
+from sim.model.scene_edits import set_belt_length, set_cup_diameter
 from sim.paths import ROBOT_XML, SCENE_XML
 
-MAX_ROBOTS = 4
-MIN_SPACING_M = 1.8
-"""Least distance between neighbouring robots [m]: the scene's cage length (posts at +-0.9 m)."""
-DISCHARGE_PAST_LAST_M = BELT_X_RANGE[1]
-"""The belt runs this far past the last robot [m], as the scene's past its robot at x = 0."""
-MAX_LAST_X_M = BELT_X_RANGE[0] + BELT_LENGTH_RANGE_M[1] - DISCHARGE_PAST_LAST_M
-"""Farthest position of the last robot [m]: the longest belt accepted ends 1.5 m past it."""
 CAGE_GEOMS = (
     *(f"cage_post_{e}_{s}" for e in ("upstream", "downstream") for s in ("left", "right")),
     *(f"cage_beam_{s}" for s in ("left", "right", "upstream", "downstream")),
@@ -361,7 +356,7 @@ def _add_camera(spec: mujoco.MjSpec, prefix: str, x_line: float) -> None:
 
 LINE_POOL_SIZE = 160
 """Item bodies of a line of several robots: a line exists to serve belts one robot cannot clear
-(`sim.flow.config.LINE_MAX_ITEMS_PER_METRE`)."""
+(`sim.flow.limits.LINE_MAX_ITEMS_PER_METRE`)."""
 
 
 def _scene_with_pool(pool_size: int, folder: Path) -> Path:

@@ -1,10 +1,10 @@
 """The cell's physical settings that change its compiled model, applied to `models/cell/scene.xml`.
 
-`CellSettings` holds what a user may vary in the model itself: the vacuum cup's diameter and
-the belt's length and width. The defaults are the scene file's own numbers, and a cell with default
-settings is compiled from the file as it is (`compile_scene`), so its model is the file's to
-the bit. Any other value is written into the file's `MjSpec` before it is compiled, by pure
-functions `(spec, value) -> None` that find the elements by name:
+`CellSettings` (`sim.config.plant`) holds what a user may vary in the model itself: the vacuum
+cup's diameter and the belt's length and width. The defaults are the scene file's own numbers,
+and a cell with default settings is compiled from the file as it is (`compile_scene`), so its
+model is the file's to the bit. Any other value is written into the file's `MjSpec` before it
+is compiled, by pure functions `(spec, value) -> None` that find the elements by name:
 
 - `set_cup_diameter`: the cup's lip (`cup_collision`, the geom that seals, `sim.cell.suction`)
   and its bellows (`cup_bellows`, drawn, keeping its overhang over the lip). The cup link's
@@ -31,81 +31,19 @@ discarded that much later (`sim.episode.loop`).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from sim.checks import is_finite_in
-from sim.errors import InvalidInput
-from sim.flow.config import BELT_WIDTH_M, BELT_WIDTH_RANGE_M
+from sim.config.plant import CellSettings
 from sim.paths import SCENE_XML
 
 if TYPE_CHECKING:
     import mujoco
 
-CUP_DIAMETER_M = 0.06
-"""The scene's cup: `cup_collision`'s radius 0.03 m (`tests/test_cell_settings.py` checks it)."""
-LINE_CUP_DIAMETER_M = 0.05
-"""A line's cup by default (two robots or more; `default_cup_diameter_m`): the 60 mm cup cannot
-seal on the narrowest items of the varied world (crumpled paper scraps 29-31 mm wide), and a
-line exists to pick every item (docs/line.md, "Every item")."""
-CUP_DIAMETER_RANGE_M = (0.02, 0.12)
-"""Cup diameters accepted [m]: 20 mm (the smallest bellows cups of a picker) to 120 mm (wider
-than most items the catalogue holds: their outline must carry the lip)."""
-
-
-def default_cup_diameter_m(robots: int) -> float:
-    """The cup's diameter [m] when the config gives none: the single cell's 60 mm (its figures
-    were measured with it) for one robot, `LINE_CUP_DIAMETER_M` for a line of two or more."""
-    return LINE_CUP_DIAMETER_M if robots >= 2 else CUP_DIAMETER_M
-
-
-BELT_LENGTH_M = 4.5
-"""The scene's belt: `belt`'s half length 2.25 m, from x = -3.0 m to the discharge at +1.5 m."""
-BELT_LENGTH_RANGE_M = (4.0, 20.0)
-"""Belt lengths accepted [m]. At 4 m the discharge is at x = +1.0 m: an unpicked item is
-discarded once its centre passes 0.77 m (the robot's reach ends at 0.62 m, `sim.episode.loop`)
-and the largest item reaches 0.21 m beyond its centre, so none tips over the end before. 20 m:
-a long sorting line."""
 LEG_SPACING_M = 2.4
 """Longest gap between the belt's leg pairs (the scene's middle and discharge legs) [m]."""
 _BELT_RUN = ("belt", "belt_frame", "rail_left", "rail_right")
 _DISCHARGE_LEGS = ("belt_leg_discharge_left", "belt_leg_discharge_right")
 _MIDDLE_LEGS = ("belt_leg_middle_left", "belt_leg_middle_right")
-
-
-@dataclass(frozen=True)
-class CellSettings:
-    """What changes the compiled cell; hashable, so compiled cells are cached by it.
-
-    Attributes:
-        cup_diameter_m: Diameter of the vacuum cup's lip [m].
-        belt_length_m: Length of the belt, infeed (x = -3.0 m) to discharge [m].
-        belt_width_m: Width of the belt [m] (`BELT_WIDTH_RANGE_M`).
-    """
-
-    cup_diameter_m: float = CUP_DIAMETER_M
-    belt_length_m: float = BELT_LENGTH_M
-    belt_width_m: float = BELT_WIDTH_M
-
-    def __post_init__(self) -> None:
-        lo, hi = CUP_DIAMETER_RANGE_M
-        if not is_finite_in(self.cup_diameter_m, lo, hi):
-            raise InvalidInput("cup.diameter_m", f"{lo}..{hi} m", self.cup_diameter_m)
-        lo, hi = BELT_LENGTH_RANGE_M
-        if not is_finite_in(self.belt_length_m, lo, hi):
-            raise InvalidInput("belt.length_m", f"{lo}..{hi} m", self.belt_length_m)
-        lo, hi = BELT_WIDTH_RANGE_M
-        if not is_finite_in(self.belt_width_m, lo, hi):
-            raise InvalidInput("belt.width_m", f"{lo}..{hi} m", self.belt_width_m)
-        # 0.06 and 0.060000000001 compile alike: one cache key per model.
-        object.__setattr__(self, "cup_diameter_m", float(self.cup_diameter_m))
-        object.__setattr__(self, "belt_length_m", float(self.belt_length_m))
-        object.__setattr__(self, "belt_width_m", float(self.belt_width_m))
-
-    @property
-    def is_default(self) -> bool:
-        """Whether these are the scene file's own numbers."""
-        return self == CellSettings()
 
 
 def set_cup_diameter(spec: mujoco.MjSpec, diameter_m: float, *, prefix: str = "") -> None:

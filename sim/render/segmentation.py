@@ -38,14 +38,9 @@ import mujoco
 import numpy as np
 
 from perception.camera.lens import ZED_HD_LEFT, LensModel, source_canvas
-from sim.cell.camera import (
-    CAMERA_NAME,
-    FRAME_SIZE,
-    SceneRenderer,
-    camera_id,
-    true_camera_matrix,
-)
+from sim.cell.camera import CAMERA_NAME, SceneRenderer, camera_id, true_camera_matrix
 from sim.cell.item_pool import ItemPool
+from sim.config.plant import FRAME_SIZE
 from sim.errors import InvalidInput
 
 NO_ITEM = -1

@@ -21,6 +21,8 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 
+from sim.config.sections import robot_cost_per_h
+
 SECONDS_PER_HOUR = 3600.0
 ECONOMICS_COLUMNS = (
     "robot_capital_eur",
@@ -30,24 +32,6 @@ ECONOMICS_COLUMNS = (
 )
 """The `[economics]` settings each episodes.csv row carries (its energy price has its column
 already: `energy_price_eur_per_kwh`)."""
-
-
-def robot_cost_per_h(
-    capital_eur: float, life_years: float, hours_per_year: float, maintenance_eur_per_year: float
-) -> float:
-    """One robot's cost per running hour: its capital written off straight-line over its life's
-    running hours (no interest), plus its maintenance over the year's hours.
-
-    Args:
-        capital_eur: Capital cost, installed [EUR].
-        life_years: Years it is written off over [years].
-        hours_per_year: Hours the line runs a year [h].
-        maintenance_eur_per_year: Maintenance a year [EUR].
-
-    Returns:
-        EUR per hour.
-    """
-    return capital_eur / (life_years * hours_per_year) + maintenance_eur_per_year / hours_per_year
 
 
 def payback_years(

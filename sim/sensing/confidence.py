@@ -2,14 +2,15 @@
 
 A plant would rather let an item ride on to the residue line than risk contaminating a bin:
 a tracked item whose most probable material (paper, plastic or aluminium) has a posterior
-probability below `min_class_confidence` (`sim.episode.config`) is not offered to the decision
+probability below `min_class_confidence` (`sim.config`) is not offered to the decision
 manager. The episode applies the rule in one place, where it builds the tracked items every
 decision manager chooses among (`sim.episode.stations.Offers.items`), so every planner
 (and any agent stepping the episode) sees the same filtered items. At a threshold of 0 nothing
 is held back. Tracks held back until they leave the tracker are counted in `left_unsure`
 (`sim.results.metrics`).
 
-The threshold a config leaves unset is its classifier's own (`default_min_confidence`): 0.9 for
+The threshold a config leaves unset is its classifier's own
+(`sim.config.settings.default_min_confidence`): 0.9 for
 the item classifier's modes (`fused`, `features`), chosen from the classifier's cross-validation
 on its own training table (`python -m sim.evaluation.item_classifier_cv`: at 0.9 it leaves 0.6 %
 of the right items and offers under half of the wrong ones), and 0 for the stripe HMMs alone
@@ -22,31 +23,6 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 
 from planner.decision.interface import TrackedItem
-
-ITEM_CLASSIFIER_MIN_CONFIDENCE = 0.9
-"""The threshold of the item classifier's modes (`fused`, `features`) when a config sets none."""
-
-_DEFAULT_BY_CLASSIFIER = {
-    "fused": ITEM_CLASSIFIER_MIN_CONFIDENCE,
-    "features": ITEM_CLASSIFIER_MIN_CONFIDENCE,
-    "hmm": 0.0,
-}
-
-
-def default_min_confidence(perception: str, classifier: str) -> float:
-    """The confidence rule's threshold of an episode whose config sets none.
-
-    Args:
-        perception: "camera" | "truth".
-        classifier: The camera's item classifier: "fused" | "features" | "hmm".
-
-    Returns:
-        A probability in [0, 1]: `ITEM_CLASSIFIER_MIN_CONFIDENCE` for the camera's item
-        classifier modes, 0 (every item offered) for the HMMs alone and for truth.
-    """
-    if perception != "camera":
-        return 0.0
-    return _DEFAULT_BY_CLASSIFIER[classifier]
 
 
 def top_class_probability(class_probs: Sequence[float]) -> float:

@@ -37,8 +37,8 @@ from perception.items.blobs import item_blobs
 from perception.items.classifier import CLASSIFIER_MODES, combine
 from perception.items.features import item_features
 from perception.items.split import SplitSettings
-from sim.cell.camera import FRAME_SIZE
 from sim.cell.depth_noise import ZED_CLASS, StereoDepthNoise
+from sim.config.plant import FRAME_SIZE
 from sim.errors import InvalidInput
 from sim.flow.config import BELT_WIDTH_M, X_CAMERA
 from sim.paths import REPO_ROOT

@@ -30,10 +30,10 @@ from pathlib import Path
 from typing import Any
 
 from planner.motion.belt_speeds import SPEED_X1_MPS
+from sim.config.plant import default_cup_diameter_m
 from sim.errors import InvalidInput
 from sim.experiments.reporting.stats import number
 from sim.flow.config import BELT_WIDTH_M
-from sim.model.scene_edits import default_cup_diameter_m
 from sim.results.economics import ECONOMICS_COLUMNS
 
 ROW_CONFIG = "@config"

@@ -12,40 +12,38 @@ config file gives them in any of three forms, which can be combined:
     [[robots]]
     x_m = 2.0
 
-    [robot]                             # the defaults of every robot above (the form of before
-    pick_pause_s = 0.0                  # the per-robot keys; a [[robots]] table's own key wins)
-    place_pause_s = 0.0
-    idle_sleep = true
 
 `x_m` is given for every robot or for none (then 0, 1.8, 3.6, ... m); given, the robots keep
 the line model's rules (`sim.model.line_model.LineLayout`): the first at x >= 0, each at least
 `MIN_SPACING_M` past the one before, the last at most `MAX_LAST_X_M`. `materials` names the
 catalogue's materials, each once; every material must be sorted by at least one robot. A robot
 keeps one bin per material of the catalogue whatever it sorts. Each refusal is one line naming
-the field (`robots[1].materials`, `robot.pick_pause_s` for the `[robot]` section) and what is
-allowed (`InvalidInput`).
+the field (`robots[1].materials`) and what is allowed (`InvalidInput`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from perception.codes import Materials
-from sim.checks import check, is_finite_number, is_integer, is_number
+from sim.checks import check, is_finite_number, is_integer
+from sim.config.fields import Range, setting, validate
+from sim.config.plant import MAX_LAST_X_M, MAX_ROBOTS, MIN_SPACING_M
 from sim.errors import InvalidInput
 
-MAX_ROBOTS = 4
-"""Most robots of a line (`sim.model.line_model.MAX_ROBOTS`)."""
+if TYPE_CHECKING:
+    from perception.codes import Materials
+
 SECTION_KEYS = ("pick_pause_s", "place_pause_s", "idle_sleep")
-"""The keys every robot has a value of: the old `[robot]` section's, each robot's default."""
+"""The keys every robot has a value of (an old file's `[robot]` section gave every robot's)."""
 ROBOT_KEYS = ("x_m", "materials", *SECTION_KEYS)
 """The keys of one robot's `[[robots]]` table."""
 MAX_PAUSE_S = 2.0
 """Longest extra dwell at the pick or the place [s]."""
 _PREFIX = "robots."
 _COUNT_OR_TABLES = f"1..{MAX_ROBOTS} robots, or an array of 1..{MAX_ROBOTS} [[robots]] tables"
+_PAUSE = Range(0.0, MAX_PAUSE_S, f"0..{MAX_PAUSE_S:g} s")
 
 
 @dataclass(frozen=True)
@@ -66,23 +64,20 @@ class RobotSpec:
             (`sim.cell.idle_sleep`); False: the physics to the bit as before the setting.
     """
 
-    x_m: float | None = None
+    x_m: float | None = setting(
+        range=Range(0.0, MAX_LAST_X_M, f"0..{MAX_LAST_X_M:g} m", checked_by=__name__)
+    )
     materials: tuple[str, ...] | None = None
-    pick_pause_s: float = 0.0
-    place_pause_s: float = 0.0
-    idle_sleep: bool = True
+    pick_pause_s: float = setting(0.0, range=_PAUSE)
+    place_pause_s: float = setting(0.0, range=_PAUSE)
+    idle_sleep: bool = setting(True, boolean=True)
 
     def __post_init__(self) -> None:
         x = self.x_m
         check(x is None or is_finite_number(x), f"{_PREFIX}x_m", "a number [m]", x)
         if x is not None:
             object.__setattr__(self, "x_m", float(x))
-        for name in ("pick_pause_s", "place_pause_s"):
-            v = getattr(self, name)
-            ok = is_number(v) and 0.0 <= v <= MAX_PAUSE_S
-            check(ok, f"{_PREFIX}{name}", f"0..{MAX_PAUSE_S:g} s", v)
-        v = self.idle_sleep
-        check(isinstance(v, bool), f"{_PREFIX}idle_sleep", "true | false", v)
+        validate(self, _PREFIX)
         names = self.materials
         if names is None:
             return
@@ -117,66 +112,24 @@ class RobotSpec:
 
 
 def check_count(value: object, where: str | None) -> int:
-    """`value` as a robot count (`robots = N`), refused unless an int in 1..`MAX_ROBOTS`.
-
-    Args:
-        value: The count as given.
-        where: The file it came from, if any.
-
-    Returns:
-        The count.
-    """
+    """`value` as a robot count (`robots = N`), refused unless an int in 1..`MAX_ROBOTS`."""
     ok = is_integer(value) and 1 <= value <= MAX_ROBOTS
     check(ok, "robots", f"1..{MAX_ROBOTS}", value, where)
     return value
 
 
-def _named(exc: InvalidInput, prefix: str, where: str | None) -> InvalidInput:
+def named(exc: InvalidInput, prefix: str, where: str | None) -> InvalidInput:
     """`exc` naming its field after `prefix` (`robots[1].`, `robot.`) instead of `robots.`."""
     field = exc.field.replace(_PREFIX, prefix, 1)
     return InvalidInput(field, exc.allowed, exc.got, exc.where or where)
 
 
-def robot_section(value: object, where: str | None) -> dict[str, Any]:
-    """The old `[robot]` section: its keys and values checked, naming `robot.<key>`.
-
-    Args:
-        value: The section as parsed (a TOML table).
-        where: The file it came from, if any.
-
-    Returns:
-        The section's keys and values (each robot's defaults).
-    """
-    check(isinstance(value, dict), "robot", "a table [robot]", value, where)
-    allowed = "one of " + ", ".join(sorted(SECTION_KEYS))
-    for key in value:
-        check(key in SECTION_KEYS, f"robot.{key}", allowed, None, where)
-    try:
-        RobotSpec(**value)
-    except InvalidInput as exc:
-        raise _named(exc, "robot.", where) from None
-    return dict(value)
-
-
-def robot_specs(
-    value: object, defaults: Mapping[str, Any] | None = None, where: str | None = None
-) -> tuple[RobotSpec, ...]:
+def robot_specs(value: object, where: str | None = None) -> tuple[RobotSpec, ...]:
     """The robots of a config's `robots` key: a count (`robots = N`: N robots at the default
     spacing) or an array of `[[robots]]` tables, each table's keys and types checked; the
-    line's rules are `check_robots`'.
-
-    Args:
-        value: The count or the array of tables as parsed.
-        defaults: Every robot's values of `SECTION_KEYS` not in its own table (the `[robot]`
-            section, already checked by `robot_section`); None: the `RobotSpec` defaults.
-        where: The file it came from, if any.
-
-    Returns:
-        The robots, upstream first.
-    """
-    defaults = dict(defaults or {})
+    line's rules are `check_robots`'. Returns the robots, upstream first."""
     if not isinstance(value, list | tuple):
-        return (RobotSpec(**defaults),) * check_count(value, where)
+        return (RobotSpec(),) * check_count(value, where)
     check(1 <= len(value) <= MAX_ROBOTS, "robots", _COUNT_OR_TABLES, value, where)
     specs = []
     for index, table in enumerate(value):
@@ -186,39 +139,23 @@ def robot_specs(
             allowed = "one of " + ", ".join(ROBOT_KEYS)
             check(key in ROBOT_KEYS, f"robots[{index}].{key}", allowed, None, where)
         try:
-            specs.append(RobotSpec(**(defaults | table)))
+            specs.append(RobotSpec(**table))
         except InvalidInput as exc:
-            raise _named(exc, f"robots[{index}].", where) from None
+            raise named(exc, f"robots[{index}].", where) from None
     return tuple(specs)
 
 
 def resized(specs: Sequence[RobotSpec], n: int) -> tuple[RobotSpec, ...]:
     """`n` robots at the default spacing sorting every material, keeping the pauses: robot k
     takes robot k's values of `SECTION_KEYS`, a robot past the last takes the last's (what
-    `--robots N` and a sweep's `robots = N` do to robots given one by one).
-
-    Args:
-        specs: The robots before (at least one).
-        n: How many robots after (1..`MAX_ROBOTS`).
-
-    Returns:
-        The `n` robots.
-    """
+    `--robots N` and a sweep's `robots = N` do to robots given one by one)."""
     return tuple(RobotSpec(**specs[min(k, len(specs) - 1)].section()) for k in range(n))
 
 
 def resized_tables(tables: Sequence[object], n: int) -> list[dict[str, Any]]:
     """`resized` on `[[robots]]` tables as parsed (a sweep's base under a variant's count):
-    robot k keeps only table k's keys of `SECTION_KEYS` (the last table's past the last).
-
-    Args:
-        tables: The tables before (at least one); a non-table entry gives no keys (it is
-            refused where it is read, if it is kept).
-        n: How many robots after.
-
-    Returns:
-        `n` tables.
-    """
+    robot k keeps only table k's keys of `SECTION_KEYS` (the last table's past the last; a
+    non-table entry gives no keys: it is refused where it is read, if it is kept)."""
     out = []
     for k in range(n):
         table = tables[min(k, len(tables) - 1)]
@@ -228,13 +165,8 @@ def resized_tables(tables: Sequence[object], n: int) -> list[dict[str, Any]]:
 
 
 def check_robots(specs: Sequence[RobotSpec], materials: Materials, where: str | None) -> None:
-    """Refuse robots that break the line's rules (module docstring), naming the field.
-
-    Args:
-        specs: The robots, upstream first.
-        materials: The catalogue's materials (the names `materials` may hold).
-        where: The file they came from, if any.
-    """
+    """Refuse robots (upstream first) that break the line's rules (module docstring) or name
+    a material not of the catalogue's `materials`, naming the field and the file `where`."""
     for index, spec in enumerate(specs):
         ok = isinstance(spec, RobotSpec)
         check(ok, f"robots[{index}]", "a table of " + ", ".join(ROBOT_KEYS), spec, where)
@@ -252,8 +184,6 @@ def check_robots(specs: Sequence[RobotSpec], materials: Materials, where: str | 
 
 def _check_positions(specs: Sequence[RobotSpec], where: str | None) -> None:
     """The robots' `x_m`: all given or none; given, the line model's spacing rules."""
-    from sim.model.line_model import MAX_LAST_X_M, MIN_SPACING_M
-
     given = [spec.x_m is not None for spec in specs]
     if not any(given):
         return
