@@ -149,6 +149,7 @@ def pick_place_waypoints(
 
 def _seal_end(descend: Waypoint) -> State:
     """State at the end of the seal: the contact point carried on at the belt's velocity."""
+    assert descend.velocity is not None  # the descent rides with the belt
     return State(descend.position + descend.velocity * descend.dwell, descend.velocity)
 
 
