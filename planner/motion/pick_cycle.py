@@ -360,7 +360,7 @@ def plan_pick_place(
 
 
 def cycle1_waypoints(
-    a_xyz: Sequence[float],
+    a_xyz: Sequence[float] | np.ndarray,
     across: float = 0.305,
     height: float = 0.025,
     axis4_turn: float = np.pi / 2.0,
@@ -398,7 +398,7 @@ def cycle1_waypoints(
 
 
 def plan_cycle1(
-    a_xyz: Sequence[float], generator: RuckigTrajectoryGenerator, blend: bool = True
+    a_xyz: Sequence[float] | np.ndarray, generator: RuckigTrajectoryGenerator, blend: bool = True
 ) -> Chain:
     """ABB's Cycle 1 starting at rest at A with axis 4 at 0 (see `cycle1_waypoints`), its
     corners searched on the fine grids (it is planned once)."""

@@ -79,6 +79,7 @@ Accounting identities, true of every finished episode (`accounting_failures` che
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 from perception.codes import ALUMINIUM, PAPER, PLASTIC, THESIS_MATERIALS, Materials
 from sim.monitors.energy import JOULES_PER_KWH
@@ -110,7 +111,7 @@ class PickRecord:
     sealed: bool = True  # False: the cup never sealed, it carried no item (not in picks.csv)
     robot: int = 0  # the robot of a line that made the attempt (0 upstream)
 
-    def row(self, materials: Materials = THESIS_MATERIALS) -> dict[str, object]:
+    def row(self, materials: Materials = THESIS_MATERIALS) -> dict[str, Any]:
         """The picks.csv row of this attempt (class names those of `materials`)."""
         return {
             "t_start_s": self.t_start_s,
@@ -309,7 +310,7 @@ class EpisodeMetrics:
         """Pick attempts whose cup never sealed."""
         return sum(1 for p in self.picks if not p.sealed)
 
-    def row(self) -> dict[str, object]:
+    def row(self) -> dict[str, Any]:
         """The episode's counters as episodes.csv columns (config and timing added by caller)."""
         n_in = self.n_entered
         cycles = [p.t_end_s - p.t_start_s for p in self.picks if p.success]
@@ -351,7 +352,7 @@ class EpisodeMetrics:
             "mass_recovered_kg": sum(mass[i] for i in sorted(own)),
         }
 
-    def robot_row(self, robot: int, sim_s: float, energy_elec_j: float) -> dict[str, object]:
+    def robot_row(self, robot: int, sim_s: float, energy_elec_j: float) -> dict[str, Any]:
         """A line's columns of one robot (`robot<k>_...`): its items binned, binned per minute,
         utilisation (the share of the episode its picks took, from start to release) and its
         motors' electrical energy [J]."""
@@ -366,9 +367,9 @@ class EpisodeMetrics:
             key + "energy_elec_j": float(energy_elec_j),
         }
 
-    def quality_row(self) -> dict[str, object]:
+    def quality_row(self) -> dict[str, Any]:
         """The sorting-quality columns (purity and recovery are None where undefined)."""
-        row: dict[str, object] = {}
+        row: dict[str, Any] = {}
         for c in self.materials.ids:
             row[f"purity_{self.materials.name_of(c)}"] = self.purity(c)
         for c in self.materials.ids:
@@ -427,7 +428,7 @@ class EpisodeMetrics:
             fails.append("accuracy != picked / entered")
         return fails + self._quality_failures(row) + self._visibility_failures(row)
 
-    def _visibility_failures(self, row: dict[str, object]) -> list[str]:
+    def _visibility_failures(self, row: dict[str, Any]) -> list[str]:
         """The identities of `never_visible` that do not hold."""
         fails = []
         unknown = self.passed_camera - self.entered_ids
@@ -438,7 +439,7 @@ class EpisodeMetrics:
             fails.append(f"never_visible {never_visible} outside 0..{row['entered']}")
         return fails
 
-    def _quality_failures(self, row: dict[str, object]) -> list[str]:
+    def _quality_failures(self, row: dict[str, Any]) -> list[str]:
         """The sorting-quality identities of the module docstring that do not hold."""
         fails = []
         own = row["picked"] - row["wrong_bin"]
@@ -470,7 +471,7 @@ class EpisodeMetrics:
             fails.append(f"never_detected {row['never_detected']} outside 0..{row['entered']}")
         return fails
 
-    def pick_rows(self) -> list[dict[str, object]]:
+    def pick_rows(self) -> list[dict[str, Any]]:
         """picks.csv rows, in the order the attempts started."""
         rows = sorted(self.picks, key=lambda p: (p.t_start_s, p.item_id))
         return [p.row(self.materials) for p in rows]
