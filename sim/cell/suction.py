@@ -142,9 +142,8 @@ class SuctionCup:
         # (F_n + F_t / mu <= |F| (1 + 1 / mu)), with a margin for the rounding [N].
         self._safe_force = self._budget / (1.0 + 1.0 / self.config.lip_friction) * (1.0 - 1e-9)
         self._parts: tuple[int, int, int, float, int] | None = None  # `_held_parts`' last
-        self._data_views: tuple | None = (
-            None  # views of the data's arrays read every step (`_views`)
-        )
+        # Views of the data's arrays read every step (`_views`).
+        self._data_views: tuple | None = None
 
     @property
     def area(self) -> float:
