@@ -79,11 +79,14 @@ Accounting identities, true of every finished episode (`accounting_failures` che
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from perception.codes import ALUMINIUM, PAPER, PLASTIC, THESIS_MATERIALS, Materials
 from sim.monitors.energy import JOULES_PER_KWH
 from sim.monitors.visibility import VISIBLE_SHARE
+
+if TYPE_CHECKING:
+    from sim.monitors.thrown import Throw
 
 ITEM_CLASSES = (PAPER, PLASTIC, ALUMINIUM)
 """The thesis's material classes (a catalogue's materials may be others)."""
@@ -176,7 +179,7 @@ class EpisodeMetrics:
         self.picks: list[PickRecord] = []
         self.thrown_off: set[int] = set()  # items struck or flung off the belt
         # (sim.monitors.thrown.Throw, what the robot was doing)
-        self.throws: list[tuple[object, str]] = []
+        self.throws: list[tuple[Throw, str]] = []
         self.mujoco_warnings = 0  # MuJoCo warnings raised during the episode
         # the same per kind (sim.monitors.mj_warnings)
         self.warning_kinds: dict[str, int] = {}
