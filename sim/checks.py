@@ -13,13 +13,14 @@ pass as 1). `is_number` lets NaN and infinities through, so a range check after 
 from __future__ import annotations
 
 import math
+from typing import TypeGuard
 
 from sim.errors import InvalidInput
 
 __all__ = ["check", "is_finite_in", "is_finite_number", "is_integer", "is_number"]
 
 
-def is_number(value: object) -> bool:
+def is_number(value: object) -> TypeGuard[int | float]:
     """Whether `value` is a real number (an int or a float, not a bool; NaN and inf included).
 
     Args:
@@ -31,7 +32,7 @@ def is_number(value: object) -> bool:
     return isinstance(value, int | float) and not isinstance(value, bool)
 
 
-def is_finite_number(value: object) -> bool:
+def is_finite_number(value: object) -> TypeGuard[int | float]:
     """Whether `value` is a real number (`is_number`) and finite (not NaN, not +-inf).
 
     Args:

@@ -163,13 +163,13 @@ def open_own_file(path: Path | str, field: str):
         problem = "a symbolic link" if os.path.islink(path) else _reason(exc)
         raise InvalidInput(field, _TRUSTED, problem, str(path)) from None
     try:
-        problem = foreign_file_problem(os.fstat(fd))
+        found = foreign_file_problem(os.fstat(fd))
     except BaseException:
         os.close(fd)
         raise
-    if problem is not None:
+    if found is not None:
         os.close(fd)
-        raise InvalidInput(field, _TRUSTED, problem, str(path))
+        raise InvalidInput(field, _TRUSTED, found, str(path))
     return os.fdopen(fd, "rb")
 
 

@@ -154,6 +154,7 @@ class CameraPipeline:
             self.locate(frame)
             return
         self.check_frame(frame)
+        assert self._marker_px is not None  # located together with the view
         r = _MARKER_PATCH_PX
         for index, (u, v) in enumerate(self._marker_px):
             patch = frame[max(v - r, 0) : v + r + 1, max(u - r, 0) : u + r + 1]
@@ -171,6 +172,7 @@ class CameraPipeline:
     def rectify(self, frame: np.ndarray) -> np.ndarray:
         """The top-down image of the belt plane (`plane_z`) of a raw frame."""
         self.check(frame)
+        assert self.rectifier is not None  # made when the belt was located
         return self.rectifier.rectify(frame)
 
     def observe(

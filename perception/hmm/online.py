@@ -88,7 +88,7 @@ class OnlineStripeHmms:
         s, n = models.pi.shape
         self._codes = np.zeros((config.window, s), dtype=np.intp)
         self._predicted = np.zeros((config.window, s, n))
-        self._alpha = None
+        self._alpha: np.ndarray | None = None
         self.rows = 0
 
     def next_prediction(self) -> np.ndarray:

@@ -16,6 +16,7 @@ import os
 import secrets
 import zipfile
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -38,7 +39,7 @@ def save_models(path: Path | str, models: StripeHmms, cells_per_item=None) -> Pa
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp.npz")
     states = models.pi.shape[1]
-    extra = (
+    extra: dict[str, Any] = (
         {} if cells_per_item is None else {"cells_per_item": _cells(cells_per_item, path, states)}
     )
     try:

@@ -19,6 +19,7 @@ expected count as well, so no probability becomes exactly zero during re-estimat
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any, cast
 
 import numpy as np
 
@@ -115,7 +116,9 @@ def count_models(
         prev, nxt = cls[:-1] - 1, cls[1:] - 1
         ctx = neighbour_classes(cls, n_states)[:-1] if coupled else np.ones(prev.shape + (1,))
         for c in range(n_ctx):
-            np.add.at(trans, (stripe[None], c, prev, nxt), ctx[..., c])
+            # numpy's stubs take no int among the index arrays of `ufunc.at`.
+            index = cast(Any, (stripe[None], c, prev, nxt))
+            np.add.at(trans, index, ctx[..., c])
     norm = [m / m.sum(axis=-1, keepdims=True) for m in (pi, trans, emis)]
     return StripeHmms(*norm)
 

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from scipy import ndimage
@@ -160,7 +161,7 @@ def items_kmeans(
     expanded = expand_grid(classes)
     if int(batch_rows) != batch_rows or batch_rows < 1:
         raise PerceptionInputError("batch_rows", "an integer >= 1", batch_rows)
-    items = {"b": [], "y": [], "class_id": [], "confidence": [], "cells": []}
+    items: dict[str, list[Any]] = {"b": [], "y": [], "class_id": [], "confidence": [], "cells": []}
     for start in range(0, expanded.shape[0], int(batch_rows)):
         batch = expanded[start : start + int(batch_rows)]
         for cls in range(2, len(size) + 1):
@@ -184,7 +185,7 @@ def items_components(
 ) -> GridItems:
     """Items as 8-connected regions of one class in the (rows, S) grid (args as items_kmeans)."""
     grid = _classes(classes, None)
-    items = {"b": [], "y": [], "class_id": [], "confidence": [], "cells": []}
+    items: dict[str, list[Any]] = {"b": [], "y": [], "class_id": [], "confidence": [], "cells": []}
     for cls in range(2, int(grid.max(initial=VOID)) + 1):
         labels, count = ndimage.label(grid == cls, structure=np.ones((3, 3)))
         for label in range(1, count + 1):

@@ -57,7 +57,7 @@ def score_items(
     """Score `found` against true centres (b, y) [m], classes and centre cells (row, stripe)."""
     true_b, true_y = np.asarray(true_b, float), np.asarray(true_y, float)
     true_class, true_cells = np.asarray(true_class), np.asarray(true_cells).reshape(-1, 2)
-    owned = [[] for _ in range(len(true_b))]
+    owned: list[list[float]] = [[] for _ in range(len(true_b))]
     spurious = 0
     for k in range(len(found)):
         same = np.flatnonzero(true_class == found.class_id[k])

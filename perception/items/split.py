@@ -135,7 +135,7 @@ def split_region(
     core = occupied
     if height is not None:
         # Each cell's height is its highest pixel's (1-D, one dtype: numpy's fast path).
-        top = np.zeros(shape[0] * shape[1], dtype=np.float32)
+        top: np.ndarray = np.zeros(shape[0] * shape[1], dtype=np.float32)
         np.maximum.at(top, ib * shape[1] + iy, np.asarray(height, np.float32))
         top = top.reshape(shape)
         if settings.height_median_cells > 1:
@@ -308,7 +308,9 @@ def _item_markers(dist: np.ndarray, neck_ratio: float, min_core_cells: float) ->
     """Markers 1..n of the items in a distance transform [cells] (0 elsewhere)."""
     top_level = max(neck_ratio * float(dist.max()), 1.0)
     levels = [lv for lv in LEVELS_CELLS if lv <= top_level]
-    labels, peaks, parents = [], [], []
+    labels: list[np.ndarray] = []
+    peaks: list[np.ndarray] = []
+    parents: list[np.ndarray] = []
     for k, level in enumerate(levels):
         lab, n = ndimage.label(dist >= level, structure=_EIGHT)
         peak = np.zeros(n + 1, dtype=np.float32)

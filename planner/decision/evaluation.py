@@ -23,6 +23,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 
@@ -139,9 +140,9 @@ def extreme_value_picks(
     values and for each class's value raised by `boost` [EUR] (x1 belt speed)."""
     variants = {"normal": THESIS_VALUES}
     for k, code in enumerate(MATERIALS):
-        values = list(THESIS_VALUES)
-        values[k] += boost
-        variants[f"class {code} +{boost:g}"] = tuple(values)
+        raised = list(THESIS_VALUES)
+        raised[k] += boost
+        variants[f"class {code} +{boost:g}"] = cast(tuple[float, float, float], tuple(raised))
     out = {name: np.zeros(3, dtype=int) for name in variants}
     for seed in seeds:
         belt = random_belt(

@@ -16,7 +16,7 @@ one-hot probabilities and the expected value is the class value.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
 from perception.codes import (
@@ -64,6 +64,7 @@ class TrackedItem:
     x: float
     y: float
     class_probs: tuple[float, ...]
+    _bin_class: int = field(init=False, repr=False, compare=False)  # set by __post_init__
 
     def __post_init__(self):
         # Plain Python, not numpy: a line's decisions build about a million of these.

@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 
@@ -125,7 +126,7 @@ def simulate(
     if abs(context.belt_speed - belt.speed) > 1e-12:
         raise PlannerInputError("belt_speed", f"the belt's speed {belt.speed}", context.belt_speed)
     planner.reset()
-    v, t, tcp = belt.speed, 0.0, tuple(start_tcp)
+    v, t, tcp = belt.speed, 0.0, cast(tuple[float, float, float], tuple(start_tcp))
     left = {it.item_id: it for it in belt.items}
     picks, latencies = [], []
     while True:

@@ -211,7 +211,8 @@ class SequenceSearch:
         self.nodes = 0
         self.evaluations = 0
         self._timed: dict[tuple[int, int, float], float | None] = {}
-        self.best_profit, self.best_end, self.best_seq = 0.0, math.inf, ()
+        self.best_seq: tuple[int, ...] = ()
+        self.best_profit, self.best_end = 0.0, math.inf
         # The order's score: its profit less the robot's time at `time_price` [EUR/s]. At a
         # price the empty order is no candidate (the robot is never better off idle).
         self.best_score = 0.0 if self.time_price == 0.0 else -math.inf
@@ -295,6 +296,7 @@ class SequenceSearch:
         """Time the picks of `seq` in order from the start, skipping those that cannot be met,
         finish first in, first out (`complete_in_exit_order`) and offer the result; no pick is
         timed once `evaluations` has reached `limit`."""
+        done: tuple[int, ...]
         where, t, done = 0, self.t0, ()
         for j in seq:
             if limit is not None and self.evaluations >= limit:

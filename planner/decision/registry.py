@@ -77,6 +77,7 @@ def user_class(spec: str) -> type:
             module = sys.modules.get(unique)
             if module is None:
                 loader_spec = importlib.util.spec_from_file_location(unique, path)
+                assert loader_spec is not None and loader_spec.loader is not None  # a .py file
                 module = importlib.util.module_from_spec(loader_spec)
                 sys.modules[unique] = module
                 loader_spec.loader.exec_module(module)
@@ -154,6 +155,7 @@ def make_planner(spec: str, **params):
     Returns:
         A `planner.decision.interface.DecisionManager`.
     """
+    options: tuple[str, ...]
     if is_user_spec(spec):
         cls, options = user_class(spec), ()
     elif spec in _BUILT_IN:

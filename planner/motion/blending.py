@@ -121,7 +121,8 @@ def build_chains(chains, generator: RuckigTrajectoryGenerator) -> list[list | No
     together). A chain with an arrival time past its first waypoint is planned segment after
     segment: those segments' minimum durations follow from the ones before."""
     out: list[list | None] = [None] * len(chains)
-    together, requests = [], []
+    together: list[tuple] = []
+    requests: list[tuple] = []
     for i, (start, waypoints, corners) in enumerate(chains):
         if any(wp.arrival_time is not None for wp in waypoints[1:]):
             out[i] = _try_build(start, waypoints, corners, generator, True)
@@ -359,7 +360,7 @@ def plan_chain(
     else:
         # Without corners the blended chain is the rest-corner chain: built once.
         best, rest = None, build_chains([(start, waypoints, zero)], generator)[0]
-    chains = [c for c in (best, rest) if c is not None]
-    if not chains:
+    built = [c for c in (best, rest) if c is not None]
+    if not built:
         raise PlannerInputError("waypoints", "points the robot can pass within its limits", None)
-    return Chain(min(chains, key=_duration))
+    return Chain(min(built, key=_duration))

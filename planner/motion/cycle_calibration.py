@@ -58,17 +58,17 @@ def draw_samples(
 ) -> Samples:
     """`n` feasible random picks and places planned with ruckig (refused items are redrawn),
     with the pick configuration `config` (heights, times; the default when None)."""
-    rows = []
+    rows: list[tuple] = []
     while len(rows) < n:
         if rng.random() < 0.5:
-            start = np.asarray(bins[rng.integers(len(bins))], dtype=float)
+            start = np.asarray(bins[int(rng.integers(len(bins)))], dtype=float)
         else:
             start = np.array(
                 [rng.uniform(-0.4, 0.4), rng.uniform(-0.4, 0.4), rng.uniform(0.05, 0.2)]
             )
         item = np.array([rng.uniform(-0.45, 0.4), rng.uniform(-0.35, 0.35)])
         speed = float(rng.choice(BELT_SPEEDS))
-        drop = np.asarray(bins[rng.integers(len(bins))], dtype=float)
+        drop = np.asarray(bins[int(rng.integers(len(bins)))], dtype=float)
         try:
             hit = intercept_item(
                 State.at_rest(start), item, speed, drop, generator, model.pick_z, config
@@ -78,6 +78,7 @@ def draw_samples(
         if not hit.feasible:
             continue
         plan = hit.plan
+        assert plan is not None  # planned with the intercept (with_plan)
         rows.append(
             (
                 hit.meet_time,

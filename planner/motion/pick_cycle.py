@@ -149,6 +149,7 @@ def pick_place_waypoints(
 
 def _seal_end(descend: Waypoint) -> State:
     """State at the end of the seal: the contact point carried on at the belt's velocity."""
+    assert descend.velocity is not None  # the descent rides with the belt
     return State(descend.position + descend.velocity * descend.dwell, descend.velocity)
 
 
@@ -359,7 +360,7 @@ def plan_pick_place(
 
 
 def cycle1_waypoints(
-    a_xyz: Sequence[float],
+    a_xyz: Sequence[float] | np.ndarray,
     across: float = 0.305,
     height: float = 0.025,
     axis4_turn: float = np.pi / 2.0,
@@ -397,7 +398,7 @@ def cycle1_waypoints(
 
 
 def plan_cycle1(
-    a_xyz: Sequence[float], generator: RuckigTrajectoryGenerator, blend: bool = True
+    a_xyz: Sequence[float] | np.ndarray, generator: RuckigTrajectoryGenerator, blend: bool = True
 ) -> Chain:
     """ABB's Cycle 1 starting at rest at A with axis 4 at 0 (see `cycle1_waypoints`), its
     corners searched on the fine grids (it is planned once)."""

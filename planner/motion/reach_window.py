@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import bisect
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -32,6 +32,11 @@ class ReachWindow:
     x_entry: np.ndarray
     x_exit: np.ndarray
     pick_z: float = 0.02
+    # Set by __post_init__: the samples as plain lists and the memo of `bounds`.
+    _ys: list[float] = field(init=False, repr=False)
+    _lo: list[float] = field(init=False, repr=False)
+    _hi: list[float] = field(init=False, repr=False)
+    _bounds_at: dict[float, tuple[float, float] | None] = field(init=False, repr=False)
 
     def __post_init__(self):
         y = np.asarray(self.y, dtype=float)

@@ -126,8 +126,12 @@ class RuckigSegment(Segment):
     def sample_xyz(self, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The TCP's positions, velocities and accelerations (N, 3) at `sample_times(dt)`: the
         numbers `sample_states` gives, without axis 4 (the motor checks' samples)."""
-        states = self.states_at(self.sample_times(dt))
-        return tuple(np.ascontiguousarray(s[:, :3]) for s in states)
+        pos, vel, acc = self.states_at(self.sample_times(dt))
+        return (
+            np.ascontiguousarray(pos[:, :3]),
+            np.ascontiguousarray(vel[:, :3]),
+            np.ascontiguousarray(acc[:, :3]),
+        )
 
 
 def motor_speeds(geom: DeltaGeometry, xyz: np.ndarray, vxyz: np.ndarray) -> np.ndarray:
@@ -286,7 +290,7 @@ class RuckigTrajectoryGenerator(TrajectoryGenerator):
         self.last_retimes = job.retimes
         if job.error is not None:
             raise job.error
-        return job.segment
+        return job.planned()
 
     def plan_many(self, requests: Sequence[tuple]) -> list[RuckigSegment | PlannerInputError]:
         """`plan` of several segments, each (start, goal, label, minimum_duration, slow) as
@@ -298,7 +302,7 @@ class RuckigTrajectoryGenerator(TrajectoryGenerator):
             Per request, its segment, or the `PlannerInputError` that `plan` would raise.
         """
         return [
-            job.segment if job.error is None else job.error for job in self._plan_jobs(requests)
+            job.planned() if job.error is None else job.error for job in self._plan_jobs(requests)
         ]
 
     def _plan_jobs(self, requests: Sequence[tuple]) -> list[_Job]:
@@ -312,7 +316,7 @@ class RuckigTrajectoryGenerator(TrajectoryGenerator):
             if not open_:
                 break
             for job, (speed, torque) in zip(
-                open_, self.limit_ratios_of([job.segment for job in open_]), strict=True
+                open_, self.limit_ratios_of([job.planned() for job in open_]), strict=True
             ):
                 if speed <= 1.0 and torque <= 1.0:
                     job.done = True
@@ -363,6 +367,11 @@ class _Job:
     def __post_init__(self):
         self.factor = self.slow
 
+    def planned(self) -> RuckigSegment:
+        """The segment of a job without an error (every such job has one)."""
+        assert self.segment is not None
+        return self.segment
+
 
 def _guarded(slowed, factor: float) -> MotionLimits | PlannerInputError:
     """`slowed(factor)`, or the `PlannerInputError` it raises."""
@@ -397,7 +406,7 @@ def phase_tables_of(traj) -> np.ndarray | None:
     profiles = traj.profiles
     if len(profiles) != 1:
         return None
-    values = []
+    values: list[float] = []
     for p in profiles[0]:
         if p.brake.duration != 0.0 or p.accel.duration != 0.0:
             return None

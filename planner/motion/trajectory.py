@@ -48,7 +48,7 @@ class State:
         object.__setattr__(self, "acceleration", _vec4(self.acceleration, "acceleration"))
 
     @classmethod
-    def at_rest(cls, xyz: Sequence[float], axis4: float = 0.0) -> State:
+    def at_rest(cls, xyz: Sequence[float] | np.ndarray, axis4: float = 0.0) -> State:
         """A state at rest at `xyz` [m] with axis 4 at `axis4` [rad]."""
         return cls(np.array([xyz[0], xyz[1], xyz[2], axis4], dtype=float))
 

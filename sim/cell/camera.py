@@ -601,7 +601,9 @@ class BeltCamera:
     def render_rgbd(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
         """The frame and its registered depth map (height, width) float32 [m along the optical
         axis], as a stereo camera like the ZED delivers them (same lens, same pixels)."""
-        return self._passes.render(data, depth=True)
+        frame, depth = self._passes.render(data, depth=True)
+        assert depth is not None  # asked for
+        return frame, depth
 
     def window(self, rows: slice, cols: slice) -> CameraWindow:
         """The camera reading out only frame rows `rows` and columns `cols` (`CameraWindow`),
@@ -708,7 +710,9 @@ class CameraWindow:
     def render_rgbd(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
         """The window of the frame (rows, cols, 3) uint8 and of its depth map (rows, cols)
         float32 [m along the optical axis] (`BeltCamera.render_rgbd`)."""
-        return self._passes.render(data, depth=True)
+        frame, depth = self._passes.render(data, depth=True)
+        assert depth is not None  # asked for
+        return frame, depth
 
     def close(self) -> None:
         """Nothing to free: the window renders in its camera's renderer."""

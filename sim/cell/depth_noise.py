@@ -22,6 +22,7 @@ centimetre, so a 2 mm sheet cannot be told from the belt by depth alone.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import cast
 
 import cv2
 import numpy as np
@@ -83,7 +84,8 @@ class StereoDepthNoise:
         z = np.asarray(depth, dtype=np.float32)
         valid = np.isfinite(z) & (z > 0.0)
         smooth = rng.standard_normal(z.shape, dtype=np.float32)
-        smooth = cv2.GaussianBlur(smooth, (0, 0), self.correlation_px)
+        # float32 in, float32 out (OpenCV's stubs say any number type).
+        smooth = cast(np.ndarray, cv2.GaussianBlur(smooth, (0, 0), self.correlation_px))
         # A Gaussian blur of unit white noise of sigma s has variance 1 / (4 pi s^2).
         smooth *= np.float32(2.0 * np.sqrt(np.pi) * self.correlation_px)
         white = rng.standard_normal(z.shape, dtype=np.float32)

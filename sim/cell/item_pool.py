@@ -93,7 +93,9 @@ class ItemPool:
 
     def __init__(self, model: mujoco.MjModel, catalogue: Catalogue, belt: Belt):
         self.model, self.catalogue, self.belt = model, catalogue, belt
-        body_ids, geom_ids, grip_ids = [], [], []
+        body_ids: list[int] = []
+        geom_ids: list[list[int]] = []
+        grip_ids: list[int] = []
         while (
             b := mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, f"item_{len(body_ids)}")
         ) >= 0:

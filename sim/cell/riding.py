@@ -377,7 +377,9 @@ class ItemRiding:
     def _radius(self, slots: np.ndarray) -> np.ndarray:
         return self.model.geom_rbound[self.pool.active_geom[slots]]
 
-    def _touching_other(self, data: mujoco.MjData, calm: set[int] = frozenset()) -> set[int]:
+    def _touching_other(
+        self, data: mujoco.MjData, calm: set[int] | frozenset[int] = frozenset()
+    ) -> set[int]:
         """Slots of items in contact with anything but the belt, or but the belt and the
         `calm` slots (settled items: a group of touching settled items rides together)."""
         if not data.ncon:

@@ -88,14 +88,14 @@ def settle_loop(
     for _ in range(max_iter):
         mujoco.mj_kinematics(model, data)
         mujoco.mj_comPos(model, data)
-        res, rows = [], []
+        gaps, rows = [], []
         for s1, s2 in pairs:
             a, b = data.site(s1), data.site(s2)
-            res.append(a.xpos - b.xpos)
+            gaps.append(a.xpos - b.xpos)
             mujoco.mj_jacSite(model, data, jac1, None, a.id)
             mujoco.mj_jacSite(model, data, jac2, None, b.id)
             rows.append((jac1 - jac2)[:, cols])
-        res = np.concatenate(res)
+        res = np.concatenate(gaps)
         if np.max(np.abs(res)) < tol:
             break
         step = np.linalg.lstsq(np.vstack(rows), -res, rcond=None)[0]

@@ -11,6 +11,7 @@ the cell's, shared by every robot.
 from __future__ import annotations
 
 import dataclasses
+from typing import cast
 
 import mujoco
 import numpy as np
@@ -70,7 +71,8 @@ class RobotView:
 
     def bins_tuple(self) -> tuple[tuple[float, float, float], ...]:
         """Release points of this robot's bins, in material order, for the planners [m]."""
-        return tuple(tuple(float(v) for v in self.drop_xyz[c]) for c in self.drop_xyz)
+        xyz = (tuple(float(v) for v in self.drop_xyz[c]) for c in self.drop_xyz)
+        return tuple(cast(tuple[float, float, float], p) for p in xyz)
 
     def tcp(self) -> np.ndarray:
         """This robot's cup lip centre now [m], (3,)."""

@@ -142,7 +142,8 @@ class SuctionCup:
         # (F_n + F_t / mu <= |F| (1 + 1 / mu)), with a margin for the rounding [N].
         self._safe_force = self._budget / (1.0 + 1.0 / self.config.lip_friction) * (1.0 - 1e-9)
         self._parts: tuple[int, int, int, float, int] | None = None  # `_held_parts`' last
-        self._data_views = None  # views of the data's arrays read every step (`_views`)
+        # Views of the data's arrays read every step (`_views`).
+        self._data_views: tuple | None = None
 
     @property
     def area(self) -> float:
@@ -195,6 +196,7 @@ class SuctionCup:
             if self._release_at is not None and t >= self._release_at - 1e-9:
                 events.append(self._drop(data, "released", t))
             else:
+                assert self._parts is not None  # read when the item was sealed on
                 _, _, dof, mass, geom = self._parts  # the item sealed on (`_seal`)
                 fx, fy, fz = self._force_on(data, dof, mass, geom)
                 near = fx * fx + fy * fy + fz * fz >= self._safe_force * self._safe_force
@@ -290,6 +292,7 @@ class SuctionCup:
 
     def _drop(self, data: mujoco.MjData, kind: str, t: float, load: float = 0.0) -> SuctionEvent:
         slot = self._held
+        assert slot is not None  # only a held item is dropped
         data.eq_active[self.grip_ids[slot]] = 0
         self._held, self._release_at = None, None
         return SuctionEvent(kind, t, int(self.pool.item_ids[slot]), slot, load)

@@ -77,9 +77,9 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _common_options() -> argparse.ArgumentParser:
+def _common_options() -> _OneLineParser:
     """--verbose / --quiet, taken by every subcommand (the standard `logging` levels)."""
-    common = argparse.ArgumentParser(add_help=False)
+    common = _OneLineParser(add_help=False)
     loudness = common.add_mutually_exclusive_group()
     loudness.add_argument("-v", "--verbose", action="store_true", help="debug messages too")
     loudness.add_argument(
@@ -177,7 +177,7 @@ def main(argv: list[str] | None = None) -> int:
         return 128 + exc.signum
 
 
-def _interrupted(exc: BaseException) -> bool:
+def _interrupted(exc: BaseException | None) -> bool:
     """Whether `exc` was caused by a Ctrl-C (a KeyboardInterrupt in its chain of causes)."""
     seen = set()
     while exc is not None and id(exc) not in seen:

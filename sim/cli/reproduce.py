@@ -79,8 +79,11 @@ def main(args: argparse.Namespace) -> int:
     docs = None if args.no_docs else (args.docs or reproduce.DOCS_FILE)
     if docs is not None and not Path(docs).is_file():
         raise InvalidInput("--docs", "an existing markdown file with reproduce markers", docs)
-    figures = None if docs is None else Path(docs).parent / "results"
-    link = "" if docs is None else os.path.relpath(figures, Path(docs).parent) + "/"
+    figures: Path | None = None
+    link = ""
+    if docs is not None:
+        figures = Path(docs).parent / "results"
+        link = os.path.relpath(figures, Path(docs).parent) + "/"
     run = reproduce.Run(
         out,
         args.quick,

@@ -13,6 +13,7 @@ an integer) is:
 from __future__ import annotations
 
 import numbers
+from typing import SupportsInt, cast
 
 import numpy as np
 
@@ -43,7 +44,7 @@ def _as_int(action: object) -> int | None:
     if isinstance(action, numbers.Integral):
         return int(action)
     if isinstance(action, numbers.Real) and float(action).is_integer():
-        return int(action)
+        return int(cast(SupportsInt, action))  # numbers.Real does not declare __int__
     return None
 
 
@@ -68,7 +69,7 @@ def slot_of(action: object, mask: np.ndarray, invalid_action: str = "raise") -> 
         return index
     if invalid_action == "wait":
         if index is None:  # as before: whatever int() makes of it
-            index = int(action)
+            index = int(action)  # type: ignore[call-overload]  # any value: int() refuses the rest
         return index if 0 <= index < wait and mask[index] else wait
     allowed = [int(k) for k in np.flatnonzero(mask)]
     slots = ", ".join(str(k) for k in allowed[:-1]) or "none"

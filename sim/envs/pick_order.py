@@ -102,7 +102,7 @@ class PickOrderEnv(gym.Env):
         length = n * speed / float(rng.uniform(*self.rate))
         self.belt = random_belt(rng, n, length, speed, start_x=0.4)
         self.context = self._context(speed)
-        self.t, self.tcp = 0.0, tuple(HOME_TCP)
+        self.t, self.tcp = 0.0, HOME_TCP
         self.left = {it.item_id: it for it in self.belt.items}
         # Validated once; each decision shifts copies along the belt (see `_moved`).
         self._tracked = {

@@ -79,6 +79,7 @@ class SortingCellEnv(gym.Env):
 
     def _advance(self) -> None:
         episode = self.episode
+        assert episode is not None  # made by reset
         self._running = episode.step_until_decision()
         robot = episode.robot_state()
         items = episode.candidates() if self._running else []
@@ -86,6 +87,7 @@ class SortingCellEnv(gym.Env):
         self._obs, self._mask = observe(self._cands, robot.time, self.k_slots)
 
     def _info(self) -> dict:
+        assert self.episode is not None  # made by reset
         m = self.episode.metrics
         return {
             "action_mask": self._mask.copy(),

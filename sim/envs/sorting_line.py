@@ -98,6 +98,7 @@ class SortingLineParallelEnv:
     def step(self, actions: dict):
         """Apply the deciding robot's action (the others' are ignored) and run the physics to
         the next decision; returns (observations, rewards, terminations, truncations, infos)."""
+        assert self.episode is not None  # made by reset
         if self._running and self._deciding is not None:
             action = actions.get(self._deciding, self.k_slots)
             slot = slot_of(action, self._mask, self.invalid_action)
@@ -117,6 +118,7 @@ class SortingLineParallelEnv:
     def _advance(self) -> None:
         """Run the physics until a robot decides (or the episode ends)."""
         episode = self.episode
+        assert episode is not None  # made by reset
         self._running = episode.step_until_decision()
         self._deciding = None
         self._cands = []
@@ -152,6 +154,7 @@ class SortingLineParallelEnv:
         return {a: self.action_mask(a) for a in self.agents}
 
     def _infos(self) -> dict[str, dict]:
+        assert self.episode is not None  # made by reset
         m = self.episode.metrics
         shared = {
             "deciding": self._deciding,

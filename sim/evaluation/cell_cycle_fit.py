@@ -72,7 +72,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--workers", type=int, default=2, choices=range(1, 9))
     args = parser.parse_args(argv)
-    from planner.motion.cycle_model import PICK_COEF, PLACE_COEF
+    from planner.motion.cycle_model import PICK_COEF, PLACE_COEF, CycleTimeModel
     from sim.episode.cycle_timing import fit_to_plans
     from sim.episode.decision_view import cell_context
 
@@ -86,6 +86,7 @@ def main(argv: list[str] | None = None) -> int:
     train, test = flat(runs[: len(TRAINING)]), flat(runs[len(TRAINING) :])
     context = cell_context(runs[0][0])
     in_use = context.cycle_model
+    assert isinstance(in_use, CycleTimeModel)  # the cell's calibrated model
     bare = replace(in_use, pick_coef=PICK_COEF, place_coef=PLACE_COEF)
     fitted = fit_to_plans(context, *train)
     print(f"CELL_PICK_COEF = ({fitted.pick_coef[0]:.4f}, {fitted.pick_coef[1]:.4f})")

@@ -165,7 +165,7 @@ def install(episode: Episode, audit: Audit) -> None:
     perception_module.item_blobs = blobs_of
     item_checks_module.attributed_item = watched_attributed
     perception.observe = watched_observe
-    tracker.update = watched_update
+    tracker.update = watched_update  # type: ignore[method-assign]  # watched for the audit
 
 
 def _owner(obs: Observation, px: np.ndarray, py: np.ndarray) -> np.ndarray:

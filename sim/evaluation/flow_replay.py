@@ -19,6 +19,7 @@ from sim.cell.conveyor import Belt
 from sim.cell.depth_noise import ZED_CLASS
 from sim.cell.item_pool import ItemPool
 from sim.cell.items import Items
+from sim.flow.catalogue import Catalogue
 from sim.flow.config import X_CAMERA, FlowConfig
 from sim.flow.generator import Flow, generate_flow
 from sim.flow.ground_truth import cell_truth_from_poses, yaw_from_xmat
@@ -30,7 +31,7 @@ class FlowReplay:
     """The simulation of one flow on the belt (no robot motion)."""
 
     config: FlowConfig
-    catalogue: object
+    catalogue: Catalogue
     model: mujoco.MjModel
     data: mujoco.MjData
     pool: ItemPool

@@ -331,7 +331,7 @@ def check_every(every: object) -> int:
 def remove_stale(out: Path | str) -> list[Path]:
     """Remove the staging folders beside `out` that killed runs left; returns them."""
     parent = Path(os.path.abspath(out)).parent
-    removed = []
+    removed: list[Path] = []
     try:
         names = os.listdir(parent)
     except OSError:

@@ -16,6 +16,7 @@ and dropped items.
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
 import numpy as np
 
@@ -23,7 +24,7 @@ BANDS_M = (0.0, 0.2, 0.4, 0.5, 0.55, 0.6)
 """Edges of the bands of |y| [m] the misses are counted in."""
 
 
-def window_summary(width_m: float) -> dict[str, object]:
+def window_summary(width_m: float) -> dict[str, Any]:
     """The robot's window at the pick height on a belt `width_m` [m] wide: the |y| it reaches
     up to [m], that span's share of the width, the window's length along the belt [m] at
     y = 0 and at |y| = 0.55 m (0 where it does not reach), and the bins' release points

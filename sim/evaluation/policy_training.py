@@ -15,6 +15,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -23,7 +24,7 @@ from sim.envs.pick_order import PickOrderEnv
 
 TRAIN_SEED_BASE = 1_000_000
 """First seed of the training belts."""
-BUSY_BELTS = {"items": (8, 12), "rate": (2.0, 8.0)}
+BUSY_BELTS: dict[str, Any] = {"items": (8, 12), "rate": (2.0, 8.0)}
 """The planner-level evaluation's busy belts: 8-12 items arriving at 2-8 items/s."""
 
 

@@ -169,6 +169,7 @@ def buried_missed(recording: Recording, score: SegmentScore) -> int | None:
     recording holds no visible fractions."""
     if recording.visible is None:
         return None
+    assert recording.types is not None  # recorded in an episode, like `visible`
     ids = true_items(recording, recording.types)
     missed = ids[score.kinds == SEGMENT_KINDS.index("missed")]
     return int(sum(1 for i in missed if recording.visible.get(int(i), 0.0) < VISIBLE_SHARE))
@@ -224,9 +225,8 @@ def table(
                     score = score_recording(recording, split, catalogue, early)
                     scores[name].append(score)
                     more = buried_missed(recording, score)
-                    buried[name] = (
-                        None if more is None or buried[name] is None else (buried[name] + more)
-                    )
+                    before = buried[name]
+                    buried[name] = None if more is None or before is None else (before + more)
             for name, _, _ in methods:
                 score = pooled_segments(scores[name])
                 pooled[(factor, density, name)] = score

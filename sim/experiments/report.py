@@ -43,6 +43,7 @@ import statistics
 from collections import defaultdict
 from dataclasses import dataclass
 from pathlib import Path
+from typing import cast
 
 from planner.decision.registry import is_user_spec, user_class
 from sim.errors import InvalidInput
@@ -148,7 +149,7 @@ def _check_row(row: dict, path: Path, line: int) -> None:
     for column, kind in (("planner", str), ("speed_factor", float), ("n_items", int)):
         text = row.get(column)
         try:
-            ok = text not in (None, "") and (kind is str or math.isfinite(kind(text)))
+            ok = text not in (None, "") and (kind is str or math.isfinite(cast(float, kind(text))))
         except ValueError:
             ok = False
         if not ok:
@@ -208,8 +209,7 @@ def planner_label(spec: str) -> str:
             name = getattr(cls(), "name", None)
         except Exception:
             name = None
-    ok = isinstance(name, str) and name.strip() and name != spec
-    return name.strip() if ok else cls.__name__
+    return name.strip() if isinstance(name, str) and name.strip() and name != spec else cls.__name__
 
 
 def planner_labels(specs) -> dict[str, str]:
@@ -217,7 +217,7 @@ def planner_labels(specs) -> dict[str, str]:
     same short name keep their whole specs)."""
     specs = list(dict.fromkeys(specs))
     labels = {s: planner_label(s) for s in specs}
-    counts = defaultdict(int)
+    counts: defaultdict[str, int] = defaultdict(int)
     for label in labels.values():
         counts[label] += 1
     return {s: (label if counts[label] == 1 else s) for s, label in labels.items()}
@@ -286,7 +286,7 @@ class Paired:
         p: Two-sided p-value of the paired t-test (nan: fewer than 2 seeds).
     """
 
-    point: tuple
+    point: Point
     planner: str
     baseline: str
     metric: str
@@ -389,10 +389,10 @@ def paired_comparisons(
                 continue
             for metric, *_ in PAIRED_METRICS:
                 pairs = [(runs[planner][s].get(metric), runs[base][s].get(metric)) for s in seeds]
-                pairs = [(a, b) for a, b in pairs if a is not None and b is not None]
-                if not pairs:
+                paired = [(a, b) for a, b in pairs if a is not None and b is not None]
+                if not paired:
                     continue
-                a, b = [x for x, _ in pairs], [y for _, y in pairs]
+                a, b = [x for x, _ in paired], [y for _, y in paired]
                 diff, low, high, p = paired_difference(a, b)
                 out.append(
                     Paired(
@@ -513,7 +513,8 @@ def _cell_class(text: str) -> str:
 
 def _html_body(body: str) -> list[str]:
     """HTML of a section's markdown body: its tables, '### ' headings and paragraphs."""
-    parts, table = [], []
+    parts: list[str] = []
+    table: list[str] = []
 
     def flush() -> None:
         if not table:

@@ -378,7 +378,6 @@ def _ray(specs: list[EpisodeSpec], address: str, workers: int, on_row: RowCallba
     ray = require_ray(address)
     from ray.util import ActorPool
 
-    @ray.remote
     class EpisodeActor:
         """Keeps the compiled models and renderers alive between episodes: the actor's
         process caches one cell per model settings (`sim.episode.runner.shared_cell`)."""
@@ -390,9 +389,10 @@ def _ray(specs: list[EpisodeSpec], address: str, workers: int, on_row: RowCallba
             result = run_episode(spec.config, variant=spec.variant)
             return spec.key, (result.episode_row, result.pick_rows)
 
+    remote_actor = ray.remote(EpisodeActor)  # @ray.remote, written so that mypy sees it
     ray.init(address=None if address in ("", "local") else address, ignore_reinit_error=True)
     n = max(1, min(workers, len(specs)))
-    pool = ActorPool([EpisodeActor.remote() for _ in range(n)])
+    pool = ActorPool([remote_actor.remote() for _ in range(n)])
     by_key = {spec.key: spec for spec in specs}
     try:
         for key, (row, picks) in pool.map_unordered(

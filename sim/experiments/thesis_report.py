@@ -54,7 +54,14 @@ def group_means(rows: list[dict], keys: tuple[str, ...]) -> dict[tuple, dict[str
         )
     out = {}
     for k, members in groups.items():
-        cols = ("accuracy", "profit_eur", "sim_s", "picked", "picked_paper", "picked_plastic")
+        cols: tuple[str, ...] = (
+            "accuracy",
+            "profit_eur",
+            "sim_s",
+            "picked",
+            "picked_paper",
+            "picked_plastic",
+        )
         cols += ("picked_aluminium", "entered_paper", "entered_plastic", "entered_aluminium")
         means = {c: sum(_f(r, c) for r in members) / len(members) for c in cols}
         means["n"] = len(members)

@@ -16,6 +16,7 @@ import math
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any, cast
 
 import numpy as np
 
@@ -147,6 +148,7 @@ class ItemType:
         fx, fy, fz = self.effective_scale(factors)
         if (fx, fy, fz) == (1.0, 1.0, 1.0):
             return self
+        size: tuple[float, ...]
         if self.shape == "box":
             size = (self.size[0] * fx, self.size[1] * fy, self.size[2] * fz)
         elif self.pose == "standing":
@@ -326,7 +328,7 @@ def _text(entry: dict, key: str, where: str) -> str:
     return value
 
 
-def _colour_probs(weights: object, where: str) -> tuple[float, ...]:
+def _colour_probs(weights: Any, where: str) -> tuple[float, ...]:
     ok = isinstance(weights, dict) and weights and set(weights) <= set(COLOURS)
     ok = ok and all(is_finite_number(w) and w >= 0 for w in weights.values())
     if not ok or sum(weights.values()) <= 0:
@@ -358,7 +360,7 @@ def _item_type(entry: object, index: int, path: Path, bases: dict[str, ItemType]
             if base_name not in bases:
                 raise InvalidInput("variant_of", "the name of a base type above", base_name, where)
             base = bases[base_name]
-            inherited = {"material": base.material, "weight": base.weight}
+            inherited: dict[str, Any] = {"material": base.material, "weight": base.weight}
             inherited |= {"colour_probs": base.colour_probs, "variant_of": base_name}
             inherited["kind"] = _text(entry, "kind", where)
         else:
@@ -373,7 +375,7 @@ def _item_type(entry: object, index: int, path: Path, bases: dict[str, ItemType]
             pose=_text(entry, "pose", where),
             size=_numbers(entry, "size", where),
             mass=_number(entry, "mass", where),
-            friction=_numbers(entry, "friction", where, 3),
+            friction=cast(tuple[float, float, float], _numbers(entry, "friction", where, 3)),
             **inherited,
         )
     except InvalidInput as exc:
@@ -434,15 +436,15 @@ def load_catalogue(path: Path | str = DEFAULT_CATALOGUE) -> Catalogue:
         raise InvalidInput("catalogue", "a readable TOML file", f"{path}: {reason}") from None
     colours = data.get("colours", {})
     if not isinstance(colours, dict) or set(colours) != set(COLOURS):
-        got = sorted(colours) if isinstance(colours, dict) else colours
-        raise InvalidInput("colours", f"exactly the names {COLOURS}", got, str(path))
-    rgba = []
+        names = sorted(colours) if isinstance(colours, dict) else colours
+        raise InvalidInput("colours", f"exactly the names {COLOURS}", names, str(path))
+    rgba: list[tuple[float, float, float, float]] = []
     for name in COLOURS:
         value = colours[name]
         ok = isinstance(value, list) and len(value) == 4
         if not ok or not all(is_finite_number(v) and 0 <= v <= 1 for v in value):
             raise InvalidInput(f"colours.{name}", "4 numbers in [0, 1]", value, str(path))
-        rgba.append(tuple(float(v) for v in value))
+        rgba.append(cast(tuple[float, float, float, float], tuple(float(v) for v in value)))
     items = data.get("item", [])
     if not isinstance(items, list):
         raise InvalidInput("item", "an array of tables [[item]]", type(items).__name__, str(path))
@@ -452,14 +454,13 @@ def load_catalogue(path: Path | str = DEFAULT_CATALOGUE) -> Catalogue:
         raise InvalidInput(sorted(extra)[0], allowed, None, str(path))
     materials = _materials(data.get("material"), path)
     bases: dict[str, ItemType] = {}
-    types = []
+    types: list[ItemType] = []
     for i, entry in enumerate(items):
         item_type = _item_type(entry, i, path, bases)
         if not item_type.variant_of:
             bases[item_type.name] = item_type
         types.append(item_type)
-    types = tuple(types)
     try:
-        return Catalogue(types=types, rgba=tuple(rgba), materials=materials)
+        return Catalogue(types=tuple(types), rgba=tuple(rgba), materials=materials)
     except InvalidInput as exc:
         raise InvalidInput(exc.field, exc.allowed, exc.got, str(path)) from None

@@ -92,7 +92,7 @@ def stripe_geometry(belt_width_m: float = BELT_WIDTH_M) -> tuple[float, float]:
 
 def _probabilities(field: str, values, shape: tuple[int, ...]) -> np.ndarray:
     array = np.asarray(values, dtype=float)
-    ok = array.shape == shape and np.all(np.isfinite(array)) and np.all(array >= 0)
+    ok: bool | np.bool_ = array.shape == shape and np.all(np.isfinite(array)) and np.all(array >= 0)
     ok = ok and np.allclose(array.sum(axis=-1), 1.0, atol=1e-6)
     if not ok:
         rows = "rows each " if len(shape) > 1 else ""
@@ -193,13 +193,15 @@ class FlowConfig:
         """The stripes', transitions', first items' and held shares' probabilities checked and
         stored as plain tuples (e.g. from TOML lists), so configs hash and compare by value."""
         stripes = _probabilities("stripe_priors", self.stripe_priors, (N_STRIPES,))
-        given = self.transitions
+        given_transitions = self.transitions
         transitions = _probabilities(
-            "transitions", default_transitions(m) if given is None else given, (m, m)
+            "transitions",
+            default_transitions(m) if given_transitions is None else given_transitions,
+            (m, m),
         )
-        given = self.class_priors
+        given_priors = self.class_priors
         classes = _probabilities(
-            "class_priors", default_class_priors(m) if given is None else given, (m,)
+            "class_priors", default_class_priors(m) if given_priors is None else given_priors, (m,)
         )
         object.__setattr__(self, "stripe_priors", tuple(stripes.tolist()))
         object.__setattr__(self, "transitions", tuple(tuple(r) for r in transitions.tolist()))

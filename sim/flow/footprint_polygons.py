@@ -44,7 +44,7 @@ def _local_outline(item_type: ItemType) -> np.ndarray:
     if kind == "disc":
         n = POLYGON_VERTICES
         radius = a / math.cos(math.pi / n)
-        angles = 2 * math.pi * (np.arange(n) + 0.5) / n
+        angles: np.ndarray = 2 * math.pi * (np.arange(n) + 0.5) / n
         return radius * np.column_stack([np.cos(angles), np.sin(angles)])
     # Stadium: the half-disc at x = +a is enclosed by `half - 1` tangent lines from angle -pi/2
     # to +pi/2; their corners plus the two ends of the straight sides make `half` vertices.

@@ -104,7 +104,7 @@ def grid_truth(
         )
         frac = (areas / cell_area).reshape(len(rows), len(cols))
         block = np.ix_(rows, cols)
-        by_class[(*block, int(class_id[i]))] += frac
+        by_class[block[0], block[1], int(class_id[i])] += frac
         better = frac > best[block]
         best[block] = np.where(better, frac, best[block])
         best_colour[block] = np.where(better, int(colour[i]), best_colour[block])

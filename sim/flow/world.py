@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import colorsys
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 
@@ -31,7 +32,7 @@ UNIFORM_GAP_M = 0.005
 
 def _share(field: str, value: object, high: float = 1.0) -> float:
     check(is_finite_in(value, 0.0, high), field, f"a number in [0, {high:g}]", value)
-    return float(value)
+    return float(cast(float, value))
 
 
 @dataclass(frozen=True)

@@ -220,7 +220,7 @@ def _robot_names() -> tuple[tuple[str, ...], tuple[str, ...], int]:
 def robot_qpos_index(model: mujoco.MjModel, prefix: str = "") -> np.ndarray:
     """Indices into `qpos` of the robot `prefix`'s joints (the robot file's, in its order)."""
     widths = {mujoco.mjtJoint.mjJNT_FREE: 7, mujoco.mjtJoint.mjJNT_BALL: 4}
-    out = []
+    out: list[int] = []
     for name in _robot_names()[0]:
         joint = model.joint(prefix + name)
         start = int(joint.qposadr[0])
@@ -231,7 +231,7 @@ def robot_qpos_index(model: mujoco.MjModel, prefix: str = "") -> np.ndarray:
 def robot_dof_index(model: mujoco.MjModel, prefix: str = "") -> np.ndarray:
     """Indices into `qvel` of the robot `prefix`'s degrees of freedom."""
     widths = {mujoco.mjtJoint.mjJNT_FREE: 6, mujoco.mjtJoint.mjJNT_BALL: 3}
-    out = []
+    out: list[int] = []
     for name in _robot_names()[0]:
         joint = model.joint(prefix + name)
         start = int(joint.dofadr[0])
@@ -277,7 +277,8 @@ def _move_in_place(spec: mujoco.MjSpec, x: float, materials) -> None:
 
 def _grip_template(spec: mujoco.MjSpec) -> tuple[list[str], dict]:
     """The pool's slots (their bodies, by the welds `item_<n>_grip`) and the welds' settings."""
-    bodies, first = [], spec.equality("item_0_grip")
+    bodies: list[str] = []
+    first = spec.equality("item_0_grip")
     while (weld := spec.equality(f"item_{len(bodies)}_grip")) is not None:
         bodies.append(weld.name2)
     settings = {

@@ -81,7 +81,7 @@ _GIVEN = ("option.", "body_", "geom_", "jnt_", "site_", "cam_", "light_", "mesh_
 """Prefixes of compiled fields that the file sets directly (reported first)."""
 
 
-def _one_line(text: str, limit: int = 200) -> str:
+def _one_line(text: object, limit: int = 200) -> str:
     return " ".join(str(text).split())[:limit]
 
 

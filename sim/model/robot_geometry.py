@@ -4,6 +4,8 @@ source of truth for the planner's `DeltaGeometry`): what the model's edits (the 
 
 from __future__ import annotations
 
+from typing import cast
+
 import mujoco
 import numpy as np
 
@@ -43,7 +45,9 @@ def geometry_from_model(model: mujoco.MjModel, *, prefix: str = "") -> DeltaGeom
         forearm=float(np.linalg.norm(model.site(f"{p}rod_1a_tip").pos)),
         platform_radius=float(np.hypot(platform_mid[0], platform_mid[1])),
         rod_spacing=float(np.linalg.norm(rod_b - rod_a)),
-        leg_azimuths=tuple(float(a % (2.0 * np.pi)) for a in azimuths),
+        leg_azimuths=cast(
+            tuple[float, float, float], tuple(float(a % (2.0 * np.pi)) for a in azimuths)
+        ),
         base_height=float(base[2]),
         tcp_offset=float(tcp_offset),
         motor_lower=float(max(lows)),

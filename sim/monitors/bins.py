@@ -12,6 +12,7 @@ are never judged.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import cast
 
 import mujoco
 import numpy as np
@@ -150,9 +151,8 @@ class Bins:
             where = None if fell_through else self.bin_at(p)
             true_class = pool.item_type(slot).class_id
             bin_class = None if where is None else self.materials.id_of(where)
-            record = Landing(
-                int(pool.item_ids[slot]), true_class, where, t, tuple(map(float, p)), bin_class
-            )
+            xyz = cast(tuple[float, float, float], tuple(map(float, p)))
+            record = Landing(int(pool.item_ids[slot]), true_class, where, t, xyz, bin_class)
             (self.landed if where else self.dropped).append(record)
             new.append(record)
             self._rest_since[slot] = np.nan

@@ -224,6 +224,7 @@ class EnergyMeter:
         force = log.force[rows, self._actuators]
         speed = log.speed[rows, self._actuators]
         if self._asleep_tree is not None:
+            assert log.tree_asleep is not None  # watched since this meter was made
             asleep = log.tree_asleep[rows, self._asleep_tree] >= 0
             if asleep.any():
                 # Asleep, the motors hold the robot still with the torques they held it with

@@ -16,6 +16,7 @@ is then left to physics (it comes to rest somewhere and the bins book it as drop
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import cast
 
 import mujoco
 import numpy as np
@@ -141,8 +142,8 @@ class ThrowWatch:
                 item,
                 items.time,
                 reason,
-                tuple(map(float, pos[k])),
-                tuple(map(float, vel[k])),
+                cast(tuple[float, float, float], tuple(map(float, pos[k]))),
+                cast(tuple[float, float, float], tuple(map(float, vel[k]))),
             )
             self.thrown[item] = throw
             new.append(throw)

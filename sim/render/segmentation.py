@@ -206,6 +206,7 @@ class BeltSegmentation:
     def _undistort(self, pixels: np.ndarray) -> np.ndarray:
         """Normalised undistorted rays (N, 2) of distorted frame pixels (N, 2)."""
         points = pixels.reshape(-1, 1, 2).astype(np.float64)
+        assert self.lens is not None  # only a lens distorts
         coefficients = self.lens.dist_coeffs()
         out = cv2.undistortPoints(
             points, self.frame_matrix, coefficients, None, None, None, _UNDISTORT_CRITERIA
@@ -267,13 +268,16 @@ def shared_segmentation(
             kept render's, or one of its own for a new one.
     """
     if any(seg.model is not model for seg in _SHARED.values()):
-        for seg in _SHARED.values():
-            seg.close()
+        for shared in _SHARED.values():
+            shared.close()
         _SHARED.clear()
     seg = _SHARED.get(name)
     settings = (tuple(size), ZED_HD_LEFT, float(scale), max_slope, False)
-    stale = seg is None or seg.settings != settings
-    if stale or (renderer is not None and seg.renderer is not renderer):
+    if (
+        seg is None
+        or seg.settings != settings
+        or (renderer is not None and seg.renderer is not renderer)
+    ):
         if seg is not None:
             seg.close()
         seg = _SHARED[name] = BeltSegmentation(

@@ -33,6 +33,7 @@ import threading
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
+from typing import NoReturn
 
 import mujoco
 
@@ -177,13 +178,13 @@ class VideoRecorder:
         except BaseException as exc:
             self._fail(exc)
 
-    def _fail(self, exc: BaseException):
+    def _fail(self, exc: BaseException) -> NoReturn:
         """End the video process, drop the MP4, and raise `exc` as the episode's failure."""
         self._stop()
         self._tmp.unlink(missing_ok=True)
         if isinstance(exc, EncoderFailure):
             raise InvalidInput(
-                "video", "a place the video encoder can write", exc.line, self.path
+                "video", "a place the video encoder can write", exc.line, str(self.path)
             ) from None
         if isinstance(exc, RefusedInput | VideoError):
             raise exc from None

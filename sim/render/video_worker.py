@@ -25,6 +25,7 @@ import time
 from dataclasses import dataclass
 from multiprocessing import util
 from pathlib import Path
+from typing import Any
 
 import mujoco
 
@@ -49,7 +50,7 @@ class _Video:
     size: tuple[int, int]
     samples: int
     painter: FramePainter | None = None
-    writer: object | None = None
+    writer: Any | None = None  # imageio's writer (`open_writer`)
     frames: int = 0
     ready_cpu_s: float = 0.0
     finished: bool = False
@@ -110,7 +111,8 @@ def open_video() -> int:
         This process's id.
     """
     with _task() as video:
-        video.painter = FramePainter(video.model, *video.size, samples=video.samples)
+        width, height = video.size
+        video.painter = FramePainter(video.model, width, height, samples=video.samples)
         try:
             video.writer = open_writer(video.tmp, video.fps)
         except (OSError, RuntimeError) as exc:  # the folder is gone, ffmpeg missing

@@ -89,7 +89,7 @@ def one_robot_table(
     seeds = sorted({s for v, s in by if v == variant}, key=int)
     lines = [ONE_ROBOT_HEADER]
     counted = ("entered", "never_detected", "never_visible", "wrong_bin", "left_unsure")
-    total = dict.fromkeys(counted, 0)
+    total: dict[str, float] = dict.fromkeys(counted, 0)
     total.update(picked=0, truth_picked=0, profit=0.0, truth_profit=0.0, empty=0)
     for s in seeds:
         c, t = by[(variant, s)], by[("truth", s)]

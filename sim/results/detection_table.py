@@ -11,7 +11,8 @@ seen: buried under other items) as shares of them, pooled over the seeds, and it
 from __future__ import annotations
 
 from collections import defaultdict
-from collections.abc import Callable
+from collections.abc import Callable, Hashable
+from typing import cast
 
 HEADING = "Detection against density"
 TEXT = (
@@ -45,7 +46,7 @@ def _share(part: float, whole: float) -> str:
     return f"{100 * part / whole:.1f} %" if whole > 0 else "-"
 
 
-Grouping = Callable[[dict], tuple[tuple, list[str]]]
+Grouping = Callable[[dict], tuple[Hashable, list[str]]]
 """A row's group: (its key, its grid point's cells in the table)."""
 
 
@@ -72,8 +73,8 @@ def detection_rows(
         group: A row's group key and grid cells; by default (variant, planner, belt, items).
     """
     group = group or _default_group(labels or {})
-    groups: dict[tuple, list[dict]] = defaultdict(list)
-    grid: dict[tuple, list[str]] = {}
+    groups: dict[Hashable, list[dict]] = defaultdict(list)
+    grid: dict[Hashable, list[str]] = {}
     for row in rows:
         if row.get("perception") != "camera":
             continue
@@ -88,7 +89,7 @@ def detection_rows(
         picked = sum(_number(r.get("picked")) or 0.0 for r in members) / len(members)
         densities = [d for d in (_number(r.get("items_per_m")) for r in members) if d is not None]
         density = sum(densities) / len(densities) if densities else None
-        buried = _share(sum(visible), entered) if None not in visible else "-"
+        buried = _share(sum(cast(list[float], visible)), entered) if None not in visible else "-"
         cells = [
             *grid[key],
             "-" if density is None else f"{density:.1f}",

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from typing import Any
 
 from sim.config.sections import robot_cost_per_h
 
@@ -58,7 +59,7 @@ def payback_years(
 
 
 def per_hour_columns(
-    row: Mapping[str, object], feed_s: float, robots: int, economics: Mapping[str, float]
+    row: Mapping[str, Any], feed_s: float, robots: int, economics: Mapping[str, float]
 ) -> dict[str, object]:
     """An episode's columns per hour and its robots' economics.
 

@@ -80,10 +80,14 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 from perception.codes import ALUMINIUM, PAPER, PLASTIC, THESIS_MATERIALS, Materials
 from sim.monitors.energy import JOULES_PER_KWH
 from sim.monitors.visibility import VISIBLE_SHARE
+
+if TYPE_CHECKING:
+    from sim.monitors.thrown import Throw
 
 ITEM_CLASSES = (PAPER, PLASTIC, ALUMINIUM)
 """The thesis's material classes (a catalogue's materials may be others)."""
@@ -111,7 +115,7 @@ class PickRecord:
     sealed: bool = True  # False: the cup never sealed, it carried no item (not in picks.csv)
     robot: int = 0  # the robot of a line that made the attempt (0 upstream)
 
-    def row(self, materials: Materials = THESIS_MATERIALS) -> dict[str, object]:
+    def row(self, materials: Materials = THESIS_MATERIALS) -> dict[str, Any]:
         """The picks.csv row of this attempt (class names those of `materials`)."""
         return {
             "t_start_s": self.t_start_s,
@@ -176,7 +180,7 @@ class EpisodeMetrics:
         self.picks: list[PickRecord] = []
         self.thrown_off: set[int] = set()  # items struck or flung off the belt
         # (sim.monitors.thrown.Throw, what the robot was doing)
-        self.throws: list[tuple[object, str]] = []
+        self.throws: list[tuple[Throw, str]] = []
         self.mujoco_warnings = 0  # MuJoCo warnings raised during the episode
         # the same per kind (sim.monitors.mj_warnings)
         self.warning_kinds: dict[str, int] = {}
@@ -310,7 +314,7 @@ class EpisodeMetrics:
         """Pick attempts whose cup never sealed."""
         return sum(1 for p in self.picks if not p.sealed)
 
-    def row(self) -> dict[str, object]:
+    def row(self) -> dict[str, Any]:
         """The episode's counters as episodes.csv columns (config and timing added by caller)."""
         n_in = self.n_entered
         cycles = [p.t_end_s - p.t_start_s for p in self.picks if p.success]
@@ -354,18 +358,18 @@ class EpisodeMetrics:
 
     def line_row(
         self, sim_s: float, energy_elec_j: Sequence[float], coordination: str
-    ) -> dict[str, object]:
+    ) -> dict[str, Any]:
         """A line's columns: robots, coordination and each robot's `robot_row` (its motors'
         electrical energy `energy_elec_j[k]` [J], upstream first; `sim.results.outputs.
         line_columns`); `robots` alone for one robot. `sim_s` is the episode's length [s]."""
         if len(energy_elec_j) <= 1:
             return {"robots": len(energy_elec_j)}
-        out: dict[str, object] = {"robots": len(energy_elec_j), "coordination": coordination}
+        out: dict[str, Any] = {"robots": len(energy_elec_j), "coordination": coordination}
         for k, energy in enumerate(energy_elec_j):
             out |= self.robot_row(k, sim_s, energy)
         return out
 
-    def robot_row(self, robot: int, sim_s: float, energy_elec_j: float) -> dict[str, object]:
+    def robot_row(self, robot: int, sim_s: float, energy_elec_j: float) -> dict[str, Any]:
         """A line's columns of one robot (`robot<k>_...`): its items binned, binned per minute,
         utilisation (the share of the episode its picks took, from start to release) and its
         motors' electrical energy [J]."""
@@ -380,9 +384,9 @@ class EpisodeMetrics:
             key + "energy_elec_j": float(energy_elec_j),
         }
 
-    def quality_row(self) -> dict[str, object]:
+    def quality_row(self) -> dict[str, Any]:
         """The sorting-quality columns (purity and recovery are None where undefined)."""
-        row: dict[str, object] = {}
+        row: dict[str, Any] = {}
         for c in self.materials.ids:
             row[f"purity_{self.materials.name_of(c)}"] = self.purity(c)
         for c in self.materials.ids:
@@ -441,7 +445,7 @@ class EpisodeMetrics:
             fails.append("accuracy != picked / entered")
         return fails + self._quality_failures(row) + self._visibility_failures(row)
 
-    def _visibility_failures(self, row: dict[str, object]) -> list[str]:
+    def _visibility_failures(self, row: dict[str, Any]) -> list[str]:
         """The identities of `never_visible` that do not hold."""
         fails = []
         unknown = self.passed_camera - self.entered_ids
@@ -452,7 +456,7 @@ class EpisodeMetrics:
             fails.append(f"never_visible {never_visible} outside 0..{row['entered']}")
         return fails
 
-    def _quality_failures(self, row: dict[str, object]) -> list[str]:
+    def _quality_failures(self, row: dict[str, Any]) -> list[str]:
         """The sorting-quality identities of the module docstring that do not hold."""
         fails = []
         own = row["picked"] - row["wrong_bin"]
@@ -484,7 +488,7 @@ class EpisodeMetrics:
             fails.append(f"never_detected {row['never_detected']} outside 0..{row['entered']}")
         return fails
 
-    def pick_rows(self) -> list[dict[str, object]]:
+    def pick_rows(self) -> list[dict[str, Any]]:
         """picks.csv rows, in the order the attempts started."""
         rows = sorted(self.picks, key=lambda p: (p.t_start_s, p.item_id))
         return [p.row(self.materials) for p in rows]

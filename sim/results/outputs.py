@@ -34,6 +34,7 @@ import os
 import tempfile
 from collections.abc import Iterable, Mapping
 from pathlib import Path
+from typing import Any
 
 from perception.codes import THESIS_MATERIALS, Materials
 from sim.errors import InvalidInput, SortsimError
@@ -135,7 +136,7 @@ PER_MATERIAL = ("picked", "entered", "purity", "recovery")
 def episode_columns(materials: Materials = THESIS_MATERIALS) -> tuple[str, ...]:
     """`EPISODE_COLUMNS` with the per-material columns of `materials` in place of the thesis's
     (the same tuple for paper, plastic and aluminium)."""
-    out = []
+    out: list[str] = []
     for column in EPISODE_COLUMNS:
         group, _, material = column.partition("_")
         if group in PER_MATERIAL and material in THESIS_MATERIALS.names:
@@ -207,7 +208,7 @@ _DECIMAL_SUFFIXES = {"picks_per_min": 3, "utilisation": 4, "energy_elec_j": 2}
 """Decimals of the per-material float columns (`purity_<material>`, ...)."""
 
 
-def format_value(column: str, value: object) -> str:
+def format_value(column: str, value: Any) -> str:
     """The text of one CSV cell: fixed decimals for float columns, str() otherwise."""
     if value is None:
         return ""

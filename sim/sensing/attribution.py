@@ -62,7 +62,9 @@ def attributed_item(
     return min(within)[1] if within else None
 
 
-def _on_footprint(shapes, item_id: int, x: float, y: float, items_xy) -> bool:
+def _on_footprint(
+    shapes, item_id: int, x: float, y: float, items_xy: Mapping[int, tuple[float, float]]
+) -> bool:
     """Whether (x, y) [m] lies on item `item_id`'s footprint grown by FOOTPRINT_MARGIN_M."""
     if item_id not in shapes:
         return False

@@ -55,7 +55,7 @@ def load_table(path=TRAINING_TABLE) -> dict[str, np.ndarray]:
     return out
 
 
-def _cache_path(path) -> object:
+def _cache_path(path: Path) -> Path:
     digest = hashlib.sha1(path.read_bytes())
     for rel in _CODE:
         digest.update((REPO_ROOT / rel).read_bytes())

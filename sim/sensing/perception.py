@@ -302,7 +302,7 @@ class CameraPerception:
         return self.camera.window(*pipeline.band_mapper(self.speed).roi).render_rgbd(self.data)
 
     def _completed_items(self, t: float) -> list[Detection]:
-        out = []
+        out: list[Detection] = []
         # Regions that still touch the newest row are still growing; older ones were reported.
         blobs = item_blobs(
             self.pixels,
@@ -326,6 +326,7 @@ class CameraPerception:
         if self.mode == "hmm":
             probs = hmm_probs
         else:
+            assert clf is not None  # every mode but "hmm" has a classifier
             probs = combine(self.mode, priors, clf_probs, clf.train_prior)
         for k, blob in enumerate(blobs):
             x = self.x_line + self.speed * t - blob.b

@@ -30,14 +30,15 @@ from perception.codes import CLASS_NAMES
 class Detection:
     """An item reported by perception at time `t` [s]: belt position [m], class probabilities.
 
-    `probs` are over the classes void, paper, plastic, aluminium (ids 1..4), summing to 1.
+    `probs` are over void and the materials (ids 1..1+m; void, paper, plastic, aluminium for
+    the thesis's), summing to 1.
     `true_id` is the simulator's item id when perception is the ground truth, else None.
     """
 
     t: float
     x: float
     y: float
-    probs: tuple[float, float, float, float]
+    probs: tuple[float, ...]
     true_id: int | None = None
     camera: int = 0
     """The camera of a line that saw it, upstream first (0: the first, or the only one)."""

@@ -109,7 +109,7 @@ class SlotPolicy:
             tmp.unlink(missing_ok=True)
 
     @classmethod
-    def load(cls, path: Path = POLICY_FILE) -> SlotPolicy:
+    def load(cls, path: str | Path = POLICY_FILE) -> SlotPolicy:
         """Read a policy written by `save`; refused in one line when unusable."""
         try:
             data = json.loads(Path(path).read_text(encoding="utf-8"))

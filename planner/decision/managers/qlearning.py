@@ -170,7 +170,8 @@ def learn(
         # does not change during the episode: only the taken item's does).
         sums = [sum(row[b] for b in left) for row in table]
         by_q = sorted(left, key=lambda b: -qi[b])
-        gone, top_k = set(), 0
+        gone: set[int] = set()
+        top_k = 0
         draws = rng.random(len(left)).tolist()
         while left:
             a = left.pop(int(draws[len(gone)] * len(left)))  # "choose an action at random"
@@ -292,6 +293,7 @@ class QLearningPlanner:
         q = [self._q.get(c.item.item_id, -math.inf) for c in cands]
         k = max(range(len(cands)), key=lambda i: (q[i], -i))  # ties: the earlier exit
         column = grid_column(cands[k].item.y, context.belt_half_width)
+        assert self._learned is not None  # learned over the current batch above
         return choice_of(
             cands[k],
             f"max q {q[k]:.4f} of batch {current} ({len(self._q)} items, "
@@ -302,6 +304,7 @@ class QLearningPlanner:
         """Learn q over the batch's items from the robot's position now."""
         cfg = self.config
         v, t = context.belt_speed, robot.time
+        assert self._origin is not None  # set by choose before it learns
         batch = sorted(batch, key=lambda it: (exit_time(context, t, it.x, it.y), it.item_id))
         first_row = current * cfg.batch_rows
         rows = [grid_row(it, t, v, cfg.row_period_s, self._origin) - first_row for it in batch]

@@ -50,8 +50,8 @@ class Target:
         left empty or a material that never entered has none)."""
         names = materials if self.material is None else (self.material,)
         values = [number(row.get(f"{self.kind}_{m}")) for m in names]
-        values = [v for v in values if v is not None]
-        return min(values) if values else None
+        present = [v for v in values if v is not None]
+        return min(present) if present else None
 
 
 def parse_targets(text: str, materials: tuple[str, ...]) -> tuple[Target, ...]:

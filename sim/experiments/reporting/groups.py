@@ -113,7 +113,7 @@ def _manifest(folder: Path) -> dict | None:
     return data if isinstance(data, dict) else None
 
 
-def _grid_key(variant: str, planner: str, speed: float, items: int) -> tuple:
+def _grid_key(variant: str | None, planner: str, speed: float, items: int) -> tuple:
     return (variant or "base", planner, round(float(speed), 3), int(items))
 
 
@@ -130,7 +130,7 @@ def config_finder(folder: Path) -> Callable[[dict], dict | None]:
         return lambda row: None
     points = {}
     for entry in grid:
-        c = entry.get("config") if isinstance(entry, dict) else None
+        c: Any = entry.get("config") if isinstance(entry, dict) else None
         try:
             key = _grid_key(entry.get("variant"), c["planner"], c["speed_factor"], c["items"])
         except (AttributeError, KeyError, TypeError, ValueError):

@@ -189,12 +189,12 @@ def robot_series(groups: dict[Point, list[dict]]) -> list[list[Point]]:
         else:
             lines[key][point["robots"]] = point
     out = []
-    for key, members in sorted(lines.items()):
+    for key, series in sorted(lines.items()):
         single = singles.get(key.replace(coordination=""))
         if single is not None:
-            members[1] = single
-        if len(members) > 1:
-            out.append([members[n] for n in sorted(members)])
+            series[1] = single
+        if len(series) > 1:
+            out.append([series[n] for n in sorted(series)])
     return out
 
 

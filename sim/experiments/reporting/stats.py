@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 import statistics
 from dataclasses import dataclass
+from typing import Any
 
 FEW_SEEDS = 3
 """An interval from fewer seeds is marked (`seeds_cell`) and explained under its table."""
@@ -42,7 +43,7 @@ def estimate(values: list[float]) -> Estimate:
     return Estimate(mean, half, n)
 
 
-def number(text: object) -> float | None:
+def number(text: Any) -> float | None:
     """A CSV cell as a finite number, None when it is empty or not one."""
     if text is None or text == "":
         return None
