@@ -1,0 +1,298 @@
+"""A shift's faults: what fails, when, for how long, as one validated schedule.
+
+A fault is a window of simulated time [start_s, start_s + duration_s) during which one part of
+the cell behaves otherwise (the kinds below). A config lists faults by hand (`[[faults]]`) or
+draws them (`[faults_random]`: per kind, the mean time between faults and the mean time to
+repair, exponential, seeded); both end up in one `FaultSchedule`, which the episode reads and
+nothing writes. Two faults of one kind on one part (the same robot, the same camera, or the
+belt) may not overlap: a part is failed or not. Faults of different kinds may (a camera out
+while a robot is stopped).
+
+Kinds and their keys:
+    camera_outage: `camera` (0 = the scene's, upstream first; None: every camera): no frames.
+    robot_stop: `robot` (0 = the most upstream): a protective stop; the robot holds where it is.
+    belt_stop: the belt and the infeed stop together.
+    vacuum_drop: `vacuum_pa`: the supply's vacuum falls to this level [Pa].
+    belt_speed: `speed_factor`: the belt runs at this factor of its speed.
+Nothing heavy is imported.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from sim.checks import check, is_finite_number, is_integer
+
+FAULT_KINDS = ("camera_outage", "robot_stop", "belt_stop", "vacuum_drop", "belt_speed")
+"""Every kind of fault, in the order the outputs list them."""
+KIND_KEYS = {
+    "camera_outage": ("camera",),
+    "robot_stop": ("robot",),
+    "belt_stop": (),
+    "vacuum_drop": ("vacuum_pa",),
+    "belt_speed": ("speed_factor",),
+}
+"""The keys of each kind besides `kind`, `start_s` and `duration_s`."""
+SPEED_FACTOR_RANGE = (0.1, 2.0)
+"""A `belt_speed` fault's factor: the belt's drive at this share of its set speed."""
+FAULT_STREAM = 48
+"""The random faults' own stream of the episode's seed (the flow's draws stay as they are)."""
+
+
+@dataclass(frozen=True)
+class Fault:
+    """One fault: `kind` over [start_s, start_s + duration_s) [s], on the part its keys name.
+
+    Attributes:
+        kind: One of `FAULT_KINDS`.
+        start_s: When it starts [s of simulated time], >= 0.
+        duration_s: How long it lasts [s], > 0.
+        robot: robot_stop: the robot's index, 0 the most upstream.
+        camera: camera_outage: the camera's index (0 the scene's, upstream first); None: all.
+        vacuum_pa: vacuum_drop: the supply's vacuum during it [Pa].
+        speed_factor: belt_speed: the belt's speed during it, as a factor of its set speed.
+    """
+
+    kind: str
+    start_s: float
+    duration_s: float
+    robot: int | None = None
+    camera: int | None = None
+    vacuum_pa: float | None = None
+    speed_factor: float | None = None
+
+    def __post_init__(self) -> None:
+        check(self.kind in FAULT_KINDS, "faults.kind", " | ".join(FAULT_KINDS), self.kind)
+        field = f"faults.{self.kind}"
+        ok = is_finite_number(self.start_s) and self.start_s >= 0
+        check(ok, f"{field}.start_s", "a time >= 0 s", self.start_s)
+        ok = is_finite_number(self.duration_s) and self.duration_s > 0
+        check(ok, f"{field}.duration_s", "a duration > 0 s", self.duration_s)
+        own = KIND_KEYS[self.kind]
+        for key in ("robot", "camera", "vacuum_pa", "speed_factor"):
+            value = getattr(self, key)
+            if key not in own:
+                check(value is None, f"{field}.{key}", f"only the keys {self._keys()}", value)
+        if self.kind == "robot_stop":
+            ok = self.robot is not None and is_integer(self.robot) and self.robot >= 0
+            check(ok, f"{field}.robot", "a robot's index, 0 the most upstream", self.robot)
+        if self.kind == "camera_outage" and self.camera is not None:
+            ok = is_integer(self.camera) and self.camera >= 0
+            check(ok, f"{field}.camera", "a camera's index, 0 upstream; left out: all", self.camera)
+        if self.kind == "belt_speed":
+            lo, hi = SPEED_FACTOR_RANGE
+            ok = is_finite_number(self.speed_factor) and lo <= self.speed_factor <= hi
+            check(ok, f"{field}.speed_factor", f"{lo:g}..{hi:g}", self.speed_factor)
+        if self.kind == "vacuum_drop":
+            ok = is_finite_number(self.vacuum_pa) and self.vacuum_pa > 0
+            check(ok, f"{field}.vacuum_pa", "a vacuum > 0 Pa", self.vacuum_pa)
+
+    def _keys(self) -> str:
+        return ", ".join(("kind", "start_s", "duration_s", *KIND_KEYS[self.kind]))
+
+    @property
+    def end_s(self) -> float:
+        """When it ends [s]: the part works again from this time on."""
+        return self.start_s + self.duration_s
+
+    @property
+    def part(self) -> tuple[str, int | None]:
+        """The part it fails: ("robot", k), ("camera", k or None: all), or (kind, None)."""
+        if self.kind == "robot_stop":
+            return ("robot", self.robot)
+        if self.kind == "camera_outage":
+            return ("camera", self.camera)
+        return (self.kind, None)
+
+    def active(self, t: float) -> bool:
+        """Whether the fault holds at time `t` [s]."""
+        return self.start_s <= t < self.end_s
+
+    def label(self) -> str:
+        """A short name for tables, the timeline and the video: `robot_stop 1`, `belt_stop`."""
+        target = self.part[1]
+        return self.kind if target is None else f"{self.kind} {target}"
+
+
+@dataclass(frozen=True)
+class FaultSchedule:
+    """Every fault of an episode, by start time; empty: nothing fails (today's episode).
+
+    Attributes:
+        faults: The faults, sorted by start time.
+    """
+
+    faults: tuple[Fault, ...] = ()
+
+    def __post_init__(self) -> None:
+        ordered = tuple(sorted(self.faults, key=lambda f: (f.start_s, FAULT_KINDS.index(f.kind))))
+        object.__setattr__(self, "faults", ordered)
+        for a, b in _same_part_pairs(ordered):
+            if b.start_s < a.end_s:
+                allowed = "faults of one kind on one part that do not overlap"
+                got = f"{a.label()} at {a.start_s:g}-{a.end_s:g} s and {b.start_s:g}-{b.end_s:g} s"
+                check(False, "faults", allowed, got)
+
+    def __bool__(self) -> bool:
+        return bool(self.faults)
+
+    def active(self, t: float) -> tuple[Fault, ...]:
+        """The faults holding at time `t` [s]."""
+        return tuple(f for f in self.faults if f.active(t))
+
+    def of_kind(self, kind: str) -> tuple[Fault, ...]:
+        """The faults of one kind."""
+        return tuple(f for f in self.faults if f.kind == kind)
+
+    def boundaries(self) -> tuple[float, ...]:
+        """Every time a fault starts or ends [s], sorted, each once: the episode acts on them."""
+        return tuple(sorted({t for f in self.faults for t in (f.start_s, f.end_s)}))
+
+    def downtime_s(self, kind: str, until_s: float) -> float:
+        """Seconds of faults of `kind` before `until_s` [s] (overlaps of different parts, as two
+        robots stopped at once, count each)."""
+        return sum(max(0.0, min(f.end_s, until_s) - f.start_s) for f in self.of_kind(kind))
+
+    def check_cell(self, robots: int, cameras: int, end_s: float | None) -> None:
+        """Refuse in one line a fault naming a robot or camera the cell lacks, or starting at or
+        after the episode's end `end_s` [s] (None: no end known yet)."""
+        for f in self.faults:
+            if f.kind == "robot_stop" and f.robot is not None and f.robot >= robots:
+                check(
+                    False,
+                    "faults.robot_stop.robot",
+                    f"0..{robots - 1} (the line's robots)",
+                    f.robot,
+                )
+            if f.kind == "camera_outage" and f.camera is not None and f.camera >= cameras:
+                allowed = f"0..{cameras - 1} (the cell's cameras), or left out: all"
+                check(False, "faults.camera_outage.camera", allowed, f.camera)
+            if end_s is not None and f.start_s >= end_s:
+                allowed = f"a start before the episode's end ({end_s:g} s)"
+                check(False, f"faults.{f.kind}.start_s", allowed, f.start_s)
+
+
+def _same_part_pairs(faults: tuple[Fault, ...]):
+    """(earlier, later) pairs of consecutive faults of one kind on one part (`camera_outage`
+    of every camera overlaps each single camera's)."""
+    by_part: dict[tuple, list[Fault]] = {}
+    for f in faults:
+        by_part.setdefault((f.kind, f.part[1]), []).append(f)
+    for (kind, target), group in by_part.items():
+        yield from zip(group, group[1:], strict=False)
+        if kind == "camera_outage" and target is not None:
+            for every in by_part.get((kind, None), []):
+                for one in group:
+                    first, second = sorted((every, one), key=lambda f: f.start_s)
+                    yield first, second
+
+
+@dataclass(frozen=True)
+class RandomFaults:
+    """Faults of one kind drawn over an episode: up-times exponential with mean `mtbf_s`,
+    repairs exponential with mean `mttr_s`, one part after another.
+
+    Attributes:
+        kind: One of `FAULT_KINDS`.
+        mtbf_s: Mean time between faults [s] (from a repair to the next fault), > 0.
+        mttr_s: Mean time to repair [s], > 0.
+        vacuum_pa: vacuum_drop: the vacuum during each.
+        speed_factor: belt_speed: the factor during each.
+    """
+
+    kind: str
+    mtbf_s: float
+    mttr_s: float
+    vacuum_pa: float | None = None
+    speed_factor: float | None = None
+
+    def __post_init__(self) -> None:
+        check(self.kind in FAULT_KINDS, "faults_random", " | ".join(FAULT_KINDS), self.kind)
+        for key in ("mtbf_s", "mttr_s"):
+            value = getattr(self, key)
+            ok = is_finite_number(value) and value > 0
+            check(ok, f"faults_random.{self.kind}.{key}", "a time > 0 s", value)
+
+    def draw(self, rng: np.random.Generator, parts: tuple, end_s: float) -> list[Fault]:
+        """This kind's faults on each of `parts` (robot or camera indices; (None,) for the belt
+        or every camera) until `end_s` [s], from `rng`."""
+        out = []
+        for part in parts:
+            t = float(rng.exponential(self.mtbf_s))
+            while t < end_s:
+                length = max(float(rng.exponential(self.mttr_s)), 1e-3)
+                out.append(self._fault(t, min(length, end_s - t), part))
+                t += length + float(rng.exponential(self.mtbf_s))
+        return out
+
+    def _fault(self, start_s: float, duration_s: float, part: int | None) -> Fault:
+        keys: dict = {"robot": part} if self.kind == "robot_stop" else {}
+        if self.kind == "camera_outage":
+            keys = {"camera": part}
+        if self.kind == "vacuum_drop":
+            keys = {"vacuum_pa": self.vacuum_pa}
+        if self.kind == "belt_speed":
+            keys = {"speed_factor": self.speed_factor}
+        return Fault(self.kind, round(start_s, 3), round(duration_s, 3), **keys)
+
+
+def draw_schedule(
+    given: tuple[Fault, ...],
+    random: tuple[RandomFaults, ...],
+    seed: int,
+    robots: int,
+    cameras: int,
+    end_s: float,
+) -> FaultSchedule:
+    """The episode's schedule: the `given` faults and those drawn by `random` over [0, end_s)
+    [s] from the episode's `seed` (its own stream: the flow is unchanged), robots' and cameras'
+    faults per robot and per camera. A drawn fault that would overlap a given one of its part is
+    left out (the given one stands)."""
+    if not random:
+        return FaultSchedule(given)
+    rng = np.random.default_rng([int(seed), FAULT_STREAM])
+    drawn: list[Fault] = []
+    for spec in random:
+        parts: tuple = (None,)
+        if spec.kind == "robot_stop":
+            parts = tuple(range(robots))
+        elif spec.kind == "camera_outage":
+            parts = tuple(range(cameras))
+        drawn += spec.draw(rng, parts, end_s)
+    kept = [d for d in drawn if not any(_clash(d, g) for g in given)]
+    return FaultSchedule((*given, *kept))
+
+
+def _clash(a: Fault, b: Fault) -> bool:
+    same = a.kind == b.kind and (
+        a.part == b.part or (a.kind == "camera_outage" and None in (a.part[1], b.part[1]))
+    )
+    return same and a.start_s < b.end_s and b.start_s < a.end_s
+
+
+def availability(schedule: FaultSchedule, robots: int, end_s: float) -> float:
+    """Share of robot-time [0, 1] over [0, end_s) that no robot_stop or belt_stop took: each
+    robot's own stops and the belt's (a stopped belt feeds no robot), their union per robot."""
+    if end_s <= 0 or robots <= 0:
+        return 1.0
+    belt = [(f.start_s, min(f.end_s, end_s)) for f in schedule.of_kind("belt_stop")]
+    lost = 0.0
+    for k in range(robots):
+        own = [
+            (f.start_s, min(f.end_s, end_s)) for f in schedule.of_kind("robot_stop") if f.robot == k
+        ]
+        lost += _union_length([w for w in (*belt, *own) if w[0] < end_s])
+    return max(0.0, 1.0 - lost / (robots * end_s)) if math.isfinite(end_s) else 1.0
+
+
+def _union_length(windows: list[tuple[float, float]]) -> float:
+    total, reach = 0.0, -math.inf
+    for lo, hi in sorted(windows):
+        if hi <= reach:
+            continue
+        total += hi - max(lo, reach)
+        reach = hi
+    return total
