@@ -68,6 +68,7 @@ def fit_to_plans(
     """The context's cycle model with both calibrations fitted by least squares to the
     controller's `picks` (each at its belt speed [m/s] in `speeds`)."""
     model = context.cycle_model
+    assert isinstance(model, CycleTimeModel), "fitted: the closed form (`cell_cycle_model`)"
     pick_rows, place_rows = [], []
     for p, v in zip(picks, speeds, strict=True):
         x, y = p.item_xy
@@ -100,7 +101,9 @@ def cycle_errors(
             continue
         meet, x_meet, _waits = hit
         bin_xyz = ctx.bin_of(p.bin_class)
-        meet_xyz = (x_meet, p.item_xy[1], ctx.cycle_model.pick_z)
-        place = ctx.cycle_model.time_to_place(meet_xyz, bin_xyz)
+        model = ctx.cycle_model
+        assert isinstance(model, CycleTimeModel), "the closed form (`cell_cycle_model`)"
+        meet_xyz = (x_meet, p.item_xy[1], model.pick_z)
+        place = model.time_to_place(meet_xyz, bin_xyz)
         errors.append(p.cycle_time - (meet + place))
     return np.array(errors)

@@ -20,6 +20,8 @@ time has come or one is held back.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 from sim.cell.items import Items
 from sim.cell.riding import ItemRiding
 from sim.flow.config import X_INFEED
@@ -86,6 +88,7 @@ class Infeed:
         """Hand the due items over to the belt (at its speed, as from an infeed conveyor) and
         book them as entered; an item dropped partly onto a flat one wakes that one."""
         first, flow, items = self.next_index, self.flow, self.items
+        dropped: Sequence[int]
         if self.hold:
             self.next_index, dropped = self._feed_holding(first)
         else:

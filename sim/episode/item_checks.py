@@ -96,6 +96,7 @@ def landings(parts: EpisodeParts, now: ItemsNow, held: np.ndarray) -> bool:
             # reached a bin otherwise (knocked off the belt) is dropped.
             metrics.on_dropped(landing.item_id)
         else:
+            assert landing.bin_class is not None  # in a bin: its material's class
             metrics.on_binned(landing.item_id, landing.true_class, landing.bin_class)
         parts.tracker.remove_true(landing.item_id)
     return bool(landed)
@@ -145,9 +146,9 @@ def attribute(parts: EpisodeParts, created: list, t: float) -> None:
                 shapes[item_id] = (yaw_of(items, int(slot)), items.pool.item_type(int(slot)))
     gate = parts.tracker.match_radius
     for track in created:
-        item_id = attributed_item(track, t, parts.speed, items_xy, gate, shapes)
-        if item_id is not None:
-            parts.metrics.on_detected(item_id)
+        detected = attributed_item(track, t, parts.speed, items_xy, gate, shapes)
+        if detected is not None:
+            parts.metrics.on_detected(detected)
 
 
 def book_unsure(parts: EpisodeParts, gone: list) -> None:

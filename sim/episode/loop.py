@@ -133,15 +133,15 @@ class Episode:
 
     @property
     def metrics(self) -> EpisodeMetrics:
-        return self.parts.metrics
+        return self._ready().metrics
 
     @property
     def tracker(self) -> Tracker:
-        return self.parts.tracker
+        return self._ready().tracker
 
     @property
     def perception(self):
-        return self.parts.perception
+        return self._ready().perception
 
     @property
     def speed(self) -> float:
@@ -166,7 +166,7 @@ class Episode:
     @property
     def energy(self) -> EnergyMeter:
         """The first robot's motor energy meter (the line's: `parts.stations`)."""
-        return self.parts.stations[0].energy
+        return self._ready().stations[0].energy
 
     @property
     def current_pick(self):
@@ -174,7 +174,12 @@ class Episode:
         return None if self.parts is None else self.parts.current_pick
 
     def _station(self) -> RobotStation:
-        return self._deciding if self._deciding is not None else self.parts.stations[0]
+        return self._deciding if self._deciding is not None else self._ready().stations[0]
+
+    def _ready(self) -> EpisodeParts:
+        """The parts of the episode under way (made by `reset`)."""
+        assert self.parts is not None, "reset the episode first"
+        return self.parts
 
     def __enter__(self) -> Episode:
         return self
@@ -196,22 +201,23 @@ class Episode:
 
     def _register(self) -> None:
         """The episode's own hooks and events, then a user's."""
+        parts = self._ready()
         self.hooks, self.scheduler = Hooks(), Scheduler()
         for fn in BEFORE_STEP:
             self.hooks.add("before_step", fn)
         for fn in AFTER_STEP:
             self.hooks.add("after_step", fn)
-        for event in builder.own_events(self.parts):
+        for event in builder.own_events(parts):
             self.scheduler.add(event)
         if self.video is not None:
             self.scheduler.add(FrameEvent(self.video, overlay_of))
-        for stage, fn in self._user_hooks:
-            self.hooks.add(stage, fn)
+        for stage, user_fn in self._user_hooks:
+            self.hooks.add(stage, user_fn)
         for event in self._user_events:
             event.next_s = 0.0
             self.scheduler.add(event)
-        if self.parts.timeline.horizon is not None:  # last: due at the horizon, it goes first
-            self.scheduler.add(self.parts.timeline.horizon)
+        if parts.timeline.horizon is not None:  # last: due at the horizon, it goes first
+            self.scheduler.add(parts.timeline.horizon)
 
     def close(self, aborted: bool = False) -> None:
         """Release the perception's renderer and finish (or, `aborted`, discard) the video."""
@@ -231,7 +237,7 @@ class Episode:
         items (`candidates()`, `robot_state()`, `context`); False once the episode has ended."""
         if self.parts is None:
             self.reset()
-        parts = self.parts
+        parts = self._ready()
         self._deciding = None
         while not self._finished():
             t = self.data.time
@@ -273,7 +279,7 @@ class Episode:
         t0 = time.perf_counter()
         station = self._station()
         choice = ask_manager(station.planner, self._candidates, self.robot_state(), station.context)
-        self.parts.timings.decided(time.perf_counter() - t0)
+        self._ready().timings.decided(time.perf_counter() - t0)
         return choice
 
     def apply(self, choice: Choice | None) -> bool:
@@ -283,13 +289,14 @@ class Episode:
         t1 = time.perf_counter()
         if choice is None:
             return False
-        parts, station = self.parts, self._station()
+        parts, station = self._ready(), self._station()
         robot = station.robot
         if choice.meet_time - t > MAX_LEAD_S:
             # Far upstream: wait where we are and decide again with fresher positions.
             station.decide_at(t + min(choice.meet_time - t - MAX_LEAD_S, WAIT_STEP_S))
             return False
         track = parts.tracker.get(choice.item_id)
+        assert track is not None, f"no track {choice.item_id} to pick"
         x = track.x_at(t, parts.speed)
         intercept = robot.plan(x, track.y, choice.bin_class)
         parts.timings.add("planning", time.perf_counter() - t1, "plan")
@@ -309,6 +316,7 @@ class Episode:
         robot.start(intercept, -1 if track.true_id is None else int(track.true_id))
         path = None
         if parts.riding.in_window:
+            assert intercept.plan is not None  # a feasible intercept has its plan
             path = PlannedPath.of(intercept.plan.chain, t, *station.path_reach)
         station.start(pick, path)
         if path is not None:
@@ -326,7 +334,7 @@ class Episode:
         """While a pick is under way, a chunk of steps up to the next event or idle robot's
         decision (`sim.episode.chunks`; one step at a time with a user's step hooks), else one
         block of steps up to the next event or decision; then the events due, finished picks."""
-        parts = self.parts
+        parts = self._ready()
         busy = [s for s in parts.stations if s.robot.busy]
         parts.clock.stepping(busy)
         if busy and not self._user_hooks:
@@ -359,19 +367,20 @@ class Episode:
     def _idle_steps(self) -> int:
         """Physics steps until the next event or decision while every robot idles."""
         t, dt = self.data.time, self.model.opt.timestep
-        decisions = (s.next_decision for s in self.parts.stations)
+        decisions = (s.next_decision for s in self._ready().stations)
         return steps_until_due(t, min(self.scheduler.next_time(t), *decisions), dt)
 
     def _finished(self) -> bool:
-        timeline = self.parts.timeline
+        parts = self._ready()
+        timeline = parts.timeline
         if timeline.at_horizon:
             return True
-        if any(s.robot.busy for s in self.parts.stations):  # a pick under way is always finished
+        if any(s.robot.busy for s in parts.stations):  # a pick under way is always finished
             return False
         t = self.data.time
         if t >= timeline.t_cap:
             return True
-        if self.parts.infeed.pending or len(self.cell.items.active_slots()):
+        if parts.infeed.pending or len(self.cell.items.active_slots()):
             return False
         return t >= timeline.t_last_spawn + SETTLE_S
 
@@ -381,7 +390,7 @@ class Episode:
         if self._closed_out:
             return
         self._closed_out = True
-        parts = self.parts
+        parts = self._ready()
         parts.metrics.on_warnings(parts.mj_warnings.update())
         item_checks.book_unsure(parts, parts.tracker.tracks())  # still tracked at the end
         items, metrics = self.cell.items, parts.metrics

@@ -19,7 +19,9 @@ _RIMS: dict[tuple[int, tuple[str, ...]], list[tuple[str, int, tuple[float, float
 """Per (model, materials): each bin's (material, class id, rim centre [m]); bins are static."""
 
 
-def bin_rims(model: mujoco.MjModel, data: mujoco.MjData, materials):
+def bin_rims(
+    model: mujoco.MjModel, data: mujoco.MjData, materials
+) -> list[tuple[str, int, tuple[float, float, float]]]:
     """Each bin of the cell or line and the centre of its rim.
 
     Args:

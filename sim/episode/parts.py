@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Protocol
 
 import mujoco
 import numpy as np
@@ -31,7 +32,7 @@ from sim.monitors.energy import ActuatorLog
 from sim.monitors.mj_warnings import WarningCounter
 from sim.monitors.thrown import ThrowWatch
 from sim.results.metrics import EpisodeMetrics
-from sim.sensing.tracking import Track, Tracker
+from sim.sensing.tracking import Detection, Track, Tracker
 
 DUE_TOLERANCE_S = 1e-9
 """An event whose time is at most this far ahead of the clock is due [s] (the clock sums
@@ -49,6 +50,17 @@ TIMED_STAGES = ("physics", "perception", "decision", "planning", "video")
 def is_due(t: float, when: float) -> bool:
     """Whether something due at `when` [s] is due at sim time `t` [s]."""
     return t + DUE_TOLERANCE_S >= when
+
+
+class Perception(Protocol):
+    """What reports the items crossing the camera line (`sim.sensing.truth.TruthPerception`,
+    the camera pipelines of `sim.sensing.perception`)."""
+
+    def observe(self, t: float) -> list[Detection]:
+        """The detections at sim time `t` [s]."""
+
+    def close(self) -> None:
+        """Release what it holds (a renderer)."""
 
 
 class Horizon:
@@ -184,7 +196,7 @@ class EpisodeParts:
     tracker: Tracker
     offers: Offers
     stations: tuple[RobotStation, ...]
-    perception: object
+    perception: Perception
     infeed: Infeed
     riding: ItemRiding
     bins: Bins

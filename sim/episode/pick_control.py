@@ -17,8 +17,9 @@ A seal that does not form leaves the cup to lift straight up, empty.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field, replace
+from typing import cast
 
 import mujoco
 import numpy as np
@@ -34,7 +35,7 @@ from planner.motion.clearance import (
 from planner.motion.intercept import Intercept, intercept_item
 from planner.motion.kinematics import Unreachable
 from planner.motion.pick_cycle import PickPlaceConfig
-from planner.motion.trajectory import State
+from planner.motion.trajectory import Chain, State
 from sim.cell.cell import Cell
 from sim.cell.conveyor import rail_top_z
 from sim.cell.executor import Playback
@@ -509,7 +510,8 @@ class PickController:
             config = replace(self.config, lift_height=aim.lift, approach_height=approach)
             try:
                 hit = intercept_item(
-                    State.at_rest(self.rest), item_xy, self.belt_speed, aim.drop,
+                    State.at_rest(self.rest), item_xy, self.belt_speed,
+                    cast(Sequence[float], aim.drop),  # an array: the planner indexes it
                     self.view.generator, aim.pick_z, config,
                     axis4=(self.axis4, self.axis4 + aim.turn),
                 )  # fmt: skip
@@ -518,6 +520,7 @@ class PickController:
                 return _refusal(str(exc))
             if not hit.feasible:
                 return hit
+            assert hit.plan is not None  # a feasible intercept asked with its plan has one
             chain, radius = hit.plan.chain, self.suction.radius
             t_down = chain.phase_start("descend")
             # The way down onto the item, nearly vertical: only a neighbour the lip would
@@ -551,6 +554,7 @@ class PickController:
         find a point between two checks outside the workspace, at its very edge: such a pick
         is refused now, before any robot commits to it. The playback made here is the one
         `start` plays."""
+        assert hit.plan is not None  # `_plan_clear_of` hands over feasible, planned hits
         try:
             playback = self.view.executor.playback(hit.plan.chain, hold=RELEASE_CLEAR_S)
         except Unreachable as exc:
@@ -578,10 +582,11 @@ class PickController:
             target: Flow id of the item aimed at, when known (for `activity`).
         """
         plan = intercept.plan
+        assert plan is not None, "start needs a feasible intercept with its plan"
         x, y, bin_class = self._request if self._request is not None else (np.nan, np.nan, 0)
         self.started.append(
             StartedPick(
-                start_xyz=tuple(float(c) for c in self.rest),
+                start_xyz=cast(tuple[float, float, float], tuple(float(c) for c in self.rest)),
                 item_xy=(x, y),
                 bin_class=bin_class,
                 contact_time=float(plan.contact_time),
@@ -683,7 +688,7 @@ class PickController:
 class _PickInProgress:
     """The state of one pick while the loop plays it (period index, vacuum switches, events)."""
 
-    chain: object
+    chain: Chain
     target: int
     playback: Playback
     times: list[float]  # the playback's period ends [s], as Python floats (read every step)

@@ -52,7 +52,7 @@ class EpisodeResult:
     latencies: dict[str, list[float]] = field(default_factory=dict)
 
 
-_CELLS: dict[tuple[int, CellSettings, str, int, bool, tuple[float, ...], bool], object] = {}
+_CELLS: dict[tuple[int, CellSettings, str, int, bool, tuple[float, ...], bool, int], Cell] = {}
 
 
 def _economics(config: EpisodeConfig) -> dict[str, float]:
@@ -180,6 +180,7 @@ def run_episode(
     wall = time.perf_counter() - wall0
     label = config.planner if planner is None else planner_name(planner)
     parts = episode.parts
+    assert parts is not None  # made by `reset`
     row = episode_row(parts, label, variant, wall)
     timings = dict(parts.timings.seconds)
     # Physics: stepping, the executor's control loop, the cup and bins (everything else).

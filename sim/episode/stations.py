@@ -7,6 +7,7 @@ A cell has one robot, a line up to four; the one loop steps them all (`sim.episo
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -111,7 +112,7 @@ class RobotStation:
 
 
 def line_offer(
-    stations: list[RobotStation],
+    stations: Sequence[RobotStation],
     station: RobotStation,
     items: list[TrackedItem],
     t: float,
@@ -134,8 +135,11 @@ def line_offer(
         return items
     line = []
     for s in stations:
-        busy = s.robot.busy
-        free_at = s.pick.t_start_s + s.mean_pick_s if busy else t
+        if s.robot.busy:
+            assert s.pick is not None  # a busy robot's station holds its pick
+            free_at = s.pick.t_start_s + s.mean_pick_s
+        else:
+            free_at = t
         line.append(LineRobot(s.context, max(free_at, t), robot_class_ids[s.index]))
     return offered_items(coordination, items, line, station.index, t, station.mean_pick_s)
 
@@ -151,6 +155,7 @@ def book_pick(
     `offers` (truth mode gives it up after `MAX_FAILURES`), the item sealed is tracked no more.
     """
     pick = station.pick
+    assert pick is not None, "book_pick needs the station's pick under way"
     track, choice, (mech0, elec0) = pick.track, pick.choice, pick.energy_at_start
     station.pick = None
     station.picks_done += 1
@@ -212,7 +217,7 @@ class Offers:
         """The items offered at sim time `t` [s], once for all robots."""
         items, made = [], {}
         for tr in self.tracker.tracks():
-            if self.failures.get(tr.true_id, 0) >= MAX_FAILURES:
+            if tr.true_id is not None and self.failures.get(tr.true_id, 0) >= MAX_FAILURES:
                 continue  # truth mode: an item the cup failed on twice is given up
             if self.not_before.get(tr.track_id, 0.0) > t:
                 continue  # the cup could not meet it a moment ago
@@ -221,6 +226,7 @@ class Offers:
             # array (the tracker replaces the array when it updates them).
             probs, item = self.track_items.get(tr.track_id, (None, None))
             if probs is tr.probs:
+                assert item is not None  # stored with its probabilities
                 item = item.at(x, tr.y)
             else:
                 item = TrackedItem(tr.track_id, x, tr.y, tuple(tr.probs))
