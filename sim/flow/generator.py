@@ -155,6 +155,7 @@ def max_items_on_belt(flow: Flow) -> int:
 
 def _draw_classes(config: FlowConfig, stripes: np.ndarray, u: np.ndarray) -> np.ndarray:
     """Material index 0..n-1 of each item: a Markov chain per stripe, in arrival order."""
+    assert config.class_priors is not None  # FlowConfig fills in the default
     prior_cdf = np.cumsum(config.class_priors)
     prior_cdf /= prior_cdf[-1]
     step_cdf = np.cumsum(np.asarray(config.transitions, dtype=float), axis=1)
