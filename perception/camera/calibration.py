@@ -17,6 +17,7 @@ import os
 import secrets
 from dataclasses import dataclass
 from pathlib import Path
+from typing import cast
 
 import cv2
 import numpy as np
@@ -84,8 +85,11 @@ def _check_layout(raw: object) -> None:
 def _check_numbers(rows: object, dist: dict, rms_px: object) -> None:
     """Refuse a camera matrix that is not 3 rows of 3 numbers, or distortion or RMS that are
     not numbers."""
-    square = isinstance(rows, list) and len(rows) == 3
-    if not square or not all(isinstance(r, list) and len(r) == 3 for r in rows):
+    if (
+        not isinstance(rows, list)
+        or len(rows) != 3
+        or not all(isinstance(r, list) and len(r) == 3 for r in rows)
+    ):
         raise PerceptionInputError("camera_matrix", "a 3x3 matrix (3 rows of 3)", None)
     for key, values in (("camera_matrix", sum(rows, [])), ("dist_coeffs", dist.values())):
         if not all(_real(v) for v in values):
@@ -187,6 +191,7 @@ class CameraCalibration:
         raw = _read_json(Path(path), where)
         try:
             _check_layout(raw)
+            assert isinstance(raw, dict)  # _check_layout refuses anything else
             dist = raw["dist_coeffs"]
             return cls(
                 camera_matrix=np.array(raw["camera_matrix"], dtype=np.float64),
@@ -213,7 +218,11 @@ class CameraCalibration:
         matrix[0, 2] = (self.camera_matrix[0, 2] + 0.5) * sx - 0.5
         matrix[1, 2] = (self.camera_matrix[1, 2] + 0.5) * sy - 0.5
         return CameraCalibration(
-            matrix, self.dist_coeffs, tuple(image_size), self.rms_px, self.n_views
+            matrix,
+            self.dist_coeffs,
+            cast(tuple[int, int], tuple(image_size)),
+            self.rms_px,
+            self.n_views,
         )
 
 

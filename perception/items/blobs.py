@@ -92,7 +92,7 @@ def item_blobs(
         return []
     b, y, row = pixels.b, pixels.y, pixels.row
     early = reported is not None and split is not None and complete_row is not None
-    done = pixels.gathered(reported, bool) if early else None
+    done = pixels.gathered(reported, bool) if early and reported is not None else None
     label_of_pixel, count = _regions(b, y, raster_m, done)
     wanted, growing = _regions_due(label_of_pixel, count, row, complete_row, early, min_pixels)
     height = None
@@ -105,13 +105,15 @@ def item_blobs(
         cut = _pieces(np.flatnonzero(label_of_pixel == label), b, y, height, split)
         pieces += [mine for mine in cut if row[mine].max() < complete_row]
     if early:
+        assert done is not None and reported is not None  # `early` says both are given
         for mine in pieces:
             done[mine] = True
         _flag(reported, pixels.parts, done)
     big = [mine for mine in pieces if len(mine) >= min_pixels]
-    if big and callable(posteriors):
-        posteriors = posteriors()
-    return [_blob(mine, b, y, row, pixels.stripe, posteriors) for mine in big]
+    if not big:
+        return []
+    table = posteriors() if callable(posteriors) else posteriors
+    return [_blob(mine, b, y, row, pixels.stripe, table) for mine in big]
 
 
 @dataclass(frozen=True, eq=False)
@@ -127,7 +129,9 @@ class _WindowPixels:
     stripe: np.ndarray
 
     @classmethod
-    def of(cls, pixel_b: list[list[np.ndarray]], pixel_y: list[list[np.ndarray]]):
+    def of(
+        cls, pixel_b: list[list[np.ndarray]], pixel_y: list[list[np.ndarray]]
+    ) -> _WindowPixels | None:
         """The pixels of [row][stripe] arrays; None when there are none."""
         parts = [
             (r, j, np.asarray(b, float), np.asarray(y, float))

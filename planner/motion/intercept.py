@@ -121,9 +121,9 @@ def window_span(inside_at, count: int) -> tuple[int, int] | None:
 
 def intercept_item(
     start: State,
-    item_xy: Sequence[float],
+    item_xy: Sequence[float] | np.ndarray,
     belt_speed: float,
-    drop_xyz: Sequence[float],
+    drop_xyz: Sequence[float] | np.ndarray,
     generator: RuckigTrajectoryGenerator,
     pick_z: float,
     config: PickPlaceConfig | None = None,
@@ -181,7 +181,7 @@ class _ItemMeeting:
     y: float
     pick_z: float
     belt_speed: float
-    drop_xyz: Sequence[float]
+    drop_xyz: Sequence[float] | np.ndarray
     generator: RuckigTrajectoryGenerator
     geom: DeltaGeometry
     config: PickPlaceConfig

@@ -102,7 +102,7 @@ class PickPlan:
 def pick_place_waypoints(
     pick_xyz: Sequence[float],
     belt_velocity: float,
-    drop_xyz: Sequence[float],
+    drop_xyz: Sequence[float] | np.ndarray,
     config: PickPlaceConfig,
     axis4: tuple[float, float] = (0.0, 0.0),
 ) -> list[Waypoint]:

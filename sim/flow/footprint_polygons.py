@@ -98,7 +98,7 @@ def edge_normals(vertices: np.ndarray) -> np.ndarray:
 
 
 def shift_intervals(
-    new: np.ndarray, others: np.ndarray, clearance: float
+    new: np.ndarray, others: np.ndarray, clearance: float | np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """Shifts along -x that make a polygon overlap each of several others (separating axes).
 

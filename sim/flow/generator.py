@@ -104,7 +104,6 @@ class Flow:
         return len(self.t_spawn)
 
     def spawn(self, i: int) -> Spawn:
-        """Item `i` as a record."""
         return Spawn(
             i, float(self.t_spawn[i]), float(self.y[i]), float(self.yaw[i]),
             int(self.type_index[i]), int(self.class_id[i]), int(self.colour[i]),
@@ -115,7 +114,6 @@ class Flow:
         return catalogue.types[int(self.variant[i])].scaled(self.scale[i])
 
     def item_types(self, catalogue: Catalogue) -> tuple[ItemType, ...]:
-        """The (scaled) item type of every item."""
         return tuple(self.item_type(i, catalogue) for i in range(len(self)))
 
     @property
@@ -130,7 +128,7 @@ class Flow:
 
     @property
     def row(self) -> np.ndarray:
-        """Grid row of each item's centre: round(tau / T)."""
+        """Grid row of each item's centre (nearest to `tau`)."""
         return np.rint(self.tau / self.config.observation_period_s).astype(int)
 
     def x_at(self, t: float) -> np.ndarray:
@@ -155,6 +153,7 @@ def max_items_on_belt(flow: Flow) -> int:
 
 def _draw_classes(config: FlowConfig, stripes: np.ndarray, u: np.ndarray) -> np.ndarray:
     """Material index 0..n-1 of each item: a Markov chain per stripe, in arrival order."""
+    assert config.class_priors is not None  # FlowConfig fills in the default
     prior_cdf = np.cumsum(config.class_priors)
     prior_cdf /= prior_cdf[-1]
     step_cdf = np.cumsum(np.asarray(config.transitions, dtype=float), axis=1)
@@ -237,8 +236,6 @@ def generate_flow(config: FlowConfig, catalogue: Catalogue, pool_size: int | Non
     """Generates the flow of `config` from `catalogue` (deterministic in `config.seed`).
 
     Args:
-        config: Flow settings.
-        catalogue: Item types to draw from.
         pool_size: Item bodies the simulation has; a flow needing more at once on the belt is
             refused. Defaults to POOL_CAPACITY_REQUIRED.
 
