@@ -46,6 +46,7 @@ from sim.episode.scheduler import (
     steps_until_due,
 )
 from sim.episode.stations import PickUnderWay, RobotStation
+from sim.errors import CallOrderError, InvalidInput
 from sim.monitors.energy import EnergyMeter
 from sim.results.metrics import EpisodeMetrics
 from sim.sensing.tracking import Tracker
@@ -178,7 +179,8 @@ class Episode:
 
     def _ready(self) -> EpisodeParts:
         """The parts of the episode under way (made by `reset`)."""
-        assert self.parts is not None, "reset the episode first"
+        if self.parts is None:
+            raise CallOrderError("the episode has no parts before reset(seed): reset it first")
         return self.parts
 
     def __enter__(self) -> Episode:
@@ -296,7 +298,9 @@ class Episode:
             station.decide_at(t + min(choice.meet_time - t - MAX_LEAD_S, WAIT_STEP_S))
             return False
         track = parts.tracker.get(choice.item_id)
-        assert track is not None, f"no track {choice.item_id} to pick"
+        if track is None:
+            allowed = "the id of an item offered now (episode.candidates())"
+            raise InvalidInput("choice.item_id", allowed, choice.item_id)
         x = track.x_at(t, parts.speed)
         intercept = robot.plan(x, track.y, choice.bin_class)
         parts.timings.add("planning", time.perf_counter() - t1, "plan")
