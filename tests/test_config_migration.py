@@ -38,3 +38,28 @@ def test_a_bad_section_is_refused_naming_its_key(section, field, allowed):
         migrated({"robot": section}, "old.toml")
     assert (refused.value.field, refused.value.allowed) == (field, allowed)
     assert refused.value.where == "old.toml"
+
+
+def test_an_old_manifest_with_the_robot_section_repeats_its_run_byte_for_byte(tmp_path):
+    """A manifest written before `[[robots]]` (its config with `robots = 2` and `[robot]`) runs
+    the episode of today's layout: the same picks.csv bytes, the same episodes.csv (wall-clock
+    columns aside)."""
+    import json
+
+    from sim.cli.main import main
+    from sim.results import outputs
+
+    first, again = tmp_path / "first", tmp_path / "again"
+    common = ["--perception", "truth", "--items", "8", "--duration", "6", "--seed", "5"]
+    today = tmp_path / "today.toml"
+    today.write_text("[[robots]]\npick_pause_s = 0.25\n[[robots]]\npick_pause_s = 0.25\n")
+    assert main(["run", "--config", str(today), "--out", str(first), *common, "--quiet"]) == 0
+    old = json.loads((first / "manifest.json").read_text())
+    config = old["config"]
+    config["robot"] = {"pick_pause_s": config["robots"][0]["pick_pause_s"]}
+    config["robots"] = len(config["robots"])  # the old layout: a count and one shared section
+    (tmp_path / "old.json").write_text(json.dumps(old))
+    assert main(["run", "--config", str(tmp_path / "old.json"), "--out", str(again), "-q"]) == 0
+    assert (first / "picks.csv").read_bytes() == (again / "picks.csv").read_bytes()
+    a, b = (outputs.strip_wall_clock((d / "episodes.csv").read_text()) for d in (first, again))
+    assert a == b
