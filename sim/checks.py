@@ -58,7 +58,7 @@ def is_finite_in(value: object, lo: float, hi: float) -> bool:
     return is_finite_number(value) and lo <= value <= hi
 
 
-def is_integer(value: object) -> bool:
+def is_integer(value: object) -> TypeGuard[int]:
     """Whether `value` is a Python int and not a bool (a float of integer value is not).
 
     Args:

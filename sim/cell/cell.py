@@ -10,6 +10,8 @@ accessors keep riders' poses right. `reset` parks every item and puts every robo
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import mujoco
 
 from planner.motion.kinematics import reachable_mask
@@ -23,6 +25,9 @@ from sim.config.plant import CUP_DIAMETER_M, CellSettings
 from sim.errors import InvalidInput
 from sim.flow.catalogue import Catalogue, load_catalogue
 from sim.model.scene_edits import compile_scene
+
+if TYPE_CHECKING:
+    from sim.cell.camera import SceneRenderer
 
 __all__ = ["DESIGN_PAYLOAD_KG", "PICK_Z_NOMINAL", "Cell"]
 
@@ -88,7 +93,9 @@ class Cell:
         whose largest item is larger than `item_radius` wakes them that much earlier, a cup
         larger than the scene's by its extra radius."""
         self._cameras: dict = {}  # belt camera name -> its renderer (sim.cell.camera)
-        self._scene_renderer = None  # the one every belt camera of the cell renders in
+        self._scene_renderer: SceneRenderer | None = (
+            None  # the one every belt camera of the cell renders in
+        )
 
     @property
     def window(self) -> ReachWindow:

@@ -252,6 +252,7 @@ def main(args: argparse.Namespace) -> int:
             too = f"the video {video_path} failed too ({video.failure})"
             raise OutputError(f"{exc}; {too}") from None
     if video is not None and video.failure is None:
+        assert video_path is not None  # a video is made only to a path
         written.append(video_path)
     print("wrote " + ", ".join(str(p) for p in written))
     if video is not None and video.failure is not None:

@@ -61,6 +61,7 @@ class CatalogueFile:
         path or its file cannot be used."""
         ok = isinstance(path, str) and "\0" not in path
         check(ok, "catalogue", "a path to an item catalogue TOML file", path, where)
+        assert isinstance(path, str)
         try:
             catalogue = episode_catalogue(path)
         except InvalidInput as exc:

@@ -177,6 +177,7 @@ class EpisodeConfig(EpisodeSettings):
         ok = isinstance(loaded, CatalogueFile) and loaded.path == self.catalogue
         allowed = "a catalogue file read by load, from_dict, EpisodeConfig.build or replace"
         check(ok, "catalogue", allowed, self.catalogue, w)
+        assert loaded is not None
         return loaded.catalogue
 
     @classmethod
@@ -198,6 +199,7 @@ class EpisodeConfig(EpisodeSettings):
     @property
     def item_catalogue(self) -> Catalogue:
         """The item catalogue (of `catalogue`; the built-in one when "")."""
+        assert self.catalogue_file is not None  # set when the config loads
         return self.catalogue_file.catalogue
 
     @property
@@ -404,69 +406,6 @@ class EpisodeConfig(EpisodeSettings):
         if infeed.rate is not None and "items" not in out:
             out["items"] = DEFAULT_ITEMS  # follows the rate again
         return out
-
-
-_VARIED_OK: set[tuple[WorldVariation, str]] = set()
-"""(world, catalogue digest) pairs `_check_catalogue_varied` passed (a sweep repeats them)."""
-
-
-def _check_catalogue_varied(world: WorldVariation, catalogue: Catalogue, path: str) -> None:
-    """Refuse, when the config loads, a catalogue whose items the world's variation takes out of
-    the catalogue's limits (`sim.flow.world.check_varied`) or out of the belt's outer stripes
-    (the flow generator's rule: the item's narrowest lateral extent and the edge margin within a
-    stripe), naming the key, the item and the catalogue's file.
-
-    Args:
-        world: The episode's world variation.
-        catalogue: The episode's catalogue.
-        path: The config's `catalogue` key ("": the built-in one).
-    """
-    if (world, catalogue.digest) in _VARIED_OK:
-        return
-    file = path or str(DEFAULT_CATALOGUE)
-    try:
-        check_varied(world, catalogue)
-    except InvalidInput as exc:
-        where = f"{file}, {exc.where}"
-        raise InvalidInput(f"catalogue: {exc.field}", exc.allowed, exc.got, where) from None
-    j = world.size_jitter
-    for t in catalogue.types:
-        big = t.scaled((1.0 + j,) * 3)
-        yaw = 0.0 if big.half_width <= big.half_length else 1.5708  # the generator's last try
-        if float(big.half_extents(yaw)[1]) + EDGE_MARGIN_M >= STRIPE_WIDTH:
-            allowed = (
-                f"an item {2 * (STRIPE_WIDTH - EDGE_MARGIN_M):g} m wide at most, so it fits the "
-                f"belt's outer stripe (narrowest side, once varied by size_jitter {j:g})"
-            )
-            raise InvalidInput("catalogue: size", allowed, t.size, f"{file}, item {t.name!r}")
-    _VARIED_OK.add((world, catalogue.digest))
-
-
-def _is_table(value: Any) -> bool:
-    """Whether `value` is a section's dataclass (written as a TOML table)."""
-    return dataclasses.is_dataclass(value) and not isinstance(value, type)
-
-
-@functools.lru_cache(maxsize=4096)
-def _flow_check(
-    items: int,
-    duration_s: float,
-    speed_factor: float,
-    period_s: float,
-    n_materials: int = 3,
-    mix: tuple = (),
-    max_items_per_metre: float = MAX_ITEMS_PER_METRE,
-) -> None:
-    """`FlowConfig`'s checks of these settings (cached: a sweep repeats them for every seed)."""
-    FlowConfig(
-        n_items=items,
-        duration_s=duration_s,
-        speed_factor=speed_factor,
-        observation_period_s=period_s,
-        n_materials=n_materials,
-        max_items_per_metre=max_items_per_metre,
-        **dict(mix),
-    )
 
 
 _VARIED_OK: set[tuple[WorldVariation, str]] = set()

@@ -55,7 +55,7 @@ class Range:
 
     def allows(self, value: object) -> bool:
         """Whether `value` (as a file gives it) is a number of the right kind inside the ends."""
-        if not (is_integer(value) if self.integer else is_number(value)):
+        if not is_number(value) or (self.integer and not is_integer(value)):
             return False
         # Ints compared as ints: 2**63 - 1 + 0.0 would round to 2**63.
         lo = self.lo - self.slack[0] if self.slack[0] else self.lo

@@ -5,13 +5,16 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from sim.checks import check, is_number
 from sim.config.fields import Range, setting
 from sim.flow import mix as flow_mix
 from sim.flow.catalogue import Catalogue
 from sim.flow.config import default_transitions
+
+if TYPE_CHECKING:
+    import numpy as np
 
 _PROBABILITIES = "probabilities, each in [0, 1], summing to 1"
 _SHARES = Range(0.0, 1.0, "shares in [0, 1] summing to 1", entries="table")
@@ -129,10 +132,13 @@ class FlowMix:
         out = {n: getattr(self, n) for n in names if getattr(self, n) is not None}
         if self.mix is None and self.mix_types is None:
             return out
+        assert catalogue is not None, "flow.mix and flow.mix_types need the catalogue"
         materials = catalogue.materials
+        shares: list[float] | np.ndarray
         if self.mix is not None:
             shares = [dict(self.mix)[n] for n in materials.names]
         else:
+            assert self.mix_types is not None
             shares, weights = flow_mix.shares_of_types(catalogue, dict(self.mix_types))
             out["type_weights"] = tuple(float(w) for w in weights)
         field = "flow.mix" if self.mix is not None else "flow.mix_types"

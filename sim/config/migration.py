@@ -60,6 +60,7 @@ def migrated(data: dict[str, Any], where: str | None) -> dict[str, Any]:
 def _checked_section(value: object, where: str | None) -> dict[str, Any]:
     """The section's keys and values, each checked as a robot's, naming `robot.<key>`."""
     check(isinstance(value, dict), SECTION, f"a table [{SECTION}]", value, where)
+    assert isinstance(value, dict)
     allowed = "one of " + ", ".join(sorted(SECTION_KEYS))
     for key in value:
         check(key in SECTION_KEYS, f"{SECTION}.{key}", allowed, None, where)

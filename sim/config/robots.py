@@ -115,6 +115,7 @@ def check_count(value: object, where: str | None) -> int:
     """`value` as a robot count (`robots = N`), refused unless an int in 1..`MAX_ROBOTS`."""
     ok = is_integer(value) and 1 <= value <= MAX_ROBOTS
     check(ok, "robots", f"1..{MAX_ROBOTS}", value, where)
+    assert isinstance(value, int)
     return value
 
 
@@ -191,7 +192,7 @@ def _check_positions(specs: Sequence[RobotSpec], where: str | None) -> None:
         index = given.index(False)
         allowed = "a number [m], given for every robot or for none"
         raise InvalidInput(f"robots[{index}].x_m", allowed, None, where)
-    xs = [spec.x_m for spec in specs]
+    xs = [spec.x_m for spec in specs if spec.x_m is not None]  # all given (checked above)
     if xs[0] < 0.0:
         allowed = ">= 0 m (the first robot; the camera stays upstream of it)"
         raise InvalidInput("robots[0].x_m", allowed, xs[0], where)

@@ -7,6 +7,7 @@ imported: the command line's parser is built from these fields (`sim.config.opti
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 from planner.decision.registry import COORDINATIONS, PLANNERS
 from planner.motion.belt_speeds import SPEED_RANGE_MPS, SPEED_X1_MPS
@@ -46,7 +47,7 @@ def belt_speed_mps(speed_factor: float) -> float:
     return SPEED_X1_MPS * float(speed_factor)
 
 
-def _world(name: str) -> object:
+def _world(name: str) -> Any:
     """A number overriding the `world` preset's (`sim.flow.world.WorldVariation`, which
     checks its range)."""
     high = WORLD_LIMITS[name]

@@ -142,7 +142,7 @@ class Values:
         """The resolved `[values]` table: {name: EUR}, every material's value per item (but
         those priced per kg), then the item types' given; `per_kg` {name: EUR/kg} when set."""
         per_kg = self.given_per_kg()
-        out = {
+        out: dict[str, Any] = {
             n: v
             for n, v in zip(materials.names, self.of_materials(materials), strict=True)
             if n not in per_kg

@@ -90,6 +90,7 @@ class Audit:
 def _poses(episode: Episode) -> Poses:
     """True poses of the items resting on the belt from just before the camera line on."""
     items = episode.cell.items
+    assert episode.parts is not None  # built by reset
     held = set(int(s) for s in episode.parts.held())
     slots = [int(s) for s in items.active_slots() if int(s) not in held]
     if not slots:

@@ -36,6 +36,7 @@ import secrets
 import shutil
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
@@ -49,6 +50,9 @@ from sim.monitors.visibility import VisibilityWatch
 from sim.paths import process_alive
 from sim.render.segmentation import BeltSegmentation
 from sim.results.outputs import check_output_dir
+
+if TYPE_CHECKING:
+    from sim.episode.parts import EpisodeParts
 
 ANNOTATIONS = "annotations.json"
 IMAGES, DEPTH = "images", "depth"
@@ -134,7 +138,7 @@ def bbox_of(mask: np.ndarray) -> list[int]:
 class FrameRecorder:
     """Keeps the belt camera's frame, depth and item masks at each observation of an episode.
 
-    Call it with the episode every observation period (`Episode.every`).
+    Call it with the episode's parts every observation period (`Episode.every`).
 
     Args:
         folder: Where the images go (`images/`, `depth/` are made in it).
@@ -163,7 +167,7 @@ class FrameRecorder:
         for sub in (IMAGES, DEPTH):
             (self.folder / sub).mkdir(parents=True, exist_ok=True)
 
-    def __call__(self, episode: Episode) -> None:
+    def __call__(self, parts: EpisodeParts) -> None:
         """Keep this observation's frame (unless skipped)."""
         self.observations += 1
         if (self.observations - 1) % self.every:

@@ -85,6 +85,7 @@ def n_items(density: float, speed_factor: float, duration_s: float = DURATION_S)
 def _truth(episode: Episode) -> TruePoses:
     """The true poses of the items near the camera (resting on the belt or not)."""
     items, pool = episode.cell.items, episode.cell.pool
+    assert episode.parts is not None  # built by reset
     held = set(int(s) for s in episode.parts.held())
     slots = np.array([int(s) for s in items.active_slots() if int(s) not in held], np.int64)
     if slots.size == 0:
@@ -147,6 +148,7 @@ def record(
 
         episode.perception.observe = observed
         episode.run()
+        assert episode.parts is not None
         types = episode.parts.flow.item_types(cell.catalogue)
         speed = episode.speed
         visible = dict(episode.metrics.best_visible or {})

@@ -34,6 +34,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from sim.errors import InvalidInput
 from sim.experiments import reproduce_figures as figs
@@ -42,6 +43,9 @@ from sim.experiments import reproduce_tables as tables
 from sim.experiments.reproduce_run import Block, Run
 from sim.paths import REPO_ROOT
 from sim.results import outputs
+
+if TYPE_CHECKING:
+    from sim.experiments.sweep_config import SweepConfig
 
 log = logging.getLogger(__name__)
 
@@ -224,7 +228,8 @@ def pieces() -> dict[str, Piece]:
 def list_text(quick: bool = False) -> str:
     """`--list`: every piece with what it runs (episodes per sweep at the chosen seeds)."""
     run = Run(DEFAULT_OUT, quick=quick)
-    lines, sweeps = [], {}
+    lines: list[str] = []
+    sweeps: dict[str, SweepConfig] = {}
     for piece in pieces().values():
         for name in piece.sweeps:
             sweeps.setdefault(name, run.sweep(name))
@@ -299,6 +304,7 @@ def reproduce(
     outputs.check_output_dir(run.out, "--out")
     run.check_folders(name for piece in chosen for name in piece.sweeps)
     run.out.mkdir(parents=True, exist_ok=True)
+    assert run.figures is not None  # set by Run
     run.figures.mkdir(parents=True, exist_ok=True)
     made = {}
     for piece in chosen:

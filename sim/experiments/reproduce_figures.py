@@ -66,6 +66,7 @@ def _panels(
             ax.legend(fontsize=7)
             break
     seeds = run.seeds_text(*(s for _, s, _ in SWEEPS))
+    assert run.figures is not None  # set by Run
     path = _saved(
         fig,
         f"{title}\n{run.command}{' --quick' if run.quick else ''}: {seeds}, truth perception",
@@ -186,6 +187,7 @@ def figure_4_2(run: Run) -> Block:
         ax.grid(alpha=0.3, axis="y")
     axes[0].legend(fontsize=8)
     seeds = run.seeds_text("reproduce_objectives")
+    assert run.figures is not None  # set by Run
     path = _saved(
         fig,
         f"Figure 4.2: the three objectives, qlearning\n{run.command}"
@@ -239,18 +241,18 @@ def figure_4_3(run: Run) -> Block:
     for ax, (key, _, label) in zip(axes, OBJECTIVES, strict=True):
         result = simulate(make_planner("qlearning", objective=key), belt, context)
         items = {it.item_id: it for it in belt.items}
-        path = [(0.0, 0.0)]
+        route = [(0.0, 0.0)]
         for k, pick in enumerate(result.picks, start=1):
             item = items[pick.item_id]
             x, y = item.x0 + belt.speed * pick.meet, item.y
             bx, by, _ = context.bin_of(pick.bin_class)
             ax.scatter([x], [y], s=120, color=colours.get(pick.true_class, "k"), zorder=3)
             ax.annotate(str(k), (x, y), ha="center", va="center", fontsize=7, color="w", zorder=4)
-            path += [(x, y), (bx, by)]
+            route += [(x, y), (bx, by)]
         for cls in sorted({it.true_class for it in belt.items}):
             bx, by, _ = context.bin_of(cls)
             ax.scatter([bx], [by], marker="s", s=90, color=colours.get(cls, "k"), edgecolors="k")
-        xs, ys = zip(*path, strict=True)
+        xs, ys = zip(*route, strict=True)
         ax.plot(xs, ys, "-", color="k", alpha=0.35, lw=1)
         ax.set_title(
             f"{label}\n{len(result.picks)} of {len(belt.items)} picked, {result.profit:.2f} EUR",
@@ -261,6 +263,7 @@ def figure_4_3(run: Run) -> Block:
         ax.set_aspect("equal", adjustable="datalim")
         rows.append(f"| {label} | {len(result.picks)} of {len(belt.items)} | {result.profit:.2f} |")
     axes[0].set_ylabel("y across the belt [m]")
+    assert run.figures is not None  # set by Run
     path = _saved(
         fig,
         f"Figure 4.3: qlearning's pick order (numbers) and path to each item's bin "

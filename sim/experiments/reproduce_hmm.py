@@ -17,7 +17,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -86,7 +86,8 @@ def recordings(seeds, kind: str, cache: Path | None = None) -> list:
         if path is not None:  # written to a temporary, renamed: a killed run leaves none
             path.parent.mkdir(parents=True, exist_ok=True)
             tmp = temporary_path(path, ".npz")
-            np.savez(tmp, **{k: np.asarray(v) for k, v in vars(rec).items()})
+            arrays: dict[str, Any] = {k: np.asarray(v) for k, v in vars(rec).items()}
+            np.savez(tmp, **arrays)
             os.replace(tmp, path)
         out.append(rec)
     return out
@@ -214,6 +215,7 @@ def figure_4_1(run: Run) -> Block:
         fontsize=10,
     )
     fig.tight_layout()
+    assert run.figures is not None  # set by Run
     path = run.figures / "figure_4_1.png"
     fig.savefig(path, dpi=100)
     plt.close(fig)

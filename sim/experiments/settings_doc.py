@@ -179,7 +179,7 @@ def allowed_of(field: dataclasses.Field, data: dict[str, Any], key: str) -> str:
     else what its refusal says (`refusal`)."""
     spec: Setting | None = field.metadata.get(SETTING)
     checked_here = spec is not None and (spec.range is None or not spec.range.checked_by)
-    if checked_here and spec.allowed:
+    if checked_here and spec is not None and spec.allowed:
         return spec.allowed
     return refusal(data, key)
 

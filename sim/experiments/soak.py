@@ -137,6 +137,7 @@ def soak_episode(config: EpisodeConfig) -> SoakResult:
             nonfinite |= not _finite(cell.data)
             episode.apply(episode.choose())
         nonfinite |= not _finite(cell.data)
+    assert episode.parts is not None  # built by reset
     metrics = episode.metrics
     row = {**metrics.row(), "sim_s": float(cell.data.time)}
     failures = []

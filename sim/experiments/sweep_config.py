@@ -348,6 +348,7 @@ def _grid(base: dict[str, Any], axes: _Axes, where: str) -> tuple[list[EpisodeSp
                         config = _grid_point(merged, seed, variant["name"], where, first)
                         episodes.append(EpisodeSpec(variant=variant["name"], config=config))
                         first = first or config
+                    assert first is not None  # seeds are never empty
                     points.append(_resolved(variant["name"], first))
     return episodes, points
 
@@ -409,7 +410,7 @@ def _grid_point(
 LATER_TABLE_KEYS = {"belt": {"speed_mps": None, "width_m": BELT_WIDTH_M}}
 """Keys added to a table after sweeps were first identified, with the value of before: left
 out of their table at it (so of the identity too, below)."""
-LATER_KEYS = {
+LATER_KEYS: dict[str, Any] = {
     "min_class_confidence": 0.0,
     "world": "uniform",
     **{name: None for name in WORLD_NUMBERS},

@@ -21,6 +21,7 @@ import json
 import os
 import platform
 import sys
+from collections.abc import Mapping
 from importlib import metadata
 from pathlib import Path
 from typing import Any
@@ -85,7 +86,7 @@ def build(kind: str, config: Any, seeds: list[int], argv: list[str] | None = Non
     }
 
 
-def file_digests(files: dict[str, str | bytes]) -> dict[str, str]:
+def file_digests(files: Mapping[str, str | bytes]) -> dict[str, str]:
     """The SHA-256 (hex) of each file's content, for a manifest's `files`.
 
     Args:
