@@ -27,6 +27,7 @@ from sim.flow.limits import (
     BELT_X_RANGE,
     MAX_ITEMS_PER_METRE,
 )
+from sim.flow.rate_profile import RateProfile
 from sim.flow.world import WorldVariation
 
 X_INFEED = -2.75
@@ -129,6 +130,9 @@ class FlowConfig:
         type_weights: Per catalogue item type, its weight within its material (shape variants
             0; a base type of weight 0 is not drawn); None: the catalogue's `weight`s.
         belt_width_m: The belt's width [m] (`BELT_WIDTH_RANGE_M`): the five stripes share it.
+        rate_profile: The infeed's rate over time (`sim.flow.rate_profile`): items arrive at
+            the base rate n_items / duration_s times its factor, `item_count` of them; empty:
+            the base rate throughout.
     """
 
     n_items: int = 100
@@ -145,6 +149,7 @@ class FlowConfig:
     type_weights: tuple[float, ...] | None = None
     held_shares: tuple[float, ...] | None = None
     belt_width_m: float = BELT_WIDTH_M
+    rate_profile: RateProfile = field(default_factory=RateProfile)
 
     def __post_init__(self):
         n = self.n_items
@@ -179,15 +184,34 @@ class FlowConfig:
         if not isinstance(self.world, WorldVariation):
             raise InvalidInput("world", "a WorldVariation", type(self.world).__name__)
         self._check_belt_width()
-        density = self.items_per_metre
+        self._check_rate_profile()
+        self._check_density()
+
+    def _check_rate_profile(self) -> None:
+        """A `RateProfile` that brings 1..100000 items over the flow's duration."""
+        profile = self.rate_profile
+        if not isinstance(profile, RateProfile):
+            raise InvalidInput("rate_profile", "a RateProfile", type(profile).__name__)
+        if not 1 <= self.item_count <= 100_000:
+            allowed = (
+                f"a profile that brings 1..100000 items in {self.duration_s:g} s "
+                f"(n_items x its mean factor)"
+            )
+            raise InvalidInput("infeed.profile", allowed, profile.steps)
+
+    def _check_density(self) -> None:
+        """The flow's densest belt (at the profile's peak) within `max_items_per_metre`."""
+        peak = self.rate_profile.peak
+        density = self.items_per_metre * peak
         limit = float(self.max_items_per_metre)
         if density > limit * (1 + 1e-9):
-            most = int(limit * self.duration_s * self.belt_speed_mps + 1e-6)
+            most = int(limit * self.duration_s * self.belt_speed_mps / peak + 1e-6)
+            at_peak = f" at the infeed profile's peak x{peak:g}" if self.rate_profile.steps else ""
             allowed = (
-                f"at most {limit:g} items per metre of belt: <= {most} items "
+                f"at most {limit:g} items per metre of belt{at_peak}: <= {most} items "
                 f"in {self.duration_s:g} s at x{self.speed_factor:g} (longer flows carry more)"
             )
-            raise InvalidInput("n_items", allowed, n)
+            raise InvalidInput("n_items", allowed, self.n_items)
 
     def _set_probabilities(self, m: int) -> None:
         """The stripes', transitions', first items' and held shares' probabilities checked and
@@ -218,6 +242,15 @@ class FlowConfig:
         object.__setattr__(self, "belt_width_m", float(self.belt_width_m))
 
     @property
+    def item_count(self) -> int:
+        """Items the flow carries: n_items, or with a rate profile round(n_items x the
+        profile's integral over the duration / duration_s)."""
+        if not self.rate_profile.steps:
+            return self.n_items
+        duration = float(self.duration_s)
+        return round(self.n_items * float(self.rate_profile.cumulative(duration)) / duration)
+
+    @property
     def belt_speed_mps(self) -> float:
         """Belt speed v [m/s]."""
         return BELT_SPEED_X1_MPS * float(self.speed_factor)
@@ -234,7 +267,7 @@ class FlowConfig:
 
     @property
     def items_per_metre(self) -> float:
-        """Mean number of items per metre of belt."""
+        """Mean number of items per metre of belt at the base rate (factor 1)."""
         return self.n_items / (float(self.duration_s) * self.belt_speed_mps)
 
     @property

@@ -1,7 +1,9 @@
 """The material flow generator (thesis 2.2.6): which item falls where and when on the belt.
 
 A biased random number generator, as in the thesis: items arrive one per time slot of
-duration/n_items at a uniformly random instant within it; each falls in a stripe drawn from the
+duration/n_items at a uniformly random instant within it (with an infeed rate profile,
+`sim.flow.rate_profile`, the slots are the base clock's, mapped to real time before the items
+are placed, so the gaps below hold in surges too); each falls in a stripe drawn from the
 stripe priors; its class follows a Markov chain along the belt within that stripe (the first
 item of a stripe from the class priors; a mix given as shares matches the chain to them,
 `sim.flow.mix`); its type within the class follows the catalogue's weights (or the config's
@@ -178,9 +180,12 @@ def arrivals(config: FlowConfig, rng: np.random.Generator) -> tuple[np.ndarray, 
     Returns:
         (t_slot [s], stripe 0..4, material index 0..n-1 in the catalogue's order), (n,) each.
     """
-    n = config.n_items
-    slot = float(config.duration_s) / n
+    n = config.item_count
+    profile, duration = config.rate_profile, float(config.duration_s)
+    slot = (float(profile.cumulative(duration)) if profile.steps else duration) / n
     t_slot = (np.arange(n) + rng.random(n)) * slot
+    if profile.steps:  # the base clock's slot times in real time
+        t_slot = profile.inverse(t_slot)
     stripes = rng.choice(N_STRIPES, size=n, p=np.asarray(config.stripe_priors, dtype=float))
     classes = _draw_classes(config, stripes, rng.random(n))
     if config.held_shares is not None:
@@ -249,7 +254,7 @@ def generate_flow(config: FlowConfig, catalogue: Catalogue, pool_size: int | Non
         raise InvalidInput("n_materials", allowed, config.n_materials)
     draws = _ItemDraws.drawn(config, catalogue)
     belt = _BeltPlacement(config, catalogue, draws)
-    for i in range(config.n_items):
+    for i in range(config.item_count):
         belt.place(i)
     flow = belt.flow(materials.ids)
     most = max_items_on_belt(flow)
@@ -283,7 +288,7 @@ class _ItemDraws:
     def drawn(cls, config: FlowConfig, catalogue: Catalogue) -> _ItemDraws:
         """The draws in the generator's fixed order (same seed, same draws)."""
         rng = np.random.default_rng(config.seed)
-        n = config.n_items
+        n = config.item_count
         t_slot, stripes, classes = arrivals(config, rng)
         type_groups = [np.array(catalogue.of_material(m)) for m in catalogue.materials.names]
         type_weights = _type_weights(config, catalogue, type_groups)
@@ -309,7 +314,7 @@ class _BeltPlacement:
     are kept clear of (footprints in the belt frame at time 0, reaches, lateral half-extents)."""
 
     def __init__(self, config: FlowConfig, catalogue: Catalogue, draws: _ItemDraws):
-        n = config.n_items
+        n = config.item_count
         self.config = config
         self.draws = draws
         self.t_spawn = np.empty(n)
