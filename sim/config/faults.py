@@ -59,7 +59,8 @@ class Fault:
         duration_s: How long it lasts [s], > 0.
         robot: robot_stop: the robot's index, 0 the most upstream.
         camera: camera_outage: the camera's index (0 the scene's, upstream first); None: all.
-        vacuum_pa: vacuum_drop: the supply's vacuum during it [Pa].
+        vacuum_pa: vacuum_drop: the supply's vacuum during it [Pa] (in an episode's config:
+            1000 Pa up to the cup's `vacuum_pa`, a drop).
         speed_factor: belt_speed: the belt's speed during it, as a factor of its set speed.
     """
 
@@ -206,7 +207,7 @@ class RandomFaults:
         kind: One of `FAULT_KINDS`.
         mtbf_s: Mean time between faults [s] (from a repair to the next fault), > 0.
         mttr_s: Mean time to repair [s], > 0.
-        vacuum_pa: vacuum_drop: the vacuum during each.
+        vacuum_pa: vacuum_drop: the vacuum during each [Pa] (as `Fault`'s).
         speed_factor: belt_speed: the factor during each.
     """
 
