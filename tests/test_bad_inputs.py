@@ -310,6 +310,213 @@ RUN_CASES = [
         "items",
         {"c.toml": "items = 5000\nduration_s = 10.0\n"},
     ),  # noqa: E501
+    (
+        "config-faults-overlap",
+        ["--config", "{tmp}/c.toml"],
+        "faults",
+        {
+            "c.toml": (
+                "[[faults]]\n"
+                'kind = "belt_stop"\n'
+                "start_s = 10\n"
+                "duration_s = 20\n"
+                "[[faults]]\n"
+                'kind = "belt_stop"\n'
+                "start_s = 20\n"
+                "duration_s = 5\n"
+            )
+        },
+    ),
+    (
+        "config-faults-robot-absent",
+        ["--config", "{tmp}/c.toml"],
+        "faults.robot_stop.robot",
+        {"c.toml": '[[faults]]\nkind = "robot_stop"\nstart_s = 10\nduration_s = 5\nrobot = 1\n'},
+    ),
+    (
+        "config-faults-camera-absent",
+        ["--config", "{tmp}/c.toml"],
+        "faults.camera_outage.camera",
+        {
+            "c.toml": (
+                '[[faults]]\nkind = "camera_outage"\nstart_s = 10\nduration_s = 5\ncamera = 1\n'
+            )
+        },
+    ),
+    (
+        "config-faults-past-the-end",
+        ["--config", "{tmp}/c.toml"],
+        "faults.belt_stop.start_s",
+        {"c.toml": '[[faults]]\nkind = "belt_stop"\nstart_s = 90\nduration_s = 5\n'},
+    ),
+    (
+        "config-faults-past-the-horizon",
+        ["--config", "{tmp}/c.toml"],
+        "faults.belt_stop.start_s",
+        {
+            "c.toml": (
+                'horizon_s = 30.0\n[[faults]]\nkind = "belt_stop"\nstart_s = 40\nduration_s = 5\n'
+            )
+        },
+    ),
+    (
+        "config-faults-kind-unknown",
+        ["--config", "{tmp}/c.toml"],
+        "faults.kind",
+        {"c.toml": '[[faults]]\nkind = "fire"\nstart_s = 10\nduration_s = 5\n'},
+    ),
+    (
+        "config-faults-key-unknown",
+        ["--config", "{tmp}/c.toml"],
+        "faults[0].colour",
+        {"c.toml": '[[faults]]\nkind = "belt_stop"\nstart_s = 10\nduration_s = 5\ncolour = 1\n'},
+    ),
+    (
+        "config-faults-start-missing",
+        ["--config", "{tmp}/c.toml"],
+        "faults[0].start_s",
+        {"c.toml": '[[faults]]\nkind = "belt_stop"\nduration_s = 5\n'},
+    ),
+    (
+        "config-faults-duration-nan",
+        ["--config", "{tmp}/c.toml"],
+        "faults.belt_stop.duration_s",
+        {"c.toml": '[[faults]]\nkind = "belt_stop"\nstart_s = 1\nduration_s = nan\n'},
+    ),
+    (
+        "config-faults-a-table",
+        ["--config", "{tmp}/c.toml"],
+        "faults",
+        {"c.toml": '[faults]\nkind = "belt_stop"\n'},
+    ),
+    (
+        "config-faults-vacuum-above-the-cup",
+        ["--config", "{tmp}/c.toml"],
+        "faults.vacuum_drop.vacuum_pa",
+        {
+            "c.toml": (
+                '[[faults]]\nkind = "vacuum_drop"\nstart_s = 1\nduration_s = 5\nvacuum_pa = 90000\n'
+            )
+        },
+    ),
+    (
+        "config-faults-belt-speed-fast",
+        ["--config", "{tmp}/c.toml"],
+        "faults.belt_speed.speed_factor",
+        {
+            "c.toml": (
+                '[[faults]]\nkind = "belt_speed"\nstart_s = 1\nduration_s = 5\nspeed_factor = 3.0\n'
+            )
+        },
+    ),
+    (
+        "config-faults-random-kind",
+        ["--config", "{tmp}/c.toml"],
+        "faults_random.fire",
+        {"c.toml": "[faults_random.fire]\nmtbf_s = 60\nmttr_s = 5\n"},
+    ),
+    (
+        "config-faults-random-mttr-missing",
+        ["--config", "{tmp}/c.toml"],
+        "faults_random.belt_stop.mttr_s",
+        {"c.toml": "[faults_random.belt_stop]\nmtbf_s = 60\n"},
+    ),
+    (
+        "config-faults-random-mtbf-zero",
+        ["--config", "{tmp}/c.toml"],
+        "faults_random.robot_stop.mtbf_s",
+        {"c.toml": "[faults_random.robot_stop]\nmtbf_s = 0\nmttr_s = 5\n"},
+    ),
+    (
+        "config-faults-random-robot-key",
+        ["--config", "{tmp}/c.toml"],
+        "faults_random.robot_stop.robot",
+        {"c.toml": "[faults_random.robot_stop]\nmtbf_s = 60\nmttr_s = 5\nrobot = 0\n"},
+    ),
+    (
+        "config-faults-random-vacuum-missing",
+        ["--config", "{tmp}/c.toml"],
+        "faults_random.vacuum_drop.vacuum_pa",
+        {"c.toml": "[faults_random.vacuum_drop]\nmtbf_s = 60\nmttr_s = 5\n"},
+    ),
+    (
+        "config-profile-descending",
+        ["--config", "{tmp}/c.toml"],
+        "infeed.profile",
+        {"c.toml": "[infeed]\nprofile = [[20, 1.0], [10, 2.0]]\n"},
+    ),
+    (
+        "config-profile-negative-factor",
+        ["--config", "{tmp}/c.toml"],
+        "infeed.profile",
+        {"c.toml": "[infeed]\nprofile = [[10, -1.0]]\n"},
+    ),
+    (
+        "config-profile-not-pairs",
+        ["--config", "{tmp}/c.toml"],
+        "infeed.profile",
+        {"c.toml": "[infeed]\nprofile = [10, 2.0]\n"},
+    ),
+    (
+        "config-profile-past-the-feed",
+        ["--config", "{tmp}/c.toml"],
+        "infeed.profile",
+        {"c.toml": "[infeed]\nprofile = [[95, 2.0]]\n"},
+    ),
+    (
+        "config-profile-no-item",
+        ["--config", "{tmp}/c.toml"],
+        "infeed.profile",
+        {"c.toml": "[infeed]\nprofile = [[0, 0.0]]\n"},
+    ),
+    (
+        "config-profile-too-dense",
+        ["--config", "{tmp}/c.toml"],
+        "infeed.profile",
+        {"c.toml": "items = 300\n[infeed]\nprofile = [[30, 2.0]]\n"},
+    ),
+    (
+        "config-surges-too-dense",
+        ["--config", "{tmp}/c.toml"],
+        "infeed.surges.factor",
+        {
+            "c.toml": "items = 300\n[infeed]\n"
+            "surges = { mean_gap_s = 60, mean_length_s = 10, factor = 2.0 }\n"
+        },
+    ),
+    (
+        "config-surges-key-missing",
+        ["--config", "{tmp}/c.toml"],
+        "infeed.surges.factor",
+        {"c.toml": "[infeed]\nsurges = { mean_gap_s = 60, mean_length_s = 10 }\n"},
+    ),
+    (
+        "config-surges-key-unknown",
+        ["--config", "{tmp}/c.toml"],
+        "infeed.surges.rate",
+        {
+            "c.toml": "[infeed]\n"
+            "surges = { mean_gap_s = 60, mean_length_s = 10, factor = 2.0, rate = 1 }\n"
+        },
+    ),
+    (
+        "config-surges-gap-zero",
+        ["--config", "{tmp}/c.toml"],
+        "infeed.surges.mean_gap_s",
+        {"c.toml": "[infeed]\nsurges = { mean_gap_s = 0, mean_length_s = 10, factor = 2.0 }\n"},
+    ),
+    (
+        "config-timeline-period-short",
+        ["--config", "{tmp}/c.toml"],
+        "timeline.period_s",
+        {"c.toml": "[timeline]\nperiod_s = 0.1\n"},
+    ),
+    (
+        "config-timeline-key-unknown",
+        ["--config", "{tmp}/c.toml"],
+        "timeline.every_s",
+        {"c.toml": "[timeline]\nevery_s = 5\n"},
+    ),
 ]
 
 

@@ -122,6 +122,19 @@ TOML layout (every key optional; defaults are the headline episode)::
     # items_per_s = 3.6         # items per second, or kilograms per hour at the catalogue's
     # kg_per_h = 250.0          # mean item mass under the mix; items = the rate over
                                 # duration_s (18 x belt speed x duration_s), rounded
+    profile = [[600, 1.5], [900, 0.0]]  # the rate x factor from each start [s] on (1
+                                # before the first): a surge from 600 s, a gap from 900 s
+    surges = { mean_gap_s = 900, mean_length_s = 60, factor = 2.0 }  # drawn by seed
+    [timeline]                  # timeline.csv beside episodes.csv
+    period_s = 10.0             # a row every period [s], 0.5..3600
+    [[faults]]                  # a fault each (sim/config/faults.py): kind, start_s,
+    kind = "robot_stop"         # duration_s and the kind's key (robot, camera, vacuum_pa,
+    robot = 1                   # speed_factor); no overlap on one part, no robot or camera
+    start_s = 120.0             # the cell lacks, no start at or after the episode's end
+    duration_s = 30.0           # (horizon_s, else duration_s): refused at load
+    [faults_random.belt_stop]   # faults drawn by seed, per kind: mean time between faults
+    mtbf_s = 1800.0             # and mean time to repair [s] (and vacuum_pa, speed_factor
+    mttr_s = 120.0              # for those kinds)
 
 The robots one by one, instead of `robots = N` (sim/config/robots.py, docs/line.md;
 `--robots N` and a sweep's `robots = N` give N robots at the default spacing, robot k keeping

@@ -1,7 +1,8 @@
 """`EpisodeConfig`: the validated, frozen config of one episode: the top-level keys
-(`sim.config.settings`), the tables (`sim.config.sections`, `values`, `flow_table`) and the
-rules between keys (the catalogue's names, the belt's speed and the feed in one unit, the
-flow's density). Built by the loaders (`sim.config.loading`), which read the files."""
+(`sim.config.settings`), the tables (`sim.config.sections`, `values`, `flow_table`), the
+faults (`sim.config.faults`) and the rules between keys (the catalogue's names, the belt's
+speed and the feed in one unit, the flow's density at its peak, the faults on the cell's
+parts within the episode). Built by the loaders (`sim.config.loading`), which read the files."""
 
 from __future__ import annotations
 
@@ -17,11 +18,32 @@ from planner.decision.robot_materials import class_ids_of
 from planner.motion.belt_speeds import SPEED_X1_MPS
 from sim.checks import check, is_integer
 from sim.config.catalogue_file import CatalogueFile, builtin_catalogue
+from sim.config.faults import (
+    Fault,
+    FaultSchedule,
+    RandomFaults,
+    draw_schedule,
+    fault_tables,
+    faults_of_tables,
+    random_faults_of_table,
+    random_faults_table,
+)
 from sim.config.fields import validate
 from sim.config.flow_table import FlowMix
-from sim.config.plant import MAX_ROBOTS, CellSettings, default_cup_diameter_m
+from sim.config.plant import MAX_ROBOTS, VACUUM_RANGE_PA, CellSettings, default_cup_diameter_m
 from sim.config.robots import RobotSpec, check_count, check_robots, resized
-from sim.config.sections import Belt, Camera, Cup, Economics, Hmm, InfeedRate, QLearning, Video
+from sim.config.sections import (
+    Belt,
+    Camera,
+    Cup,
+    Economics,
+    Hmm,
+    InfeedRate,
+    QLearning,
+    Surges,
+    Timeline,
+    Video,
+)
 from sim.config.settings import (
     DEFAULT_ITEMS,
     DEFAULT_SPEED_FACTOR,
@@ -37,8 +59,10 @@ from sim.flow import feed_rate
 from sim.flow import mix as flow_mix
 from sim.flow.catalogue import DEFAULT_CATALOGUE, Catalogue
 from sim.flow.config import STRIPE_WIDTH, FlowConfig, default_transitions
+from sim.flow.feed_rate import FEED_KEYS
 from sim.flow.generator import EDGE_MARGIN_M
 from sim.flow.limits import LINE_MAX_ITEMS_PER_METRE, MAX_ITEMS_PER_METRE
+from sim.flow.rate_profile import RateProfile, draw_surges
 from sim.flow.world import WorldVariation, check_varied
 
 
@@ -58,6 +82,9 @@ class EpisodeConfig(EpisodeSettings):
             `config.replace(robots=N)` keeps the pauses (`sim.config.robots.resized`).
         catalogue: The item catalogue's file as the config names it ("": the built-in one);
             what a manifest records.
+        faults: The faults given (`[[faults]]` tables; `sim.config.faults.Fault`).
+        faults_random: The faults drawn by seed (`[faults_random.<kind>]` tables of
+            `mtbf_s`, `mttr_s` and the kind's keys; `sim.config.faults.RandomFaults`).
         catalogue_file: That file's catalogue, read by the loaders (None: the built-in one,
             for a config of `catalogue = ""` only); compared by its content digest.
         where: The config file the settings came from, named by every refusal (not compared).
@@ -73,6 +100,9 @@ class EpisodeConfig(EpisodeSettings):
     hmm: Hmm = field(default_factory=Hmm)
     economics: Economics = field(default_factory=Economics)
     infeed: InfeedRate = field(default_factory=InfeedRate)
+    timeline: Timeline = field(default_factory=Timeline)
+    faults: tuple[Fault, ...] = ()
+    faults_random: tuple[RandomFaults, ...] = ()
     catalogue_file: CatalogueFile | None = field(default=None, repr=False)
     where: str | None = field(default=None, compare=False, repr=False)
 
@@ -102,6 +132,8 @@ class EpisodeConfig(EpisodeSettings):
         self._resolve_belt_speed()
         self._resolve_feed()
         self._check_flow()
+        self._check_rate_profile()
+        self._check_faults()
 
     def _resolve_belt_speed(self) -> None:
         """`speed_factor` of a `[belt] speed_mps`: the speed over x1 (a factor given too is
@@ -228,8 +260,21 @@ class EpisodeConfig(EpisodeSettings):
             n_materials=self.materials.count,
             max_items_per_metre=self.max_items_per_metre,
             belt_width_m=self.belt.width_m,
+            rate_profile=self.rate_profile,
             **self.mix_kwargs,
         )
+
+    @property
+    def rate_profile(self) -> RateProfile:
+        """The feed's rate over time (`sim.flow.rate_profile`): the `[infeed] profile`, times
+        the surges drawn from the episode's seed over `duration_s` when `[infeed] surges` is
+        set; empty: a steady feed (the flow of old, to the bit)."""
+        given = RateProfile(self.rate_steps)
+        if self.surges is None:
+            return given
+        s = self.surges
+        drawn = draw_surges(self.seed, s.mean_gap_s, s.mean_length_s, s.factor, self.duration_s)
+        return given.combined(drawn)
 
     @functools.cached_property
     def mix_kwargs(self) -> dict[str, Any]:
@@ -277,11 +322,11 @@ class EpisodeConfig(EpisodeSettings):
     def line_cell(self) -> bool:
         """Whether the episode runs on a line's model (`sim.cell.line`): several robots, one
         robot placed elsewhere than x = 0, or one robot on a belt denser than the single
-        cell's pool carries (`MAX_ITEMS_PER_METRE`)."""
+        cell's pool carries (`MAX_ITEMS_PER_METRE`) at the feed's peak."""
         if self.robot_count > 1 or self.robot_positions_m[:1] not in ((), (0.0,)):
             return True
         density = self.items / (self.duration_s * self.belt_speed_mps)
-        return density > MAX_ITEMS_PER_METRE * (1 + 1e-9)
+        return density * self.peak_rate_factor > MAX_ITEMS_PER_METRE * (1 + 1e-9)
 
     @property
     def applied_min_class_confidence(self) -> float:
@@ -298,6 +343,91 @@ class EpisodeConfig(EpisodeSettings):
         preset = WorldVariation() if self.world == "varied" else WorldVariation.uniform()
         changes = {n: getattr(self, n) for n in WORLD_NUMBERS if getattr(self, n) is not None}
         return dataclasses.replace(preset, **changes) if changes else preset
+
+    @property
+    def camera_count(self) -> int:
+        """The cell's belt cameras: one per robot on a line with `[camera] per_robot` and camera
+        perception, else the one (`sim.episode.runner`)."""
+        per_robot = self.camera.per_robot and self.perception == "camera"
+        return self.robot_count if per_robot else 1
+
+    @property
+    def end_s(self) -> float:
+        """The episode's end for its faults [s]: `horizon_s` when set, else `duration_s`."""
+        return float(self.horizon_s if self.horizon_s is not None else self.duration_s)
+
+    def fault_schedule(self) -> FaultSchedule:
+        """The episode's faults: the given and those drawn from its seed over [0, `end_s`)
+        (`sim.config.faults.draw_schedule`), checked against the cell's robots and cameras."""
+        return self._fault_schedule
+
+    @functools.cached_property
+    def _fault_schedule(self) -> FaultSchedule:
+        robots, cameras, end = self.robot_count, self.camera_count, self.end_s
+        schedule = draw_schedule(self.faults, self.faults_random, self.seed, robots, cameras, end)
+        schedule.check_cell(robots, cameras, end)
+        return schedule
+
+    def _check_faults(self) -> None:
+        """The faults as `Fault`s and `RandomFaults` (from a file's tables), each vacuum a drop
+        from the cup's, and the schedule drawn and checked now: a bad list is refused at load."""
+        try:
+            object.__setattr__(self, "faults", faults_of_tables(self.faults))
+            object.__setattr__(self, "faults_random", random_faults_of_table(self.faults_random))
+            lo, hi = VACUUM_RANGE_PA[0], self.cup.vacuum_pa
+            allowed = f"{lo:g}..{hi:g} Pa (a drop from the cup's vacuum_pa)"
+            for key, group in (("faults", self.faults), ("faults_random", self.faults_random)):
+                for pa in (f.vacuum_pa for f in group if f.vacuum_pa is not None):
+                    check(lo <= pa <= hi, f"{key}.vacuum_drop.vacuum_pa", allowed, pa)
+            self.fault_schedule()
+        except InvalidInput as exc:
+            raise InvalidInput(exc.field, exc.allowed, exc.got, exc.where or self.where) from None
+
+    @property
+    def rate_steps(self) -> tuple[tuple[float, float], ...]:
+        """The feed's rate profile: (start_s [s], factor) pairs, starts ascending (`[infeed]
+        profile`; the factor is 1 before the first); (): a steady feed."""
+        return self.infeed.profile
+
+    @property
+    def surges(self) -> Surges | None:
+        """The surges drawn by seed over the feed (`[infeed] surges`); None: none."""
+        return self.infeed.surges
+
+    @property
+    def peak_rate_factor(self) -> float:
+        """The feed's highest factor of its rate: the profile's (1 before its first step)
+        times a surge's when it is above 1."""
+        steps = self.rate_steps
+        factors = [f for _, f in steps]
+        if not steps or steps[0][0] > 0:
+            factors.append(1.0)
+        surge = self.surges.factor if self.surges is not None else 1.0
+        return max(factors) * max(surge, 1.0)
+
+    def _check_rate_profile(self) -> None:
+        """Refuse a profile stepping at or after `duration_s` (the feed ends then), feeding
+        no item or more than `MAX_ITEMS`, or a feed denser at its peak than the belt takes."""
+        steps, w = self.rate_steps, self.where
+        if not steps and self.surges is None:
+            return
+        d = float(self.duration_s)
+        allowed = f"steps starting before duration_s ({d:g} s: the feed ends then)"
+        check(all(t < d for t, _ in steps), "infeed.profile", allowed, steps, w)
+        mean = _mean_factor(steps, d)
+        count = round(self.items * mean)
+        allowed = f"a profile feeding 1..{MAX_ITEMS} items ({self.items} x its mean factor)"
+        check(1 <= count <= MAX_ITEMS, "infeed.profile", allowed, steps, w)
+        base = self.items / (d * self.belt_speed_mps)
+        most = self.max_items_per_metre
+        belt = f"the belt takes {most:g} items per metre; the feed is {base:.4g} items/m"
+        top = max([f for _, f in steps] + [1.0])
+        allowed = f"factors of at most {most / base:.4g} ({belt})"
+        check(base * top <= most * (1 + 1e-9), "infeed.profile", allowed, steps, w)
+        if self.surges is not None:
+            ok = base * self.peak_rate_factor <= most * (1 + 1e-9)
+            allowed = f"at most {most / base / top:.4g} ({belt}, x{top:g} at the profile's peak)"
+            check(ok, "infeed.surges.factor", allowed, self.surges.factor, w)
 
     def _check_flow(self) -> None:
         """The flow's own limits (its density: items per metre of belt), checked now rather
@@ -383,6 +513,8 @@ class EpisodeConfig(EpisodeSettings):
         out["robots"] = [spec.table() for spec in self.robots]
         out["values"] = self.values.table(self.materials)
         out["flow"] = self.flow.table()
+        out["faults"] = fault_tables(self.faults)
+        out["faults_random"] = random_faults_table(self.faults_random)
         if self.belt.speed_mps is not None:
             del out["speed_factor"]
         if self.infeed.rate is not None:
@@ -402,7 +534,8 @@ class EpisodeConfig(EpisodeSettings):
             out["speed_factor"] = DEFAULT_SPEED_FACTOR  # follows belt.speed_mps again
         infeed = out.get("infeed", self.infeed)
         if "items" in out and "infeed" not in out and infeed.rate is not None:
-            out["infeed"] = infeed = InfeedRate()
+            rates = dict.fromkeys(FEED_KEYS)
+            out["infeed"] = infeed = dataclasses.replace(infeed, **rates)
         if infeed.rate is not None and "items" not in out:
             out["items"] = DEFAULT_ITEMS  # follows the rate again
         return out
@@ -444,6 +577,17 @@ def _check_catalogue_varied(world: WorldVariation, catalogue: Catalogue, path: s
     _VARIED_OK.add((world, catalogue.digest))
 
 
+def _mean_factor(steps: tuple[tuple[float, float], ...], duration_s: float) -> float:
+    """The mean of a rate profile's factor over [0, duration_s) (1 before its first step)."""
+    edges = [0.0, *(t for t, _ in steps), duration_s]
+    factors = [1.0, *(f for _, f in steps)]
+    total = sum(
+        f * max(0.0, min(b, duration_s) - a)
+        for f, a, b in zip(factors, edges, edges[1:], strict=False)
+    )
+    return total / duration_s
+
+
 def _is_table(value: Any) -> bool:
     """Whether `value` is a section's dataclass (written as a TOML table)."""
     return dataclasses.is_dataclass(value) and not isinstance(value, type)
@@ -482,7 +626,11 @@ SECTIONS = {
     "hmm": Hmm,
     "economics": Economics,
     "infeed": InfeedRate,
+    "timeline": Timeline,
 }
 """The tables of a config file, by key."""
+FAULT_KEYS = ("faults", "faults_random")
+"""The faults' keys of a config file: `[[faults]]` (an array of tables) and `[faults_random]`
+(a table of tables by kind), read by `sim.config.faults`."""
 SCALARS = tuple(f.name for f in dataclasses.fields(EpisodeSettings))
 """The top-level keys of a config file (`robots` a count or an array of tables)."""

@@ -19,12 +19,15 @@ Nothing heavy is imported.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
-from sim.checks import check, is_finite_number, is_integer
+from sim.checks import check, is_finite_number, is_integer, is_number
+from sim.config.fields import check_keys
 
 FAULT_KINDS = ("camera_outage", "robot_stop", "belt_stop", "vacuum_drop", "belt_speed")
 """Every kind of fault, in the order the outputs list them."""
@@ -38,6 +41,10 @@ KIND_KEYS = {
 """The keys of each kind besides `kind`, `start_s` and `duration_s`."""
 SPEED_FACTOR_RANGE = (0.1, 2.0)
 """A `belt_speed` fault's factor: the belt's drive at this share of its set speed."""
+RANDOM_KEYS = {
+    kind: tuple(k for k in keys if k not in ("robot", "camera")) for kind, keys in KIND_KEYS.items()
+}
+"""The keys of each kind's `[faults_random.<kind>]` table besides `mtbf_s` and `mttr_s`."""
 FAULT_STREAM = 48
 """The random faults' own stream of the episode's seed (the flow's draws stay as they are)."""
 
@@ -52,7 +59,8 @@ class Fault:
         duration_s: How long it lasts [s], > 0.
         robot: robot_stop: the robot's index, 0 the most upstream.
         camera: camera_outage: the camera's index (0 the scene's, upstream first); None: all.
-        vacuum_pa: vacuum_drop: the supply's vacuum during it [Pa].
+        vacuum_pa: vacuum_drop: the supply's vacuum during it [Pa] (in an episode's config:
+            1000 Pa up to the cup's `vacuum_pa`, a drop).
         speed_factor: belt_speed: the belt's speed during it, as a factor of its set speed.
     """
 
@@ -199,7 +207,7 @@ class RandomFaults:
         kind: One of `FAULT_KINDS`.
         mtbf_s: Mean time between faults [s] (from a repair to the next fault), > 0.
         mttr_s: Mean time to repair [s], > 0.
-        vacuum_pa: vacuum_drop: the vacuum during each.
+        vacuum_pa: vacuum_drop: the vacuum during each [Pa] (as `Fault`'s).
         speed_factor: belt_speed: the factor during each.
     """
 
@@ -211,10 +219,23 @@ class RandomFaults:
 
     def __post_init__(self) -> None:
         check(self.kind in FAULT_KINDS, "faults_random", " | ".join(FAULT_KINDS), self.kind)
+        field = f"faults_random.{self.kind}"
         for key in ("mtbf_s", "mttr_s"):
             value = getattr(self, key)
             ok = is_finite_number(value) and value > 0
-            check(ok, f"faults_random.{self.kind}.{key}", "a time > 0 s", value)
+            check(ok, f"{field}.{key}", "a time > 0 s", value)
+        own = RANDOM_KEYS[self.kind]
+        for key in ("vacuum_pa", "speed_factor"):
+            if key not in own:
+                allowed = "only the keys " + ", ".join(("mtbf_s", "mttr_s", *own))
+                check(getattr(self, key) is None, f"{field}.{key}", allowed, getattr(self, key))
+        if self.kind == "belt_speed":
+            lo, hi = SPEED_FACTOR_RANGE
+            ok = is_finite_number(self.speed_factor) and lo <= self.speed_factor <= hi
+            check(ok, f"{field}.speed_factor", f"{lo:g}..{hi:g}", self.speed_factor)
+        if self.kind == "vacuum_drop":
+            ok = is_finite_number(self.vacuum_pa) and self.vacuum_pa > 0
+            check(ok, f"{field}.vacuum_pa", "a vacuum > 0 Pa", self.vacuum_pa)
 
     def draw(self, rng: np.random.Generator, parts: tuple, end_s: float) -> list[Fault]:
         """This kind's faults on each of `parts` (robot or camera indices; (None,) for the belt
@@ -296,3 +317,66 @@ def _union_length(windows: list[tuple[float, float]]) -> float:
         total += hi - max(lo, reach)
         reach = hi
     return total
+
+
+def faults_of_tables(tables: Any, where: str | None = None) -> tuple[Fault, ...]:
+    """The faults of a config's `[[faults]]` array of tables, each refused in one line naming
+    its key (an unknown or missing one too) and `where`, the file."""
+    keys = "kind, start_s, duration_s and the kind's keys"
+    check(isinstance(tables, list | tuple), "faults", f"[[faults]] tables ({keys})", tables, where)
+    out = []
+    for i, table in enumerate(tables):
+        if isinstance(table, Fault):
+            out.append(table)
+            continue
+        check(isinstance(table, dict), f"faults[{i}]", f"a table ({keys})", table, where)
+        check_keys(Fault, table, f"faults[{i}].", where)
+        for key in ("kind", "start_s", "duration_s"):
+            check(key in table, f"faults[{i}].{key}", "a value: required", None, where)
+        out.append(Fault(**_floats(table, ("start_s", "duration_s", "vacuum_pa", "speed_factor"))))
+    return tuple(out)
+
+
+def random_faults_of_table(table: Any, where: str | None = None) -> tuple[RandomFaults, ...]:
+    """The random faults of a config's `[faults_random]` table (one table per kind, keys
+    `mtbf_s`, `mttr_s` and the kind's own), in `FAULT_KINDS`' order, refused in one line."""
+    if isinstance(table, list | tuple) and all(isinstance(r, RandomFaults) for r in table):
+        return tuple(sorted(table, key=lambda r: FAULT_KINDS.index(r.kind)))
+    allowed = "a table of kinds (" + " | ".join(FAULT_KINDS) + "), each a table"
+    check(isinstance(table, dict), "faults_random", allowed, table, where)
+    out = []
+    for kind, keys in table.items():
+        check(kind in FAULT_KINDS, f"faults_random.{kind}", allowed, None, where)
+        field = f"faults_random.{kind}"
+        own = ", ".join(("mtbf_s", "mttr_s", *RANDOM_KEYS[kind]))
+        check(isinstance(keys, dict), field, f"a table of {own}", keys, where)
+        for key in keys:
+            check(
+                key in ("mtbf_s", "mttr_s", *RANDOM_KEYS[kind]),
+                f"{field}.{key}",
+                f"one of {own}",
+                None,
+                where,
+            )
+        for key in ("mtbf_s", "mttr_s"):
+            check(key in keys, f"{field}.{key}", "a time > 0 s: required", None, where)
+        out.append(RandomFaults(kind, **_floats(keys, ("mtbf_s", "mttr_s", *RANDOM_KEYS[kind]))))
+    return tuple(sorted(out, key=lambda r: FAULT_KINDS.index(r.kind)))
+
+
+def fault_tables(faults: tuple[Fault, ...]) -> list[dict]:
+    """`[[faults]]` as a config file writes them: each fault's keys that are set."""
+    return [{k: v for k, v in dataclasses.asdict(f).items() if v is not None} for f in faults]
+
+
+def random_faults_table(random: tuple[RandomFaults, ...]) -> dict[str, dict]:
+    """`[faults_random]` as a config file writes it: {kind: its keys that are set}."""
+    return {
+        r.kind: {k: v for k, v in dataclasses.asdict(r).items() if v is not None and k != "kind"}
+        for r in random
+    }
+
+
+def _floats(table: dict, keys: tuple[str, ...]) -> dict:
+    """`table` with the numbers of `keys` as floats (a TOML int for a time); others as given."""
+    return {k: float(v) if k in keys and is_number(v) else v for k, v in table.items()}

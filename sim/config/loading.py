@@ -10,7 +10,8 @@ from typing import Any
 
 from sim.checks import check
 from sim.config.catalogue_file import CatalogueFile, episode_catalogue
-from sim.config.episode import SCALARS, SECTIONS, EpisodeConfig
+from sim.config.episode import FAULT_KEYS, SCALARS, SECTIONS, EpisodeConfig
+from sim.config.faults import faults_of_tables, random_faults_of_table
 from sim.config.fields import check_keys
 from sim.config.migration import SECTION as OLD_ROBOT_SECTION
 from sim.config.migration import migrated
@@ -19,7 +20,7 @@ from sim.config.values import Values
 from sim.errors import InvalidInput
 from sim.flow.feed_rate import FEED_KEYS
 
-KEYS = (*SCALARS, *SECTIONS, OLD_ROBOT_SECTION)
+KEYS = (*SCALARS, *SECTIONS, *FAULT_KEYS, OLD_ROBOT_SECTION)
 """Every top-level key of a config file (`robot`: an old file's section of every robot's
 pauses, `sim.config.migration`)."""
 
@@ -59,6 +60,10 @@ def _from_dict(data: dict[str, Any], where: str | None) -> EpisodeConfig:
                 continue
             check_keys(cls, value, f"{key}.", where)
             kwargs[key] = cls(**value)
+        elif key == "faults":
+            kwargs[key] = faults_of_tables(value, where)
+        elif key == "faults_random":
+            kwargs[key] = random_faults_of_table(value, where)
         else:
             check(key in SCALARS, key, "one of " + ", ".join(sorted(KEYS)), None, where)
             kwargs[key] = value

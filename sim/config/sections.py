@@ -1,16 +1,17 @@
 """The tables of an episode config that stand alone: `[qlearning]`, `[video]`, `[camera]`,
-`[cup]`, `[belt]`, `[infeed]`, `[hmm]` and `[economics]`. Each key's range is its field's
-`Setting` (`sim.config.fields`); a table checks itself on construction (`validate`), plus the
-rules that tie two of its keys. Nothing heavy is imported.
+`[cup]`, `[belt]`, `[infeed]` (its `surges`), `[hmm]`, `[economics]` and `[timeline]`. Each
+key's range is its field's `Setting` (`sim.config.fields`); a table checks itself on
+construction (`validate`), plus the rules that tie two of its keys. Nothing heavy is imported.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 from planner.motion.belt_speeds import SPEED_RANGE_MPS, SPEED_TOLERANCE_MPS, SPEED_X1_MPS
-from sim.checks import check, is_integer
-from sim.config.fields import Range, setting, validate
+from sim.checks import check, is_finite_number, is_integer
+from sim.config.fields import Range, check_keys, setting, validate
 from sim.config.plant import (
     BELT_LENGTH_M,
     BELT_LENGTH_RANGE_M,
@@ -43,6 +44,10 @@ MAX_ITEMS_PER_S = LINE_MAX_ITEMS_PER_METRE * 1.5 * SPEED_X1_MPS
 MAX_KG_PER_H = round(MAX_ITEMS_PER_S * SECONDS_PER_HOUR * MASS_RANGE_KG[1], 3)
 """Largest mass rate: the fastest item rate of the heaviest items a catalogue may hold
 [kg/h] (the catalogue's mean item mass decides: the belt's loading is checked with it)."""
+MAX_RATE_FACTOR = 100.0
+"""Largest factor of the feed's rate a profile's step or a surge may give (the belt's density
+at the peak is checked too: `sim.config.episode`)."""
+RATE_FACTOR = Range(0.0, MAX_RATE_FACTOR, f"0..{MAX_RATE_FACTOR:g}, the belt's density permitting")
 _VIDEO_SIDE = Range(64, 1920, "64..1920, a multiple of 8", integer=True, multiple=8)
 
 
@@ -202,6 +207,52 @@ class Belt:
 
 
 @dataclass(frozen=True)
+class Surges:
+    """Surges of material over the feed, drawn from the episode's seed
+    (`sim.flow.rate_profile.draw_surges`): the gaps between surges and their lengths
+    exponential, the feed's rate times `factor` during each (a tipping floor emptied onto the
+    infeed). Every key is required.
+
+    Attributes:
+        mean_gap_s: Mean time from one surge's end to the next's start [s].
+        mean_length_s: Mean length of a surge [s].
+        factor: The feed's rate during a surge, as a factor of its rate (below 1: a lull).
+    """
+
+    mean_gap_s: float = setting(range=_between(1.0, 36000.0, "s"), to_float=True)
+    mean_length_s: float = setting(range=_between(1.0, 36000.0, "s"), to_float=True)
+    factor: float = setting(range=RATE_FACTOR, to_float=True)
+
+    def __post_init__(self) -> None:
+        for name in ("mean_gap_s", "mean_length_s", "factor"):
+            allowed = "a value: every key of infeed.surges is required"
+            check(getattr(self, name) is not None, f"infeed.surges.{name}", allowed, None)
+        validate(self, "infeed.surges.")
+
+
+PROFILE_ALLOWED = (
+    f"a list of [start_s, factor] pairs: start_s >= 0 s, ascending; factor {RATE_FACTOR.allowed}"
+)
+
+
+def rate_steps(steps: Any) -> tuple[tuple[float, float], ...]:
+    """An `[infeed] profile` as (start_s [s], factor) pairs of floats, refused in one line
+    unless a list of pairs, the starts >= 0 and ascending, each factor in `RATE_FACTOR`."""
+    ok = isinstance(steps, list | tuple) and all(
+        isinstance(p, list | tuple) and len(p) == 2 and all(is_finite_number(x) for x in p)
+        for p in steps
+    )
+    check(ok, "infeed.profile", PROFILE_ALLOWED, steps)
+    starts = [p[0] for p in steps]
+    ok = all(t >= 0 for t in starts) and all(
+        b > a for a, b in zip(starts, starts[1:], strict=False)
+    )
+    ok = ok and all(RATE_FACTOR.allows(p[1]) for p in steps)
+    check(ok, "infeed.profile", PROFILE_ALLOWED, steps)
+    return tuple((float(t), float(f)) for t, f in steps)
+
+
+@dataclass(frozen=True)
 class InfeedRate:
     """The feed in a plant's units, instead of `items` (`sim.flow.feed_rate`): at most one
     key; the item count is the rate over `duration_s`, rounded to the nearest item.
@@ -213,6 +264,11 @@ class InfeedRate:
         kg_per_h: Kilograms per hour [kg/h]: items = this / 3600 / the mean item mass x
             duration_s, the mean of the catalogue's masses under the flow's mix
             (`sim.flow.mix.mean_item_mass_kg`).
+        profile: The feed's rate over time: [[start_s, factor], ...], the rate (of `items` or
+            the key above) times the factor from each start on [s], 1 before the first (surges
+            and gaps; `sim.flow.rate_profile`). Empty: a steady feed.
+        surges: Surges drawn by seed (`Surges`: `{ mean_gap_s, mean_length_s, factor }`), their
+            factor multiplying the profile's. Unset: none.
     """
 
     items_per_m: float | None = setting(
@@ -245,12 +301,21 @@ class InfeedRate:
         ),
         to_float=True,
     )
+    profile: tuple[tuple[float, float], ...] = setting(())
+    surges: Surges | None = setting()
 
     def __post_init__(self) -> None:
         given = [k for k in FEED_KEYS if getattr(self, k) is not None]
         allowed = "one of " + ", ".join(FEED_KEYS) + " (a rate), not several"
         check(len(given) <= 1, "infeed", allowed, given, None)
         validate(self, "infeed.")
+        object.__setattr__(self, "profile", rate_steps(self.profile))
+        if isinstance(self.surges, dict):
+            check_keys(Surges, self.surges, "infeed.surges.", None)
+            object.__setattr__(self, "surges", Surges(**self.surges))
+        allowed = "a table { mean_gap_s = S, mean_length_s = S, factor = F }"
+        ok = self.surges is None or isinstance(self.surges, Surges)
+        check(ok, "infeed.surges", allowed, self.surges)
 
     @property
     def rate(self) -> tuple[str, float] | None:
@@ -328,3 +393,18 @@ class Economics:
             self.hours_per_year,
             self.robot_maintenance_eur_per_year,
         )
+
+
+@dataclass(frozen=True)
+class Timeline:
+    """The episode's timeline: `timeline.csv` beside episodes.csv, one row of the counts, the
+    robots' states and the active faults every `period_s` (`sim.results.timeline`).
+
+    Attributes:
+        period_s: Simulated time between two rows [s].
+    """
+
+    period_s: float = setting(10.0, range=_between(0.5, 3600.0, "s"), to_float=True)
+
+    def __post_init__(self) -> None:
+        validate(self, "timeline.")

@@ -29,10 +29,12 @@ from typing import Any
 import sim.config
 from sim.config import migration
 from sim.config.episode import SCALARS, SECTIONS, EpisodeConfig
+from sim.config.faults import FAULT_KINDS, KIND_KEYS, RANDOM_KEYS, Fault, RandomFaults
 from sim.config.fields import SETTING, Setting
 from sim.config.loading import from_dict
 from sim.config.plant import CUP_DIAMETER_M, LINE_CUP_DIAMETER_M
 from sim.config.robots import SECTION_KEYS, RobotSpec
+from sim.config.sections import Surges
 from sim.config.settings import ITEM_CLASSIFIER_MIN_CONFIDENCE, WORLD_NUMBERS
 from sim.config.values import Values
 from sim.errors import InvalidInput
@@ -70,6 +72,8 @@ UNSET = {
     "flow.mix_types": "unset: the catalogue's weights within each material",
     "economics.energy_price_eur_per_kwh": "the top-level `energy_price_eur_per_kwh` (0)",
     "cup.diameter_m": f"{CUP_DIAMETER_M:g} (one robot), {LINE_CUP_DIAMETER_M:g} (a line of 2-4)",
+    "infeed.surges": "unset: no surges",
+    **{f"infeed.surges.{k}": "required in a surges table" for k in Surges.__dataclass_fields__},
 }
 """Defaults of keys that are unset (None) unless given, in words (`flow.mix`'s: `default_mix`)."""
 
@@ -93,6 +97,15 @@ SECTION_TEXT = {
     "plastic = 0.30, aluminium = 1.20 }` (EUR/kg; an illustration of the order of European bale "
     "prices, which move month to month: set the plant's own). The per-item defaults are the "
     "thesis's, far above a small item's scrap value.",
+    "[[faults]] and [faults_random]": "Faults over the episode (`sim/config/faults.py`): "
+    "given one by one, a `[[faults]]` table each (`kind`, `start_s`, `duration_s` and the "
+    "kind's own key), or drawn from the seed, a `[faults_random.<kind>]` table per kind "
+    "(`mtbf_s`, `mttr_s` and the kind's own key but `robot` or `camera`: every robot and "
+    "camera draws its own). Two faults of one kind on one part may not overlap; a fault naming "
+    "a robot or camera the cell lacks or starting at or after the episode's end (`horizon_s`, "
+    "else `duration_s`) is refused when the config loads. Kinds and their keys: "
+    + "; ".join(f"{k}: {', '.join(v) or 'none'}" for k, v in KIND_KEYS.items())
+    + ".",
     "[economics]": "Assumptions for one delta robot cell, to be replaced by the plant's own "
     "figures; they change no episode, only the money columns of episodes.csv "
     "(`robot_cost_per_h_eur` = robots x (capital / (life x hours per year) + maintenance / "
@@ -313,13 +326,63 @@ def _robots() -> list[Row]:
     return out
 
 
+FAULT_DEFAULTS = {
+    "kind": "required",
+    "start_s": "required",
+    "duration_s": "required",
+    "robot": "required (robot_stop)",
+    "camera": "unset: every camera",
+    "vacuum_pa": "required (vacuum_drop)",
+    "speed_factor": "required (belt_speed)",
+    "mtbf_s": "required",
+    "mttr_s": "required",
+}
+"""The faults' keys' defaults, in words."""
+
+
+def _kind_of(key: str) -> str:
+    """The fault kind whose table a key is probed in (its own kind's, else belt_stop)."""
+    return next((k for k, keys in KIND_KEYS.items() if key in keys), "belt_stop")
+
+
+def _faults() -> list[Row]:
+    out = []
+    docs = attribute_docs(Fault)
+    for f in dataclasses.fields(Fault):
+        kind = _kind_of(f.name) if f.name != "kind" else FAULT_KINDS[0]
+        table = {
+            "kind": kind,
+            "start_s": 0.0,
+            "duration_s": 1.0,
+            **dict.fromkeys(KIND_KEYS[kind], 0),
+        }
+        field = "faults.kind" if f.name == "kind" else f"faults.{kind}.{f.name}"
+        allowed = refusal({"faults": [{**table, f.name: ...}]}, field)
+        meaning = docs.get(f.name, "")
+        unit = unit_of(f.name, meaning, allowed)
+        out.append(Row(f"[[faults]] {f.name}", FAULT_DEFAULTS[f.name], allowed, unit, meaning))
+    docs = attribute_docs(RandomFaults)
+    for f in dataclasses.fields(RandomFaults)[1:]:
+        kind = _kind_of(f.name)
+        table = {"mtbf_s": 1.0, "mttr_s": 1.0, **dict.fromkeys(RANDOM_KEYS[kind], 0.5)}
+        field = f"faults_random.{kind}.{f.name}"
+        allowed = refusal({"faults_random": {kind: {**table, f.name: ...}}}, field)
+        meaning = docs.get(f.name, "")
+        key = f"[faults_random.<kind>] {f.name}"
+        out.append(Row(key, FAULT_DEFAULTS[f.name], allowed, unit_of(f.name, meaning), meaning))
+    return out
+
+
 def settings() -> list[tuple[str, list[Row]]]:
     """The settings reference's tables: (heading, settings) per part of the config."""
     parts = [("Top-level keys", _scalars()), ("[values]", _values())]
     for name, cls in SECTIONS.items():
         if name != "values":
             parts.append((f"[{name}]", _section(name, cls)))
+        if name == "infeed":
+            parts[-1][1].extend(_section("infeed.surges", Surges))
     parts.append(("[robot] and [[robots]]", _robots()))
+    parts.append(("[[faults]] and [faults_random]", _faults()))
     return parts
 
 

@@ -427,6 +427,11 @@ LATER_KEYS: dict[str, Any] = {
 }
 LATER_KEYS["belt"] = {**LATER_KEYS["belt"], "infeed_hold": False}  # no hold before it existed
 LATER_KEYS |= {"horizon_s": None, "infeed": dataclasses.asdict(InfeedRate())}
+LATER_KEYS |= {
+    "timeline": dataclasses.asdict(SECTIONS["timeline"]()),
+    "faults": [],
+    "faults_random": {},
+}
 for _table, _keys in LATER_TABLE_KEYS.items():
     LATER_KEYS[_table] = {k: v for k, v in LATER_KEYS[_table].items() if k not in _keys}
 LATER_KEYS["cup"] = {**LATER_KEYS["cup"], "diameter_m": CUP_DIAMETER_M}  # a line's cup was 60 mm
