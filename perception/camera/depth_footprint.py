@@ -54,7 +54,6 @@ class FootprintMapper:
     """Raw frame + depth -> top-down colour labels of item footprints.
 
     Args:
-        view: The located camera.
         raster: The top-down raster (`TopDownRaster.covering`).
         max_height_m: Tallest item [m]; bounds the frame region that can see the raster.
         min_height_m: Item pixels stand at least this high above the belt [m].

@@ -108,7 +108,6 @@ def window_source(
 
     Args:
         camera_matrix: (3, 3) intrinsics of the distorted image [px].
-        lens: The lens.
         source_matrix: (3, 3) intrinsics of the whole canvas [px] (principal point at its
             centre, as `source_canvas` places it).
         window: (rows, columns) slices of the distorted image (steps of 1).

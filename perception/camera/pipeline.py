@@ -68,7 +68,6 @@ class CameraPipeline:
         resolution_m: Side of a top-down pixel [m].
         plane_z: Height above the belt of the rectified plane of frames without depth [m].
         max_pitch_m: Longest row the pipeline must see (top belt speed x period) [m].
-        rules: Per-pixel colour rules.
         edge_margin_m: The belt's outer strips whose pixels are not items [m]
             (`perception.camera.depth_footprint.BELT_EDGE_M` by default).
     """
@@ -183,9 +182,9 @@ class CameraPipeline:
         With a depth map (registered to the frame, [m] along the optical axis) the items'
         footprints are found in 3-D (`FootprintMapper`, over the row's band: `band_mapper`);
         without, the frame is rectified onto the belt plane and tall items look larger than
-        they lie. Item pixel coordinates are
-        belt-plane positions at the row's time t_k = k T; with depth, each cell also carries its
-        item pixels' heights above the belt [m] and colours (RGB).
+        they lie. Item pixel coordinates are belt-plane positions at the row's time t_k = k T;
+        with depth, each cell also carries its item pixels' heights above the belt [m] and
+        colours (RGB).
 
         Raises:
             PerceptionError: The frame cannot be used (shape, all black, markers not seen).

@@ -100,7 +100,6 @@ def locate_belt(
 
     Args:
         image: Raw (distorted) RGB frame (height, width, 3) uint8.
-        calibration: The camera's intrinsics and distortion.
         marker_world: (N >= 4, 3) marker centres in the world frame [m].
         marker_colours: (N, 3) their colours [0..1].
     """
@@ -185,7 +184,6 @@ class BeltRectifier:
     """Raw frame -> top-down image of a plane above the belt, one `cv2.remap`.
 
     Args:
-        view: The located camera.
         raster: The top-down raster (`TopDownRaster.covering`).
         plane_z: Height of the rectified plane above the belt [m].
     """

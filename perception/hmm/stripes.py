@@ -145,7 +145,6 @@ def infer(models: StripeHmms, obs) -> dict:
     """Filtered, smoothed and one-step-predicted class distributions of every row.
 
     Args:
-        models: The stripe models.
         obs: (S, T) codes 1..M, stripe-major (a grid of rows x stripes transposed).
 
     Returns:

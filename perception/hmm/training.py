@@ -135,7 +135,6 @@ def train(
     Args:
         classes_grids, codes_grids: Labelled recordings (see `count_models`).
         unlabelled_codes: Further (rows, S) code grids used only by re-estimation.
-        config: Training options.
         n_states: Classes (void and the materials).
 
     Returns:

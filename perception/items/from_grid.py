@@ -142,7 +142,6 @@ def items_kmeans(
 
     Args:
         classes: (rows, S) decoded classes 1..N (1 void, 2.. the materials).
-        geometry: Cell positions on the belt.
         cells_per_item: (N,) expected expanded cells per item of classes 1..N (index class-1);
             N = 4 for the thesis's three materials.
         posteriors: Optional (rows, S, N) class posteriors for the confidences.

@@ -114,7 +114,6 @@ def split_region(
         y: (N,) lateral positions [m].
         height: (N,) heights above the belt [m] of the surface seen at each pixel, or None
             (no depth: the footprint's shape alone decides).
-        settings: Raster pitch and thresholds.
 
     Returns:
         (piece, count): the piece 0..count-1 of each pixel, and the number of pieces.

@@ -24,7 +24,6 @@ class Candidate:
     """A feasible pick evaluated from the robot's state.
 
     Attributes:
-        item: The tracked item.
         expected_value: p(bin class) * value(bin class) [EUR], net of the pick's energy cost
             when the context prices energy (`DecisionContext.net_value`).
         bin_class: Destination class (2..4).

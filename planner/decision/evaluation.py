@@ -66,7 +66,6 @@ class OracleComparison:
     """Per-belt profits [EUR] of each planner and the oracle's bound.
 
     Attributes:
-        planners: Planner names.
         profits: (n_belts, n_planners) profit of each planner [EUR].
         bound: (n_belts,) upper bound on any planner's profit [EUR].
         exact: (n_belts,) True where the bound is the exact best profit, False where it is the

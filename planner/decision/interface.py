@@ -222,7 +222,6 @@ class Choice:
     """A decision: which item to pick next and why.
 
     Attributes:
-        item_id: The chosen item.
         expected_value: Its expected value [EUR].
         meet_time: Predicted time the cup meets it [s] (clock of RobotState).
         bin_class: Material class whose bin it goes to (2, 3, ...).

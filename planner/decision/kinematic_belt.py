@@ -4,8 +4,7 @@ Items ride the belt at its speed; the robot takes its cycle times from the conte
 carries each pick to the bin of the predicted class and decides again there; an item that
 passes the reachable window unpicked is missed. The timing rules are those of
 `planner.decision.candidates`, shared with the planners and the oracle, so profits are comparable
-with
-`oracle.best_sequence` on the same belt.
+with `oracle.best_sequence` on the same belt.
 """
 
 from __future__ import annotations

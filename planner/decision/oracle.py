@@ -51,7 +51,6 @@ class Plan:
     """Best sequence found and what is known of the best profit.
 
     Attributes:
-        sequence: Item ids in pick order.
         profit: Profit of `sequence` [EUR].
         nodes: Search nodes visited.
         bound: Upper bound on the best profit of any sequence [EUR]; equals `profit` when exact.

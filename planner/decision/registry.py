@@ -1,15 +1,14 @@
 """The one registry of decision managers: built-in names, and a user's own class.
 
-`make_planner('qlearning', gamma=0.9)` builds a built-in manager (qlearning: the thesis's
-algorithm; rollout: our timed rollout over its reward; lookahead: our budgeted branch and
-bound; proximity, fifo, greedy; random: a uniform draw among the items the cup can meet, the
-thesis's "random picker"; oracle: exact search over the items in view).
-`make_planner('mymod:MyPlanner')` (or `path/to/file.py:MyPlanner`) imports the user's class
-and builds it with no arguments. A
-user's class implements `planner.decision.interface.DecisionManager`: a `choose(items, robot,
-context)` returning a `Choice` or None, and a `reset()` called at the start of every episode;
-its `name` attribute, if any, is what episodes.csv records (else the spec). Unknown names, specs
-that do not import and options a manager does not take are refused with one line.
+`make_planner('qlearning', gamma=0.9)` builds a built-in manager (qlearning: the thesis's algorithm;
+rollout: our timed rollout over its reward; lookahead: our budgeted branch and bound; proximity,
+fifo, greedy; random: a uniform draw among the items the cup can meet, the thesis's "random picker";
+oracle: exact search over the items in view). `make_planner('mymod:MyPlanner')` (or
+`path/to/file.py:MyPlanner`) imports the user's class and builds it with no arguments. A user's
+class implements `planner.decision.interface.DecisionManager`: a `choose(items, robot, context)`
+returning a `Choice` or None, and a `reset()` called at the start of every episode; its `name`
+attribute, if any, is what episodes.csv records (else the spec). Unknown names, specs that do not
+import and options a manager does not take are refused with one line.
 
 An episode asks its manager through `ask_manager`: a `choose()` that returns
 anything but a `Choice` or None (the item itself, say) ends the episode with one line naming the
@@ -146,8 +145,7 @@ def make_planner(spec: str, **params):
         **params: Options of that planner (qlearning, rollout, lookahead: the fields of
             QLearningConfig, RolloutConfig, LookaheadConfig; oracle: max_items; learned:
             policy_file (a JSON written by `sortsim train`); random: seed and stream; the
-            others, and
-            users' classes, take none).
+            others, and users' classes, take none).
 
     Raises:
         PlannerInputError: Unknown name or option, or an option out of range.
@@ -185,7 +183,7 @@ class ChoiceTypeError(PlannerError, TypeError):
     """A decision manager's `choose()` returned something else than a `Choice` or None.
 
     Args:
-        manager: The manager's class name.
+        manager: Its class name.
         got: The returned value's type, qualified by its module.
     """
 
@@ -201,16 +199,7 @@ class ChoiceTypeError(PlannerError, TypeError):
 
 
 def ask_manager(planner, items, robot, context):
-    """`planner.choose(items, robot, context)`, its return value checked.
-
-    Args:
-        planner: The decision manager.
-        items: The tracked items to choose among.
-        robot: The deciding robot's state.
-        context: The decision context.
-
-    Returns:
-        The manager's `Choice`, or None.
+    """`planner.choose(items, robot, context)`: its `Choice` or None, checked.
 
     Raises:
         ChoiceTypeError: It returned anything else (one line naming its class).

@@ -243,9 +243,7 @@ def search_corners(
     motor limits yet: `plan_chain` applies them). inf when no candidate is feasible.
 
     Args:
-        start: State at the chain's start.
-        waypoints: Points to pass; the last one must have a given velocity.
-        generator: Segment planner.
+        waypoints: The last one must have a given velocity.
         blend: Search non-zero corner velocities and cuts; False keeps every corner at rest.
         sweeps: Rounds of coordinate descent over the corners.
         fractions: Multiples of the neighbouring average velocities tried at each corner.
@@ -331,13 +329,10 @@ def plan_chain(
     """The chain through `waypoints`, with corner velocities chosen to shorten it.
 
     Args:
-        start: State at the chain's start.
-        waypoints: Points to pass; the last one must have a given velocity.
-        generator: Segment planner (its limits and motor checks apply to every segment).
+        waypoints: The last one must have a given velocity.
+        generator: Its limits and motor checks apply to every segment).
         blend: Search non-zero corner velocities; False stops at every corner.
-        sweeps: Rounds of coordinate descent over the corners.
-        fractions: As in `search_corners`.
-        cuts: As in `search_corners`.
+        sweeps, fractions, cuts: As in `search_corners`.
 
     Returns:
         The shorter of the blended chain and the chain with zero corner velocities.

@@ -83,8 +83,8 @@ def outline_points(obstacle: Obstacle, n: int = 9) -> np.ndarray:
     """Points (n * n, 2) [m] covering an obstacle's footprint: an n x n grid over its rectangle
     grown by its radius (edges included), each point outside the footprint (the grid's corners
     beyond a rounded corner) moved onto its nearest point of the footprint's outline, so that the
-    outline's corners are always among the points (a tilted box's corners were dropped, and a
-    neighbour's corner over them went unseen)."""
+    outline's corners are always among the points (a plain grid misses a tilted box's corners,
+    and a neighbour's corner over them would go unseen)."""
     return outline_points_of([obstacle], n)[0]
 
 

@@ -3,8 +3,7 @@
 Each sample: the robot at rest at a bin's drop point or a random point of the workspace, an
 item at a random place of the belt inside the window riding at a thesis belt speed, the pick
 intercepted and planned with ruckig (`planner.motion.intercept.intercept_item`) and placed in a
-random
-bin. The model's closed-form times are recorded beside the planned ones.
+random bin. The model's closed-form times are recorded beside the planned ones.
 """
 
 from __future__ import annotations

@@ -133,13 +133,11 @@ def intercept_item(
     """When and where the cup can meet an item riding the belt, and the pick planned to do so.
 
     Args:
-        start: The robot's state now.
         item_xy: The item's position now [m].
         belt_speed: Belt speed along +x [m/s], >= 0.
         drop_xyz: Release point over the item's bin [m].
         generator: Segment planner with the robot's geometry.
         pick_z: TCP height at contact (top of the item) [m].
-        config: Heights and times of the pick.
         axis4: Axis-4 angle at the pick and at the drop [rad].
         with_plan: Also plan the whole pick and place (arriving exactly at the meeting time).
 

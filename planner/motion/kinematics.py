@@ -167,7 +167,6 @@ def inverse_kinematics(geom: DeltaGeometry, p) -> np.ndarray:
     """Motor angles [rad] for a TCP position [m]; vectorised over a leading axis.
 
     Args:
-        geom: Robot geometry.
         p: World TCP position(s), shape (3,) or (n, 3) [m].
 
     Returns:

@@ -9,8 +9,8 @@ J = dp/dq = R^-1 diag(b) (rows of R: rho_i), as `planner.motion.kinematics.jacob
 
 The per-leg vectors are built leg-major, (leg, coordinate, sample), so that numpy's loops run
 along the samples; the dot products are summed by `np.einsum` on row-major (sample, leg,
-coordinate) copies, the layout they have always been summed in (einsum's order of summation
-follows the layout), so every number is the same to the bit whatever the layout of the work.
+coordinate) copies, a fixed layout (einsum's order of summation follows the layout), so every
+number is the same to the bit whatever the layout of the work.
 
 The motor checks of the trajectory generator (`segment_peaks`): every segment it plans is
 checked at a few hundred samples, each sample's motor angles, speeds and torques
@@ -139,8 +139,6 @@ def segment_peaks(
     [rad/s] and peak motor torque [N m] (0 without dynamics).
 
     Args:
-        geom: Robot geometry.
-        dynamics: Lumped dynamics for the torques, or None.
         pos: TCP positions (N, 3) [m].
         vel: TCP velocities (N, 3) [m/s].
         acc: TCP accelerations (N, 3) [m/s^2].

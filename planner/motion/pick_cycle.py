@@ -108,14 +108,13 @@ def pick_place_waypoints(
 ) -> list[Waypoint]:
     """Waypoints of one pick and place (the chain's start is the robot's current state).
 
+    The descent arrives time-optimally; `delay_contact` touches down later.
+
     Args:
         pick_xyz: Where the cup meets the item (top of the item) [m].
         belt_velocity: Belt speed along +x [m/s]; the cup arrives and seals at this velocity.
         drop_xyz: Release point above the bin [m].
-        config: Heights and times.
         axis4: Axis-4 angle at the pick and at the drop [rad].
-
-    The descent arrives time-optimally; `delay_contact` touches down later.
     """
     p = np.asarray(pick_xyz, dtype=float)
     b = np.asarray(drop_xyz, dtype=float)

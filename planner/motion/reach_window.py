@@ -82,7 +82,6 @@ class ReachWindow:
             reachable: Workspace test (e.g. `lambda p: kinematics.reachable_mask(geom, p)`).
             pick_z: Height of the TCP at the pick [m].
             extent: Half size of the square searched about the origin [m].
-            samples: Number of y samples.
             step: x resolution of the search [m]; the edges are conservative by up to it.
         """
         y = np.linspace(-extent, extent, samples)

@@ -274,9 +274,6 @@ class RuckigTrajectoryGenerator(TrajectoryGenerator):
         """The fastest segment found within every limit, motor speeds included.
 
         Args:
-            start: Start state.
-            goal: Goal state.
-            label: Name of the phase.
             minimum_duration: Make the segment last at least this long [s] (e.g. to arrive at a
                 moving item exactly when it gets there); `None` for time-optimal.
             slow: Plan with the limits of the motion played `slow` (>= 1) times slower, e.g.

@@ -109,7 +109,6 @@ class Dwell(Segment):
     Args:
         start: Start state; its acceleration must be zero.
         duration: Length [s], >= 0.
-        label: Name of the phase.
     """
 
     def __init__(self, start: State, duration: float, label: str = "dwell"):
@@ -208,7 +207,6 @@ class Waypoint:
             blending chooses (zero without blending).
         dwell: Time spent after arriving, moving at `velocity` (e.g. sealing, releasing) [s].
         label: Name of the segment that ends here.
-        dwell_label: Name of the dwell.
         arrival_time: If set, arrive exactly at this time from the chain's start [s] (the
             segment is stretched with ruckig's minimum duration; it must be reachable by then).
         zone: How far [m] the chain may pass from a corner, along the corner's longer leg.
@@ -255,9 +253,6 @@ class TrajectoryGenerator(abc.ABC):
         """The fastest segment from `start` to `goal` within the generator's limits.
 
         Args:
-            start: Start state.
-            goal: Goal state.
-            label: Name of the phase.
             minimum_duration: Make the segment last at least this long [s]; `None`: time-optimal.
             slow: Use the limits of the same motion played `slow` (>= 1) times slower.
         """

@@ -7,7 +7,7 @@ an integer) is:
 
 - `"raise"` (the default): refused with one line naming the action, the allowed slots and the
   mask (`InvalidAction`, a `ValueError`), before anything is stepped;
-- `"wait"`: taken as waiting (the behaviour of before the setting: an empty slot picks nothing).
+- `"wait"`: taken as waiting (an empty slot picks nothing).
 """
 
 from __future__ import annotations
@@ -52,7 +52,6 @@ def slot_of(action: object, mask: np.ndarray, invalid_action: str = "raise") -> 
     """The slot an action picks (the last index of `mask`: wait).
 
     Args:
-        action: The agent's action.
         mask: The action mask now, (K + 1,) bool.
         invalid_action: "raise" or "wait" (module docstring).
 

@@ -113,7 +113,6 @@ def draw(scene: BeltScene, size=SIZE) -> np.ndarray:
     """The picture of a scene.
 
     Args:
-        scene: What to draw.
         size: (width, height) [px]; the scale follows the width.
 
     Returns:

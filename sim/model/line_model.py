@@ -40,12 +40,11 @@ upstream of its robot's reach and 0.28 m downstream of the robot upstream's). It
 scene's shortened along the belt (`CAMERA_RIG_SCALE_X`): box and markers at +-0.2 m of the
 camera line instead of +-0.32 m, so that the box clears the arms and rods of both robots over
 their whole reach and neither robot nor an item it carries comes between the camera and a
-marker (`tests/test_line_model.py`). Without it (the default) a line has the one camera, and its
-model is the same as before cameras per robot existed.
+marker (`tests/test_line_model.py`). Without it (the default) a line has the one camera.
 
 A line of one robot with the prefix "" (`LineLayout()`) is the single cell: the scene edited in
-place (moved when its position is not 0), which at x = 0 compiles to today's cell to the byte.
-Every per-robot function of the cell takes that prefix (`sim.cell.robot`, `sim.cell.executor`,
+place (moved when its position is not 0), which at x = 0 compiles to the scene file's cell to the
+byte. Every per-robot function of the cell takes that prefix (`sim.cell.robot`, `sim.cell.executor`,
 `sim.cell.suction`, `sim.monitors.energy`, `sim.episode.pick_control`).
 """
 

@@ -163,9 +163,6 @@ def load_model(path: str | Path, elements: tuple[Element, ...] = ()) -> mujoco.M
         path: MJCF file path.
         elements: Named elements the caller needs (`ROBOT_ELEMENTS`, `CELL_ELEMENTS`).
 
-    Returns:
-        The compiled model.
-
     Raises:
         ModelFileError: the file does not exist, is not a file, is not UTF-8, does not compile,
             holds non-finite numbers or lacks one of `elements`; one line naming the file.

@@ -122,10 +122,8 @@ class Bins:
     ) -> list[Landing]:
         """Judges the items that came to rest off the belt; parks them; returns the new records.
 
-        Args:
-            items: The cell's items.
-            held: The slots the cups hold (`sim.cell.held_slots`): never judged.
-            now: The items as read at this moment (`Items.now`); read here when None.
+        The `held` slots (`sim.cell.held_slots`) are never judged; `now` (`Items.now`) is read
+        here when None.
         """
         now = items.now() if now is None else now
         pool, t = self.pool, now.time

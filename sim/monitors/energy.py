@@ -68,9 +68,6 @@ class ActuatorLog:
     whole model's `actuator_force` and `actuator_velocity` rows (two copies, however many
     robots) and every meter works out its robot's powers from the buffer in numpy when a figure
     is read or the buffer is full (`BUFFER_ROWS`).
-
-    Args:
-        data: The cell's data.
     """
 
     BUFFER_ROWS = 512

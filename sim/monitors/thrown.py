@@ -67,13 +67,8 @@ def rail_outer_y(model: mujoco.MjModel) -> float:
 
 
 class ThrowWatch:
-    """Looks for items thrown off the belt (see the module docstring).
-
-    Args:
-        model: The cell.
-        pool: Its item pool.
-        speed_limit: `THROW_SPEED_MPS` unless given [m/s].
-    """
+    """Looks for items thrown off the belt of `model` (see the module docstring), faster
+    than `speed_limit` [m/s]."""
 
     def __init__(self, model: mujoco.MjModel, pool: ItemPool, speed_limit: float = THROW_SPEED_MPS):
         self.pool = pool
@@ -109,13 +104,9 @@ class ThrowWatch:
     def update(
         self, items: Items, held: np.ndarray = NONE_HELD, now: ItemsNow | None = None
     ) -> list[Throw]:
-        """The items newly thrown off since the last call (call every few ms).
-
-        Args:
-            items: The cell's items.
-            held: The slots the cups hold (`sim.cell.held_slots`): never judged.
-            now: The items as read at this moment (`Items.now`); read here when None.
-        """
+        """The items newly thrown off since the last call (call every few ms); the `held`
+        slots (`sim.cell.held_slots`) are never judged; `now` (`Items.now`) is read here when
+        None."""
         now = items.now() if now is None else now
         judged = ~self._released_mask(self.pool.item_ids[now.slots])
         if len(held):

@@ -165,12 +165,8 @@ def outlines(kind: int, sizes: np.ndarray, pos: np.ndarray, mats: np.ndarray) ->
 
 class VisibilityWatch:
     """The visible fraction of each item's top area at one observation of the belt cameras
-    (see the module docstring).
-
-    Args:
-        renders: A segmentation render of each belt camera, upstream first.
-        items: The cell's items.
-    """
+    (see the module docstring); `renders` holds one segmentation render per camera, upstream
+    first."""
 
     def __init__(self, renders: Sequence[SlotRender], items: Items):
         self.renders, self.items, self.pool = tuple(renders), items, items.pool
@@ -178,11 +174,8 @@ class VisibilityWatch:
         self._cams = tuple(camera_id(self.model, render.name) for render in self.renders)
 
     def measure(self, held: np.ndarray = NONE_HELD) -> Sighting:
-        """Render every camera's view now and measure the items near each.
-
-        Args:
-            held: The pool slots the cups hold (never on the belt).
-        """
+        """Render every camera's view now and measure the items near each (the `held` pool
+        slots are never on the belt)."""
         self.items.kinematics()
         data = self.items.current()
         belt = self._belt(held)

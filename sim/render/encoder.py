@@ -29,11 +29,8 @@ class VideoError(SortsimError):
 
 
 class EncoderFailure(Exception):
-    """The encoder could not open or write the MP4 (a full disk, a vanished folder, no ffmpeg).
-
-    Args:
-        line: What failed, in one line.
-    """
+    """The encoder could not open or write the MP4 (a full disk, a vanished folder, no ffmpeg);
+    its message is one line."""
 
     def __init__(self, line: str):
         super().__init__(line)
@@ -41,14 +38,8 @@ class EncoderFailure(Exception):
 
 
 def one_line(exc: BaseException) -> str:
-    """An exception as one line of at most 200 characters.
-
-    Args:
-        exc: The exception.
-
-    Returns:
-        'Type: message' with its whitespace collapsed.
-    """
+    """An exception as one line of at most 200 characters: 'Type: message', its whitespace
+    collapsed."""
     return " ".join(f"{type(exc).__name__}: {exc}".split())[:200]
 
 
@@ -73,10 +64,8 @@ def _encoder_failure() -> str | None:
 
 
 def check_encoder(field: str = "--video") -> None:
-    """Refuse in one line, before any episode runs, when ffmpeg cannot write H.264 here.
-
-    Args:
-        field: The option the refusal names.
+    """Refuse in one line naming `field`, before any episode runs, when ffmpeg cannot write
+    H.264 here.
 
     Raises:
         InvalidInput: imageio-ffmpeg's ffmpeg is missing or has no working libx264.

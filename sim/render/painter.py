@@ -63,24 +63,15 @@ class FrameState:
 
 
 class ModelWatch:
-    """Finds the rows of `MODEL_FIELDS` a model changed since the previous look.
-
-    Args:
-        model: The model as the painter's copy starts.
-    """
+    """Finds the rows of `MODEL_FIELDS` a model changed since the previous look (the first
+    look compares with `model` as the painter's copy starts)."""
 
     def __init__(self, model: mujoco.MjModel):
         self._last = {n: getattr(model, n).copy() for n in MODEL_FIELDS if hasattr(model, n)}
 
     def changes(self, model: mujoco.MjModel) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-        """The rows that differ from the previous look (which this look becomes).
-
-        Args:
-            model: The model now.
-
-        Returns:
-            {field: (rows, values)} of the changed fields.
-        """
+        """{field: (rows, values)} of the rows that differ from the previous look (which this
+        look becomes)."""
         out = {}
         for name, last in self._last.items():
             now = getattr(model, name)
@@ -98,16 +89,8 @@ class ModelWatch:
 def frame_state(
     model: mujoco.MjModel, data: mujoco.MjData, watch: ModelWatch | None = None
 ) -> FrameState:
-    """The state a frame of `data` is drawn from.
-
-    Args:
-        model: The model `data` belongs to.
-        data: The simulation's data now.
-        watch: With it, the model rows changed since its last look travel along.
-
-    Returns:
-        Copies of the joint positions and mocap poses, and the changed model rows.
-    """
+    """The state a frame of `data` is drawn from: copies of the joint positions and mocap
+    poses, and, with a `watch`, the model rows changed since its last look."""
     return FrameState(
         data.qpos.copy(),
         data.mocap_pos.copy(),
@@ -154,11 +137,7 @@ class FramePainter:
         self.renderer = mujoco.Renderer(model, height=self.size[1], width=self.size[0])
 
     def apply(self, state: FrameState) -> None:
-        """Take on a state: the model rows that changed, the pose of every body.
-
-        Args:
-            state: The frame's state.
-        """
+        """Take on a state: the model rows that changed, the pose of every body."""
         for name, (rows, values) in state.model_rows.items():
             getattr(self.model, name)[rows] = values
         for geom, size in self._floors.items():
@@ -170,10 +149,7 @@ class FramePainter:
         mujoco.mj_camlight(self.model, self.data)
 
     def paint(self, overlay: Overlay | None = None) -> np.ndarray:
-        """The frame of the current state.
-
-        Args:
-            overlay: The annotations to draw over it, or None.
+        """The frame of the current state, `overlay` (if any) drawn over it.
 
         Returns:
             The RGB frame (height, width, 3) uint8.

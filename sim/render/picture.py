@@ -23,13 +23,7 @@ POSE = (0.35, 0.55, 0.75)
 def render_cell(
     width: int = 800, height: int = 450, camera: str = "overview_camera", scene=SCENE_XML
 ) -> np.ndarray:
-    """Render the cell from a named camera.
-
-    Args:
-        width: Image width [px].
-        height: Image height [px].
-        camera: Camera name in the scene.
-        scene: MJCF scene path.
+    """Render the cell of the MJCF `scene` from its camera `camera`, `width` x `height` [px].
 
     Returns:
         RGB image, shape (height, width, 3), uint8.

@@ -77,7 +77,6 @@ class BeltSegmentation:
             cameras (`sim.cell.cell.Cell.belt_camera`); None: its own, closed with it.
 
     Attributes:
-        name: The camera's name.
         camera_matrix: (3, 3) intrinsics of this render [px] (pixel centres at integers).
         size: (width, height) of this render [px].
         in_frame: (height, width) bool: the pixels whose ray the camera's distorted frame shows.
@@ -255,17 +254,8 @@ def shared_segmentation(
 ) -> BeltSegmentation:
     """This process's segmentation render of camera `name` of `model` at these settings,
     without the static geoms, made once and kept for later episodes (as `Cell.belt_camera`
-    keeps the camera's renderer); the renders of another model are closed.
-
-    Args:
-        model: The compiled cell.
-        pool: Its item pool.
-        size: The camera's frame (width, height) [px].
-        scale: Pixels rendered per canvas pixel, (0, 1].
-        max_slope: The largest |x / z| of a ray kept across the belt (None: every column).
-        name: The camera's name.
-        renderer: The `SceneRenderer` to render in (the cell's belt cameras'); None: the
-            kept render's, or one of its own for a new one.
+    keeps the camera's renderer); the renders of another model are closed. The arguments are
+    `BeltSegmentation`'s; `renderer` None: the kept render's, or one of its own for a new one.
     """
     if any(seg.model is not model for seg in _SHARED.values()):
         for shared in _SHARED.values():

@@ -28,14 +28,7 @@ class FrameSink(Protocol):
         ...
 
     def due(self, t: float) -> bool:
-        """Whether a frame is due.
-
-        Args:
-            t: Simulated time [s].
-
-        Returns:
-            True at or after `next_frame_time`.
-        """
+        """Whether a frame is due at simulated time `t` [s]: at or after `next_frame_time`."""
         ...
 
     def capture(self, data: mujoco.MjData, overlay: Overlay) -> None:

@@ -106,22 +106,11 @@ class VideoRecorder:
         return self._next_t
 
     def due(self, t: float) -> bool:
-        """Whether a frame is due.
-
-        Args:
-            t: Simulated time [s].
-
-        Returns:
-            True at or after the next frame's time.
-        """
+        """Whether a frame is due at simulated time `t` [s]: at or after the next frame's time."""
         return t + 1e-9 >= self._next_t
 
     def capture(self, data: mujoco.MjData, overlay: Overlay) -> None:
         """Submit the current state and `overlay` as the next frame.
-
-        Args:
-            data: The episode's data now.
-            overlay: The frame's annotations.
 
         Raises:
             InvalidInput: The encoder could not write (the video process stopped early).
@@ -134,10 +123,8 @@ class VideoRecorder:
         self._next_t = self.frames / self.fps
 
     def close(self) -> Path:
-        """Wait for the video process to encode every frame; move the MP4 into place.
-
-        Returns:
-            The MP4's path.
+        """Wait for the video process to encode every frame; move the MP4 into place (its path
+        is returned).
 
         Raises:
             InvalidInput: The encoder could not write.

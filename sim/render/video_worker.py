@@ -105,11 +105,7 @@ def _task():
 
 
 def open_video() -> int:
-    """Make the painter and open the writer.
-
-    Returns:
-        This process's id.
-    """
+    """Make the painter and open the writer; returns this process's id."""
     with _task() as video:
         width, height = video.size
         video.painter = FramePainter(video.model, width, height, samples=video.samples)
@@ -122,12 +118,7 @@ def open_video() -> int:
 
 
 def draw(state: FrameState, overlay: Overlay | None) -> None:
-    """Draw one frame and hand it to the encoder.
-
-    Args:
-        state: What the frame is drawn from.
-        overlay: Its annotations.
-    """
+    """Draw the frame of `state`, `overlay` over it, and hand it to the encoder."""
     with _task() as video:
         video.painter.apply(state)
         frame = video.painter.paint(overlay)

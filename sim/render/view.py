@@ -36,14 +36,8 @@ texture scale: the same pixels (the view sees the floor within 6 m), fewer trian
 
 
 def last_robot_x(model: mujoco.MjModel | None) -> float:
-    """x of the most downstream robot's base.
-
-    Args:
-        model: The compiled cell or line, or None.
-
-    Returns:
-        The largest x of a `*base_link` body [m] (0 for the single cell or no model).
-    """
+    """x of the most downstream robot's base [m]: the largest x of a `*base_link` body of
+    `model` (0 for the single cell or no model)."""
     if model is None:
         return 0.0
     data = mujoco.MjData(model)
@@ -62,9 +56,6 @@ def view_camera(model: mujoco.MjModel | None = None) -> mujoco.MjvCamera:
     Args:
         model: The compiled cell; for a line, the view reaches to its last robot (farther back,
             centred on the line). None: the single cell's view.
-
-    Returns:
-        The free camera.
     """
     span = last_robot_x(model)
     cam = mujoco.MjvCamera()
@@ -75,15 +66,8 @@ def view_camera(model: mujoco.MjModel | None = None) -> mujoco.MjvCamera:
 
 
 def ghosted_geoms(model: mujoco.MjModel) -> frozenset[int]:
-    """The geoms the video draws see-through.
-
-    Args:
-        model: The compiled cell.
-
-    Returns:
-        Ids of the geoms named with `GHOSTED_PREFIXES`, also after a line's robot prefix
-        (`r1_cage_*`).
-    """
+    """Ids of the geoms the video draws see-through: those named with `GHOSTED_PREFIXES`,
+    also after a line's robot prefix (`r1_cage_*`)."""
     return frozenset(
         i
         for i in range(model.ngeom)
@@ -93,13 +77,8 @@ def ghosted_geoms(model: mujoco.MjModel) -> frozenset[int]:
 
 
 def ghost(scene: mujoco.MjvScene, geom_ids: frozenset[int], alpha: float = GHOST_ALPHA) -> None:
-    """Make the scene's copies of `geom_ids` see-through (call after `update_scene`).
-
-    Args:
-        scene: The scene to change.
-        geom_ids: Model geom ids to ghost (`ghosted_geoms`).
-        alpha: Their opacity (0..1).
-    """
+    """Make the scene's copies of `geom_ids` (`ghosted_geoms`) see-through, of opacity
+    `alpha` (0..1); call after `update_scene`."""
     for k in range(scene.ngeom):
         g = scene.geoms[k]
         if g.objtype == mujoco.mjtObj.mjOBJ_GEOM and g.objid in geom_ids:
@@ -133,15 +112,12 @@ def project(scene: mujoco.MjvScene, points: np.ndarray, size) -> np.ndarray:
 
 
 def finite_floors(model: mujoco.MjModel, half_size: float = FLOOR_HALF_SIZE_M) -> list[int]:
-    """Turn the infinite planes of a model the video draws into squares that look the same.
+    """Turn the infinite planes of a model the video draws into squares of half size
+    `half_size` [m] that look the same.
 
     An infinite plane's texture repeats `texrepeat` times over 2 m, a finite one's over its side
     (unless `texuniform`). Only planes with a material of their own (or none) are changed. For
     drawing only: this changes the model.
-
-    Args:
-        model: The model to change.
-        half_size: The squares' half size [m].
 
     Returns:
         The ids of the planes changed.

@@ -35,7 +35,7 @@ the next items are not, and it cost 3-6 % of the profit against the rollouts on 
 belt with the tuning seeds (1000-1002). The busy belts of the planner-level benchmark (8-12
 items) never reach the threshold. Parameters chosen on tuning seeds 1000-1002 of the four dense
 datasets on the kinematic belt (`planner.decision.kinematic_belt`, whose cycle times the
-physics' picks now match: `sim.episode.cycle_timing`).
+physics' picks match: `sim.episode.cycle_timing`).
 
 Budget. Besides the one timing of every item in view that gives the candidates (as every
 planner makes), the planner times at most `max_evaluations` picks per decision (an intercept

@@ -1,8 +1,7 @@
 """Our time-aware rollout over the thesis's reward (ours, not the thesis's algorithm).
 
-Until this module was split out it ran under the name `qlearning`; the thesis's Q-learning as
-written (random actions, 50 episodes, eq. 3.5 on the 20 x 27 grid) is now
-`planner.decision.managers.qlearning`. This planner keeps the thesis's grid, batches and reward
+The thesis's Q-learning as written (random actions, 50 episodes, eq. 3.5 on the 20 x 27 grid)
+is `planner.decision.managers.qlearning`. This planner keeps the thesis's grid, batches and reward
 (eq. 3.3) but chooses by rollouts: nothing is drawn at random and nothing is learned.
 
 - Grid and batches (`planner.decision.batch_grid`): rows one observation period apart, fixed to
