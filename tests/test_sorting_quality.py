@@ -305,9 +305,10 @@ class SoftTruth:
 
 def soft_episode(cell, threshold: float) -> EpisodeMetrics:
     cfg = config.load(None, **{**SHORT, "items": 6, "duration_s": 5.0})
-    with Episode(cfg.replace(min_class_confidence=threshold), cell) as episode:
+    with Episode(
+        cfg.replace(min_class_confidence=threshold), cell, wrap_perception=SoftTruth
+    ) as episode:
         episode.reset()
-        episode.perception = SoftTruth(episode.perception)
         episode.run()
     return episode.metrics
 

@@ -248,7 +248,7 @@ def robot_stations(
     return stations
 
 
-def build_parts(config: EpisodeConfig, cell: Cell, planner) -> EpisodeParts:
+def build_parts(config: EpisodeConfig, cell: Cell, planner, wrap_perception=None) -> EpisodeParts:
     """The parts of an episode of `config` on `cell` (reset here to the config's belt speed),
     `planner` deciding for the first robot (`robot_stations`)."""
     check_cell(cell, config)
@@ -268,6 +268,7 @@ def build_parts(config: EpisodeConfig, cell: Cell, planner) -> EpisodeParts:
     throw_watch = ThrowWatch(cell.model, cell.pool)
     actuator_log = ActuatorLog(cell.data)  # read by every robot's energy meter
     stations = robot_stations(config, cell, controllers, planner, radius, actuator_log)
+    seen = perception(config, cell, flow)
     return EpisodeParts(
         config=config,
         cell=cell,
@@ -277,7 +278,7 @@ def build_parts(config: EpisodeConfig, cell: Cell, planner) -> EpisodeParts:
         tracker=tracker,
         offers=Offers(tracker, speed, config.applied_min_class_confidence),
         stations=tuple(stations),
-        perception=perception(config, cell, flow),
+        perception=seen if wrap_perception is None else wrap_perception(seen),
         infeed=Infeed(cell.items, flow, config.belt.infeed_hold, riding, metrics),
         riding=riding,
         bins=bins,

@@ -33,7 +33,7 @@ from sim.config import EpisodeConfig
 from sim.episode import builder, chunks, item_checks, stations
 from sim.episode.builder import make_decision_manager
 from sim.episode.overlay import overlay_of
-from sim.episode.parts import SETTLE_S, EpisodeParts
+from sim.episode.parts import SETTLE_S, EpisodeParts, Perception
 from sim.episode.pick_control import PickController
 from sim.episode.scheduler import (
     AFTER_STEP,
@@ -82,13 +82,24 @@ class Episode:
             or None.
         progress: Called with (fraction, status line) about once per simulated second.
         planner: A decision manager object (`choose`, `reset`); the config's when omitted.
+        wrap_perception: Called with the perception made at each reset; what it returns
+            (`observe(t)`, `close()`) observes instead: a study's noisier or softened sensor.
     """
 
-    def __init__(self, config: EpisodeConfig, cell: Cell, video=None, progress=None, planner=None):
+    def __init__(
+        self,
+        config: EpisodeConfig,
+        cell: Cell,
+        video=None,
+        progress=None,
+        planner=None,
+        wrap_perception: Callable[[Perception], Perception] | None = None,
+    ):
         self.config, self.cell, self.video, self.progress = config, cell, video, progress
         self.model, self.data = cell.model, cell.data
         self._timestep = float(self.model.opt.timestep)  # [s]
         self.planner = planner if planner is not None else make_decision_manager(config)
+        self._wrap_perception = wrap_perception
         self.parts: EpisodeParts | None = None
         self._deciding: RobotStation | None = None
         self._candidates: list[TrackedItem] = []
@@ -196,7 +207,9 @@ class Episode:
         None), every counter at zero, the decision manager reset, the hooks and events
         registered again (a user's kept, due from the start)."""
         self.config = self.config if seed is None else replace(self.config, seed=int(seed))
-        self.parts = builder.build_parts(self.config, self.cell, self.planner)
+        self.parts = builder.build_parts(
+            self.config, self.cell, self.planner, self._wrap_perception
+        )
         self._deciding, self._candidates = None, []
         self._last_report, self._closed_out = -1.0, False
         self._register()
