@@ -42,12 +42,14 @@ from sim.episode.scheduler import (
     Hooks,
     PeriodicEvent,
     Scheduler,
+    TimelineEvent,
     is_due,
     steps_until_due,
 )
 from sim.episode.stations import PickUnderWay, RobotStation
 from sim.monitors.energy import EnergyMeter
 from sim.results.metrics import EpisodeMetrics
+from sim.results.timeline import period_of
 from sim.sensing.tracking import Tracker
 
 __all__ = ["Episode", "make_decision_manager"]
@@ -81,10 +83,21 @@ class Episode:
             or None.
         progress: Called with (fraction, status line) about once per simulated second.
         planner: A decision manager object (`choose`, `reset`); the config's when omitted.
+        timeline: Called with a timeline row every `[timeline] period_s` (`TimelineEvent`),
+            or None.
     """
 
-    def __init__(self, config: EpisodeConfig, cell: Cell, video=None, progress=None, planner=None):
+    def __init__(
+        self,
+        config: EpisodeConfig,
+        cell: Cell,
+        video=None,
+        progress=None,
+        planner=None,
+        timeline: Callable[[dict], object] | None = None,
+    ):
         self.config, self.cell, self.video, self.progress = config, cell, video, progress
+        self.timeline = timeline
         self.model, self.data = cell.model, cell.data
         self._timestep = float(self.model.opt.timestep)  # [s]
         self.planner = planner if planner is not None else make_decision_manager(config)
@@ -203,6 +216,8 @@ class Episode:
             self.hooks.add("after_step", fn)
         for event in builder.own_events(self.parts):
             self.scheduler.add(event)
+        if self.timeline is not None:
+            self.scheduler.add(TimelineEvent(period_of(self.config), self.timeline))
         if self.video is not None:
             self.scheduler.add(FrameEvent(self.video, overlay_of))
         for stage, fn in self._user_hooks:
