@@ -1,7 +1,9 @@
 """`sortsim run`: one closed-loop episode of the sorting cell.
 
-Writes `<out>/episodes.csv`, `<out>/picks.csv` and, with `--video`, the MP4; prints a progress
-line on stderr while it runs and a one-screen summary at the end. Everything is checked before
+Writes `<out>/episodes.csv`, `<out>/picks.csv`, `<out>/timeline.csv` (`sim.results.timeline`;
+streamed into `timeline.partial.csv` while the episode runs, which a stopped run leaves) and,
+with `--video`, the MP4; prints a progress line on stderr while it runs and a one-screen
+summary at the end. Everything is checked before
 anything is simulated (`preflight`): the config (TOML and options), the output folder and video
 path (creatable, writable, not a folder), and for camera perception or a video the rendering
 back-end, the camera's calibration, the cached stripe HMMs and the video encoder. A refused
@@ -10,7 +12,7 @@ run left behind are removed when the next run starts.
 
 The folder is locked while the run uses it (`sim.results.locks.FolderLock`): a second run or
 sweep into it is refused in one line (exit 2) before any work, and a sweep's folder is refused
-too (a run would replace its rows). The three files land together (`write_run`: written to
+too (a run would replace its rows). The files land together (`write_run`: written to
 temporaries, renamed into place, the manifest last); when they cannot be written (a full disk)
 their texts are kept as JSON elsewhere (`sim.results.outputs.keep_unwritten`), one line says
 where, and the exit code is 1. A video that fails (its disk full, its encoder gone) never costs
@@ -173,9 +175,10 @@ def preflight(config, out: Path, video: str | Path | None) -> None:
         video: The MP4 path as given (a trailing separator means a folder), or None.
     """
     from sim.results import outputs
+    from sim.results.timeline import PARTIAL_FILE, TIMELINE_FILE
 
     outputs.check_output_dir(out, "--out")
-    for name in ("episodes.csv", "picks.csv"):
+    for name in ("episodes.csv", "picks.csv", TIMELINE_FILE, PARTIAL_FILE):
         outputs.check_output_file(out / name, "--out")
     if (out / SWEEP_FILE).exists():
         from sim.errors import InvalidInput
@@ -240,12 +243,17 @@ def main(args: argparse.Namespace) -> int:
 
             prepare_camera(config)  # a custom catalogue's item classifier table, recorded once
         progress = None if args.quiet else Progress()
-        result, video = run_with_video(config, video_path, progress)
+        timeline = open_timeline(out, config)
+        try:
+            result, video = run_with_video(config, video_path, progress, timeline)
+        finally:
+            timeline.close()  # stopped or failed: timeline.partial.csv keeps the rows so far
         if progress is not None:
             progress.done()
         print(summary(result))
         try:
             written = write_run(out, config, result)
+            timeline.path.unlink(missing_ok=True)
         except OutputError as exc:  # the one line names the video's failure too
             if video is None or video.failure is None:
                 raise
@@ -262,7 +270,15 @@ def main(args: argparse.Namespace) -> int:
     return 0
 
 
-def run_with_video(config, video_path: Path | None, progress):
+def open_timeline(out: Path, config):
+    """The timeline's writer, streaming its rows into `out`/timeline.partial.csv."""
+    from sim.results.timeline import PARTIAL_FILE, TimelineWriter, timeline_columns
+
+    out.mkdir(parents=True, exist_ok=True)
+    return TimelineWriter(out / PARTIAL_FILE, timeline_columns(config.robot_count))
+
+
+def run_with_video(config, video_path: Path | None, progress, timeline=None):
     """Run the episode, its video (if any) through `KeptVideo`, so a failing video stops the
     video only.
 
@@ -270,6 +286,7 @@ def run_with_video(config, video_path: Path | None, progress):
         config: The episode's config.
         video_path: The MP4 to write, or None.
         progress: The progress callback, or None.
+        timeline: Where the timeline's rows go (`sim.results.timeline.TimelineWriter`), or None.
 
     Returns:
         (the episode's result, the `KeptVideo` or None).
@@ -277,19 +294,22 @@ def run_with_video(config, video_path: Path | None, progress):
     from sim.episode.runner import config_cell, episode_video, run_episode
 
     if video_path is None:
-        return run_episode(config, progress=progress), None
+        return run_episode(config, progress=progress, timeline=timeline), None
     cell = config_cell(config, sized=True)
     video = KeptVideo.start(episode_video, config, cell, video_path)
     try:
-        result = run_episode(config, cell=cell, progress=progress, recorder=video)
+        result = run_episode(
+            config, cell=cell, progress=progress, recorder=video, timeline=timeline
+        )
     finally:
         video.release_stderr()
     return result, video
 
 
 def write_run(out: Path, config, result) -> list[Path]:
-    """Write the run's episodes.csv, picks.csv and manifest.json into `out` as one unit (the
-    manifest last, naming the CSVs' digests); what cannot be written is kept elsewhere.
+    """Write the run's episodes.csv, picks.csv, timeline.csv and manifest.json into `out` as one
+    unit (the manifest last, naming the CSVs' digests); what cannot be written is kept
+    elsewhere.
 
     Args:
         out: The run's folder.
@@ -302,12 +322,14 @@ def write_run(out: Path, config, result) -> list[Path]:
     Raises:
         OutputError: The files could not be written (one line saying where they are kept).
     """
-    from sim.results import manifest, outputs
+    from sim.results import manifest, outputs, timeline
 
     columns = outputs.episode_columns(config.materials) + outputs.line_columns(config.robot_count)
+    steps = timeline.timeline_columns(config.robot_count)
     files = {
         "episodes.csv": outputs.to_csv_text(columns, [result.episode_row]),
         "picks.csv": outputs.to_csv_text(outputs.PICK_COLUMNS, result.pick_rows),
+        timeline.TIMELINE_FILE: timeline.to_text(steps, result.timeline_rows),
     }
     record = manifest.build("run", config.to_dict(), [config.seed])
     record["catalogue_digest"] = config.item_catalogue.digest  # checked when repeated

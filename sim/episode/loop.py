@@ -42,6 +42,7 @@ from sim.episode.scheduler import (
     Hooks,
     PeriodicEvent,
     Scheduler,
+    TimelineEvent,
     is_due,
     steps_until_due,
 )
@@ -84,6 +85,8 @@ class Episode:
         planner: A decision manager object (`choose`, `reset`); the config's when omitted.
         wrap_perception: Called with the perception made at each reset; what it returns
             (`observe(t)`, `close()`) observes instead: a study's noisier or softened sensor.
+        timeline: Called with a timeline row every `[timeline] period_s` (`TimelineEvent`),
+            or None.
     """
 
     def __init__(
@@ -94,8 +97,10 @@ class Episode:
         progress=None,
         planner=None,
         wrap_perception: Callable[[Perception], Perception] | None = None,
+        timeline: Callable[[dict], object] | None = None,
     ):
         self.config, self.cell, self.video, self.progress = config, cell, video, progress
+        self.timeline = timeline
         self.model, self.data = cell.model, cell.data
         self._timestep = float(self.model.opt.timestep)  # [s]
         self.planner = planner if planner is not None else make_decision_manager(config)
@@ -224,6 +229,8 @@ class Episode:
             self.hooks.add("after_step", fn)
         for event in builder.own_events(parts):
             self.scheduler.add(event)
+        if self.timeline is not None:
+            self.scheduler.add(TimelineEvent(self.config.timeline.period_s, self.timeline))
         if self.video is not None:
             self.scheduler.add(FrameEvent(self.video, overlay_of))
         for stage, user_fn in self._user_hooks:

@@ -3,7 +3,8 @@
 `overlay_of` is what the loop hands a frame sink (`sim.render.sink.FrameSink`) with each frame:
 the tracked items with their predicted classes, the picks under way, every bin with its
 material and the items that landed in it (those of another material counted apart), and the
-counters (time, entered, picked, missed, wrong bins, profit, each bin's purity so far).
+counters (time, entered, picked, missed, wrong bins, profit, each bin's purity so far) and,
+while any is active, the faults.
 """
 
 from __future__ import annotations
@@ -80,6 +81,14 @@ def bin_labels(parts) -> list[BinLabel]:
     ]
 
 
+def fault_lines(parts, t: float) -> list[str]:
+    """The counters' line of the faults active at `t` [s] (`sim.config.faults.Fault.label`),
+    none while nothing has failed (the parts' schedule, `faults`)."""
+    schedule = getattr(parts, "faults", None)
+    active = schedule.active(t) if schedule is not None else ()
+    return ["fault: " + "; ".join(f.label() for f in active)] if active else []
+
+
 def overlay_of(parts, t: float, planner: str | None = None) -> Overlay:
     """The annotations of an episode's frame.
 
@@ -108,6 +117,7 @@ def overlay_of(parts, t: float, planner: str | None = None) -> Overlay:
         f"entered {m.n_entered}  picked {m.n_picked}  missed {len(m.missed)}",
         f"wrong bin {wrong}  profit {m.profit:.2f} EUR",
         "purity " + purity_text(m.binned, short),
+        *fault_lines(parts, t),
     ]
     pick = None if parts.current_pick is None else parts.current_pick.track_id
     picks = tuple(track.track_id for track in under_way)

@@ -25,9 +25,11 @@ from sim.config import EpisodeConfig
 from sim.config.plant import CellSettings
 from sim.episode.loop import Episode, make_decision_manager
 from sim.episode.parts import EpisodeParts
+from sim.episode.scheduler import timeline_sample
 from sim.errors import InvalidInput
 from sim.results.code_digest import code_digest
 from sim.results.economics import ECONOMICS_COLUMNS, per_hour_columns
+from sim.results.timeline import RowList, downtime_row, timeline_columns
 
 __all__ = [
     "Cell",
@@ -50,6 +52,7 @@ class EpisodeResult:
     pick_rows: list[dict]
     timings: dict[str, float] = field(default_factory=dict)
     latencies: dict[str, list[float]] = field(default_factory=dict)
+    timeline_rows: list[dict] = field(default_factory=list)
 
 
 _CELLS: dict[tuple[int, CellSettings, str, int, bool, tuple[float, ...], bool, int], Cell] = {}
@@ -152,6 +155,7 @@ def run_episode(
     progress=None,
     planner=None,
     recorder=None,
+    timeline=None,
 ) -> EpisodeResult:
     """Run one episode; returns its episodes.csv row and picks.csv rows.
 
@@ -167,6 +171,9 @@ def run_episode(
         recorder: Instead of an MP4, anything with the video recorder's interface that the
             loop hands its frames to (`sim.render.live_view.LiveView`: MuJoCo's viewer);
             not with `video_path`.
+        timeline: Where the timeline's rows go as they are made
+            (`sim.results.timeline.TimelineWriter`); kept in memory only when None. Either
+            way they are in the result's `timeline_rows`, the last one at the episode's end.
     """
     if recorder is not None and video_path is not None:
         raise InvalidInput("recorder", "a video_path or a recorder, not both", recorder)
@@ -174,13 +181,18 @@ def run_episode(
     if cell is None:
         cell = config_cell(config, sized=True)
     video = recorder if video_path is None else episode_video(config, cell, video_path)
-    with Episode(config, cell, video, progress, planner=planner) as episode:
+    if timeline is None:
+        timeline = RowList(timeline_columns(config.robot_count))
+    with Episode(config, cell, video, progress, planner=planner, timeline=timeline) as episode:
         episode.reset()
         episode.run()
+    parts = episode.parts
+    assert parts is not None  # made by reset
+    end_s = float(parts.data.time)
+    if not timeline.rows or timeline.rows[-1]["t_s"] < end_s:
+        timeline(timeline_sample(parts, end_s))  # the end, counts closed out
     wall = time.perf_counter() - wall0
     label = config.planner if planner is None else planner_name(planner)
-    parts = episode.parts
-    assert parts is not None  # made by `reset`
     row = episode_row(parts, label, variant, wall)
     timings = dict(parts.timings.seconds)
     # Physics: stepping, the executor's control loop, the cup and bins (everything else).
@@ -191,7 +203,8 @@ def run_episode(
     # The video process's own CPU time (frames, encoder) [s]; a live viewer keeps none.
     timings |= {f"video_{k}": float(v) for k, v in getattr(video, "stats", {}).items()}
     latencies = parts.timings.latencies
-    return EpisodeResult(config, variant, row, parts.metrics.pick_rows(), timings, latencies)
+    picks = parts.metrics.pick_rows()
+    return EpisodeResult(config, variant, row, picks, timings, latencies, timeline.rows)
 
 
 def episode_video(config: EpisodeConfig, cell: Cell, path):
@@ -234,6 +247,7 @@ def episode_row(parts: EpisodeParts, planner: str, variant: str, wall_s: float) 
         "real_time_factor": sim_s / wall_s if wall_s > 0 else 0.0,
         **metrics.line_row(sim_s, energies, config.coordination),
         "code_digest": code_digest(),
+        **downtime_row(getattr(parts, "faults", None), config.robot_count, sim_s),
     }
     feed_s = min(config.duration_s, config.horizon_s or config.duration_s)  # items fed [s]
     return row | per_hour_columns(row, feed_s, config.robot_count, _economics(config))

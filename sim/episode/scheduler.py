@@ -22,8 +22,10 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
+from sim.checks import check, is_finite_number
 from sim.episode.parts import DUE_TOLERANCE_S, EpisodeParts, is_due
 from sim.errors import InvalidInput
+from sim.results import timeline
 
 HOOK_STAGES = ("before_step", "after_step")
 """Where a hook may run: before or after each physics step."""
@@ -110,6 +112,50 @@ class FrameEvent:
         overlay = self.overlay(parts, float(parts.data.time))
         self.sink.capture(parts.cell.items.current(), overlay)
         parts.timings.add("video", time.perf_counter() - t0)
+
+
+class TimelineEvent:
+    """A timeline row (`sim.results.timeline`) every `period_s` [s], handed to `sink`.
+
+    It never sets where the loop stops (`next_time` is None): it is sampled at the first stop
+    the loop makes for another event at or after its time (the item checks stop it every
+    `CHECK_PERIOD_S`), so the physics steps exactly as without it; a row's `t_s` is the time
+    it was sampled. Registered after the episode's own events: the row counts what they booked
+    at that step.
+
+    Args:
+        period_s: The timeline's period [s], > 0.
+        sink: Called with each row (`sim.results.timeline.TimelineWriter`).
+    """
+
+    def __init__(self, period_s: float, sink: Callable[[dict], object]):
+        ok = is_finite_number(period_s) and period_s > 0
+        check(ok, "timeline.period_s", "a period > 0 s", period_s)
+        self.period_s, self.sink = float(period_s), sink
+        self.next_s = self.period_s
+
+    def due(self, t: float) -> bool:
+        return is_due(t, self.next_s)
+
+    def next_time(self, t: float) -> None:
+        """Never: it rides on the other events' stops."""
+        return None
+
+    def fire(self, parts: EpisodeParts) -> None:
+        """The row now; due again at the next multiple of the period after now."""
+        t = float(parts.data.time)
+        self.sink(timeline_sample(parts, t))
+        self.next_s = (math.floor((t + DUE_TOLERANCE_S) / self.period_s) + 1) * self.period_s
+
+
+def timeline_sample(parts: EpisodeParts, t: float) -> dict:
+    """The episode's timeline row at sim time `t` [s] (`sim.results.timeline.timeline_row`):
+    the faults from the parts' schedule (`faults`, none without one)."""
+    schedule = getattr(parts, "faults", None)
+    states = [timeline.robot_state(s.robot.busy, s.index, t, schedule) for s in parts.stations]
+    active = schedule.active(t) if schedule is not None else ()
+    on_belt = len(parts.cell.items.active_slots()) + len(parts.metrics.left_on_belt)
+    return timeline.timeline_row(t, parts.metrics, on_belt, states, active)
 
 
 class Scheduler:

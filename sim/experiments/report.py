@@ -27,7 +27,9 @@ Planners are shown by short labels: a built-in one by its name, a user's `module
 `path/file.py:Class` by its class's `name` attribute, else its class name (`planner_label`).
 Figures (PNG, titled in words): profit, items picked, accuracy and picks per minute against
 items (one line per planner and belt speed; against the belt speed when every episode has the
-same item count). A thesis table's sweep (its manifest names the table) also gets the thesis's
+same item count); a run's timeline (its `timeline.csv`): picks per minute and profit over time,
+the faults shaded (`sim.experiments.reporting.timeline_figure`). A thesis table's sweep (its
+manifest names the table) also gets the thesis's
 side-by-side layout. Written to FOLDER (default: `DIR/report`): `report.md`, the PNGs and
 `report.html`, one self-contained page (the figures embedded).
 """
@@ -66,6 +68,7 @@ from sim.experiments.reporting.stats import (
     seeds_cell,
 )
 from sim.experiments.reporting.stats import number as _number
+from sim.experiments.reporting.timeline_figure import timeline_figures
 from sim.results import detection_table, outputs
 
 __all__ = ["Estimate", "estimate", "paired_difference"]
@@ -664,7 +667,7 @@ def write_report(folders: list[Path], out: Path, baseline: str | None = None) ->
         text = thesis_report.format_table(table_id, rows)
         if text:
             thesis.append(text)
-    images = figures(summarise(rows), labels)
+    images = figures(summarise(rows), labels) | timeline_figures(folders)
     title = "sortsim report: " + ", ".join(Path(f).name for f in folders)
     md = [f"# {title}", ""]
     for section in parts:

@@ -37,6 +37,7 @@ from pathlib import Path
 from typing import Any
 
 from perception.codes import THESIS_MATERIALS, Materials
+from sim.config.faults import FAULT_KINDS
 from sim.errors import InvalidInput, SortsimError
 from sim.paths import temporary_path
 
@@ -113,6 +114,9 @@ EPISODE_COLUMNS = (
     "robot_maintenance_eur_per_year",
     "left_on_belt",
     "not_arrived",
+    # a shift's faults (sim.config.faults): seconds of each kind, the robots' availability
+    *(f"downtime_{kind}_s" for kind in FAULT_KINDS),
+    "availability",
 )
 PICK_COLUMNS = (
     "t_start_s",
@@ -201,6 +205,8 @@ DECIMALS = {
     "robot_life_years": 3,
     "hours_per_year": 1,
     "robot_maintenance_eur_per_year": 2,
+    **{f"downtime_{kind}_s": 3 for kind in FAULT_KINDS},
+    "availability": 4,
 }
 _DECIMAL_GROUPS = {"purity": 4, "recovery": 4}
 _DECIMAL_SUFFIXES = {"picks_per_min": 3, "utilisation": 4, "energy_elec_j": 2}

@@ -1,0 +1,147 @@
+"""An episode over time: `timeline.csv`, one row every `[timeline] period_s` of simulated time.
+
+Each row holds the counts so far (entered, picked, missed, wrong bin, dropped), the profit so
+far, the items in play (on the belt or in a cup, not yet booked; the last row, at the end, also
+those left on the belt at the horizon), each robot's state (picking | idle | stopped) and the
+faults active then (their labels, `sim.config.faults.Fault.label`, joined by "; "). The counts
+add up in every row: entered = picked + missed + dropped + on_belt.
+
+Rows are streamed to disk as they are made (`TimelineWriter`: each written and flushed), into
+`timeline.partial.csv` beside the run's files: a run stopped by Ctrl-C or killed leaves the
+rows made so far there. A run that finishes writes `timeline.csv` with its other files (one
+unit, `sim.results.outputs.write_together`) and removes the partial file.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+from typing import Any
+
+from sim.config.faults import FAULT_KINDS, FaultSchedule, availability
+
+TIMELINE_FILE = "timeline.csv"
+PARTIAL_FILE = "timeline.partial.csv"
+"""Where the rows go while the episode runs (what a stopped run leaves)."""
+"""The timeline's period when the config has no `[timeline] period_s` [s]."""
+ROBOT_STATES = ("picking", "idle", "stopped")
+COUNT_COLUMNS = ("entered", "picked", "missed", "wrong_bin", "dropped")
+DECIMALS = {"t_s": 3, "profit_eur": 4}
+
+
+def timeline_columns(robots: int) -> tuple[str, ...]:
+    """The columns of a cell's or line's timeline with `robots` robots."""
+    states = tuple(f"robot_{k}_state" for k in range(robots))
+    return ("t_s", *COUNT_COLUMNS, "profit_eur", "on_belt", *states, "faults")
+
+
+def timeline_row(
+    t_s: float, metrics: Any, on_belt: int, states: Sequence[str], faults: Iterable[Any]
+) -> dict[str, Any]:
+    """One row at sim time `t_s` [s].
+
+    Args:
+        t_s: When it was sampled [s].
+        metrics: The episode's counters (`sim.results.metrics.EpisodeMetrics`).
+        on_belt: Items in play then.
+        states: Each robot's state, upstream first (one of `ROBOT_STATES`).
+        faults: The faults active then (`sim.config.faults.Fault`).
+    """
+    row = metrics.row()
+    counts = {c: row[c] for c in COUNT_COLUMNS}
+    robots = {f"robot_{k}_state": s for k, s in enumerate(states)}
+    labels = "; ".join(f.label() for f in faults)
+    return {"t_s": t_s, **counts, "profit_eur": row["profit_eur"], "on_belt": on_belt} | (
+        robots | {"faults": labels}
+    )
+
+
+def robot_state(busy: bool, k: int, t: float, schedule: FaultSchedule | None) -> str:
+    """Robot `k`'s state at `t` [s]: stopped while a robot_stop fault of it is active, else
+    picking while it plays a pick, else idle."""
+    if schedule is not None and any(
+        f.kind == "robot_stop" and f.robot == k for f in schedule.active(t)
+    ):
+        return "stopped"
+    return "picking" if busy else "idle"
+
+
+def format_cell(column: str, value: Any) -> str:
+    """A cell's text: fixed decimals for the time and the profit."""
+    if column in DECIMALS:
+        return f"{float(value):.{DECIMALS[column]}f}"
+    return str(value)
+
+
+class TimelineWriter:
+    """Rows streamed to a CSV file, each flushed to the OS as it is written; kept in `rows`.
+
+    Args:
+        path: The file (created or emptied now; its folder must exist).
+        columns: Its columns.
+    """
+
+    def __init__(self, path: Path | str, columns: Sequence[str]):
+        self.path, self.columns = Path(path), tuple(columns)
+        self.rows: list[dict[str, Any]] = []
+        self._file = self.path.open("w", newline="", encoding="utf-8")
+        self._csv = csv.writer(self._file, lineterminator="\n")
+        self._csv.writerow(self.columns)
+        self._file.flush()
+
+    def __call__(self, row: dict[str, Any]) -> None:
+        """Write `row` and flush it."""
+        self.rows.append(row)
+        self._csv.writerow([format_cell(c, row.get(c, "")) for c in self.columns])
+        self._file.flush()
+
+    def close(self) -> None:
+        self._file.close()
+
+
+class RowList:
+    """Rows kept in memory only (a sweep's episode, a test): the writer's interface."""
+
+    def __init__(self, columns: Sequence[str]):
+        self.columns = tuple(columns)
+        self.rows: list[dict[str, Any]] = []
+
+    def __call__(self, row: dict[str, Any]) -> None:
+        self.rows.append(row)
+
+    def close(self) -> None:
+        pass
+
+
+def to_text(columns: Sequence[str], rows: Iterable[dict[str, Any]]) -> str:
+    """The whole CSV text of `rows`, as `TimelineWriter` writes them."""
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(columns)
+    for row in rows:
+        writer.writerow([format_cell(c, row.get(c, "")) for c in columns])
+    return buffer.getvalue()
+
+
+def downtime_columns() -> tuple[str, ...]:
+    """episodes.csv's fault columns: `downtime_<kind>_s` per kind, then `availability`."""
+    return (*(f"downtime_{k}_s" for k in FAULT_KINDS), "availability")
+
+
+def downtime_row(schedule: FaultSchedule | None, robots: int, end_s: float) -> dict[str, float]:
+    """Seconds of each kind of fault before `end_s` [s] and the robots' availability [0, 1]
+    (`sim.config.faults.availability`); no schedule: no downtime, availability 1."""
+    schedule = schedule or FaultSchedule()
+    row = {f"downtime_{k}_s": schedule.downtime_s(k, end_s) for k in FAULT_KINDS}
+    return row | {"availability": availability(schedule, robots, end_s)}
+
+
+def read_timeline(path: Path | str) -> list[dict[str, str]]:
+    """The rows of a timeline.csv (empty when there is none)."""
+    path = Path(path)
+    if not path.exists():
+        return []
+    with path.open(newline="", encoding="utf-8") as f:
+        return list(csv.DictReader(f))
