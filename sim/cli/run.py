@@ -58,31 +58,46 @@ def add_episode_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 class Progress:
-    """A one-line progress bar on stderr (redrawn in place on a terminal, else every 10 %)."""
+    """A one-line progress bar on stderr (redrawn in place on a terminal, else every 10 %)
+    with the wall time left at the pace so far (`eta`)."""
 
-    def __init__(self, stream=None, width: int = 30):
+    def __init__(self, stream=None, width: int = 30, clock=None):
+        import time
+
         # stderr as it is now (not when this module was imported: a test harness swaps it)
         self.stream = sys.stderr if stream is None else stream
         self.width = width
         self.tty = self.stream.isatty()
         self._last_decile = -1
+        self.clock = time.monotonic if clock is None else clock
+        self.start = self.clock()
 
     def __call__(self, fraction: float, text: str) -> None:
         fraction = min(max(fraction, 0.0), 1.0)
+        left = eta(self.clock() - self.start, fraction)
         if self.tty:
             filled = int(round(fraction * self.width))
             bar = "#" * filled + "." * (self.width - filled)
-            self.stream.write(f"\r[{bar}] {fraction:4.0%} {text}\x1b[K")
+            self.stream.write(f"\r[{bar}] {fraction:4.0%} {left} {text}\x1b[K")
             self.stream.flush()
         elif int(fraction * 10) > self._last_decile:
             self._last_decile = int(fraction * 10)
-            self.stream.write(f"{fraction:4.0%} {text}\n")
+            self.stream.write(f"{fraction:4.0%} {left} {text}\n")
             self.stream.flush()
 
     def done(self) -> None:
         if self.tty:
             self.stream.write("\n")
             self.stream.flush()
+
+
+def eta(elapsed_s: float, fraction: float) -> str:
+    """'ETA h:mm:ss': the wall time left when the rest goes at the pace of `elapsed_s` [s]
+    for `fraction` done ('ETA -' before there is a pace)."""
+    if fraction <= 0.0 or elapsed_s <= 0.0:
+        return "ETA -"
+    left = round(elapsed_s * (1.0 - fraction) / fraction)
+    return f"ETA {left // 3600}:{left // 60 % 60:02d}:{left % 60:02d}"
 
 
 def _by_class(row: dict, what: str) -> str:
@@ -223,6 +238,7 @@ def check_perception(config) -> None:
 def main(args: argparse.Namespace) -> int:
     """Run one episode and write its files."""
     from sim.paths import remove_stale_temporaries
+    from sim.results import outputs
     from sim.results.locks import FolderLock
     from sim.results.outputs import OutputError
     from sim.user_cache import existing_cache_dir
@@ -240,17 +256,18 @@ def main(args: argparse.Namespace) -> int:
 
             prepare_camera(config)  # a custom catalogue's item classifier table, recorded once
         progress = None if args.quiet else Progress()
-        result, video = run_with_video(config, video_path, progress)
-        if progress is not None:
-            progress.done()
-        print(summary(result))
-        try:
-            written = write_run(out, config, result)
-        except OutputError as exc:  # the one line names the video's failure too
-            if video is None or video.failure is None:
-                raise
-            too = f"the video {video_path} failed too ({video.failure})"
-            raise OutputError(f"{exc}; {too}") from None
+        with outputs.PickStream(out / "picks.csv") as picks:
+            result, video = run_streamed(config, video_path, progress, picks, out)
+            if progress is not None:
+                progress.done()
+            print(summary(result))
+            try:
+                written = write_run(out, config, result, picks)
+            except OutputError as exc:  # the one line names the video's failure too
+                if video is None or video.failure is None:
+                    raise
+                too = f"the video {video_path} failed too ({video.failure})"
+                raise OutputError(f"{exc}; {too}") from None
     if video is not None and video.failure is None:
         written.append(video_path)
     print("wrote " + ", ".join(str(p) for p in written))
@@ -261,7 +278,25 @@ def main(args: argparse.Namespace) -> int:
     return 0
 
 
-def run_with_video(config, video_path: Path | None, progress):
+def run_streamed(config, video_path: Path | None, progress, picks, out: Path):
+    """`run_with_video` with the picks streamed to `picks` (`sim.results.outputs.PickStream`);
+    a Ctrl-C (or SIGTERM, SIGHUP) lands the picks finished so far in
+    `<out>/picks.interrupted.csv` (the folder's other files stay as they were), says so in one
+    line and stops the command as before."""
+    from sim.cli.main import Stopped
+    from sim.results.outputs import INTERRUPTED_PICKS
+
+    try:
+        return run_with_video(config, video_path, progress, picks)
+    except (KeyboardInterrupt, Stopped):
+        if progress is not None:
+            progress.done()
+        where = picks.land(out / INTERRUPTED_PICKS)
+        print(f"sortsim run: the {picks.rows} picks finished are in {where}", file=sys.stderr)
+        raise
+
+
+def run_with_video(config, video_path: Path | None, progress, picks=None):
     """Run the episode, its video (if any) through `KeptVideo`, so a failing video stops the
     video only.
 
@@ -269,6 +304,7 @@ def run_with_video(config, video_path: Path | None, progress):
         config: The episode's config.
         video_path: The MP4 to write, or None.
         progress: The progress callback, or None.
+        picks: Where the picks.csv rows go as they happen (`run_episode`'s `picks`), or None.
 
     Returns:
         (the episode's result, the `KeptVideo` or None).
@@ -276,24 +312,27 @@ def run_with_video(config, video_path: Path | None, progress):
     from sim.episode.runner import config_cell, episode_video, run_episode
 
     if video_path is None:
-        return run_episode(config, progress=progress), None
+        return run_episode(config, progress=progress, picks=picks), None
     cell = config_cell(config, sized=True)
     video = KeptVideo.start(episode_video, config, cell, video_path)
     try:
-        result = run_episode(config, cell=cell, progress=progress, recorder=video)
+        result = run_episode(config, cell=cell, progress=progress, recorder=video, picks=picks)
     finally:
         video.release_stderr()
     return result, video
 
 
-def write_run(out: Path, config, result) -> list[Path]:
+def write_run(out: Path, config, result, picks=None) -> list[Path]:
     """Write the run's episodes.csv, picks.csv and manifest.json into `out` as one unit (the
-    manifest last, naming the CSVs' digests); what cannot be written is kept elsewhere.
+    manifest last, naming the CSVs' digests); what cannot be written is kept elsewhere. The
+    picks an interrupted run left (`picks.interrupted.csv`) go once a whole run is written.
 
     Args:
         out: The run's folder.
         config: The episode's config.
         result: The episode's result.
+        picks: The `PickStream` its picks went to (its temporary lands as picks.csv); None:
+            the result's `pick_rows`.
 
     Returns:
         The files written.
@@ -304,19 +343,26 @@ def write_run(out: Path, config, result) -> list[Path]:
     from sim.results import manifest, outputs
 
     columns = outputs.episode_columns(config.materials) + outputs.line_columns(config.robot_count)
-    files = {
+    files: dict[str, str | Path] = {
         "episodes.csv": outputs.to_csv_text(columns, [result.episode_row]),
-        "picks.csv": outputs.to_csv_text(outputs.PICK_COLUMNS, result.pick_rows),
+        "picks.csv": (
+            outputs.to_csv_text(outputs.PICK_COLUMNS, result.pick_rows)
+            if picks is None
+            else picks.finish()
+        ),
     }
     record = manifest.build("run", config.to_dict(), [config.seed])
     record["catalogue_digest"] = config.item_catalogue.digest  # checked when repeated
-    record["files"] = manifest.file_digests(files)
+    record["files"] = {name: _digest(data) for name, data in files.items()}
     files[manifest.MANIFEST_FILE] = manifest.text(record)
     try:
-        return outputs.write_together(out, files)
+        written = outputs.write_together(out, files)
     except OSError as exc:
         reason = exc.strerror or type(exc).__name__
-        kept = outputs.keep_unwritten(out, files, f"{reason}: {exc.filename}")
+        texts = {
+            n: d.read_text(encoding="utf-8") if isinstance(d, Path) else d for n, d in files.items()
+        }
+        kept = outputs.keep_unwritten(out, texts, f"{reason}: {exc.filename}")
         where = (
             f"they are kept in {kept} (sim.results.outputs.restore_unwritten writes them back)"
             if kept is not None
@@ -324,6 +370,21 @@ def write_run(out: Path, config, result) -> list[Path]:
         )
         message = f"could not write the results into {out} ({reason}); {where}"
         raise outputs.OutputError(message) from None
+    (out / outputs.INTERRUPTED_PICKS).unlink(missing_ok=True)  # an earlier run's, stopped
+    return written
+
+
+def _digest(data: str | Path) -> str:
+    """The SHA-256 (hex) of a file's text, or of a written file read in blocks."""
+    import hashlib
+
+    if not isinstance(data, Path):
+        return hashlib.sha256(data.encode()).hexdigest()
+    digest = hashlib.sha256()
+    with data.open("rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
 
 
 class KeptVideo:

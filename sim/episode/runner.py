@@ -152,6 +152,7 @@ def run_episode(
     progress=None,
     planner=None,
     recorder=None,
+    picks=None,
 ) -> EpisodeResult:
     """Run one episode; returns its episodes.csv row and picks.csv rows.
 
@@ -167,6 +168,10 @@ def run_episode(
         recorder: Instead of an MP4, anything with the video recorder's interface that the
             loop hands its frames to (`sim.render.live_view.LiveView`: MuJoCo's viewer);
             not with `video_path`.
+        picks: Where picks.csv's rows go as the picks happen, in order (`write_row`:
+            `sim.results.outputs.PickStream`; the rows held are handed over even when the
+            episode stops on an exception); the result's `pick_rows` is then empty. None:
+            the rows are kept for the result.
     """
     if recorder is not None and video_path is not None:
         raise InvalidInput("recorder", "a video_path or a recorder, not both", recorder)
@@ -176,7 +181,12 @@ def run_episode(
     video = recorder if video_path is None else episode_video(config, cell, video_path)
     with Episode(config, cell, video, progress, planner=planner) as episode:
         episode.reset()
-        episode.run()
+        if picks is not None:
+            episode.parts.metrics.stream_picks(picks)
+        try:
+            episode.run()
+        finally:
+            episode.parts.metrics.finish_picks()
     wall = time.perf_counter() - wall0
     label = config.planner if planner is None else planner_name(planner)
     parts = episode.parts
