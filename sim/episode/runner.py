@@ -181,12 +181,13 @@ def run_episode(
     video = recorder if video_path is None else episode_video(config, cell, video_path)
     with Episode(config, cell, video, progress, planner=planner) as episode:
         episode.reset()
+        metrics = episode.metrics
         if picks is not None:
-            episode.parts.metrics.stream_picks(picks)
+            metrics.stream_picks(picks)
         try:
             episode.run()
         finally:
-            episode.parts.metrics.finish_picks()
+            metrics.finish_picks()
     wall = time.perf_counter() - wall0
     label = config.planner if planner is None else planner_name(planner)
     parts = episode.parts

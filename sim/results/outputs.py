@@ -563,17 +563,18 @@ class PickStream:
             while written < len(data):
                 written += os.write(self._fd, data[written:])  # type: ignore[arg-type]
         except OSError:
-            self._to_memory()
-            self._memory.append(text)  # type: ignore[union-attr]
+            self._memory = [self._read_back(), text]
             return
         self.size += len(data)
 
-    def _to_memory(self) -> None:
-        """The disk is full: keep the whole rows written so far, and the rest, in memory."""
+    def _read_back(self) -> str:
+        """The disk is full: the whole rows written so far, read back (the rest goes on in
+        memory), the temporary removed."""
         self._close()
         with self.staged.open("rb") as f:
-            self._memory = [f.read(self.size).decode("utf-8")]
+            text = f.read(self.size).decode("utf-8")
         self.staged.unlink(missing_ok=True)
+        return text
 
     def _close(self) -> None:
         if self._fd is not None:
