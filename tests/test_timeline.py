@@ -40,14 +40,20 @@ def test_rows_add_up_and_the_episode_is_the_same_with_them(cell, tmp_path):
     plain.run()
     period = 2.0  # the config's [timeline] period is 10 s: a shorter one, registered here
     writer = TimelineWriter(tmp_path / "t.csv", timeline_columns(1))
+    rows: list[dict] = []
+
+    def both(row: dict) -> None:
+        rows.append(row)
+        writer(row)
+
     episode = _episode(cell)
-    episode.scheduler.add(TimelineEvent(period, writer))
+    episode.scheduler.add(TimelineEvent(period, both))
     episode.run()
     writer.close()
     assert episode.metrics.pick_rows() == plain.metrics.pick_rows()  # to the bit
     assert episode.metrics.row() == plain.metrics.row()
     assert float(episode.data.time) == float(plain.data.time)
-    rows = writer.rows
+    assert writer.last is rows[-1] and writer.kept == []  # the writer keeps none in memory
     assert len(rows) >= 5
     for k, row in enumerate(rows):
         # sampled at the item checks' stop at each multiple of the period, to the step
@@ -90,7 +96,7 @@ def test_rows_are_on_disk_as_soon_as_they_are_made(tmp_path):
         "robot_1_state,faults\n10.000,3,1,0,0,0,0.2500,2,idle,stopped,robot_stop 1; belt_stop\n"
     )
     writer.close()
-    assert timeline.to_text(writer.columns, writer.rows) == text
+    assert timeline.to_text(writer.columns, [row]) == text
 
 
 def test_robot_states_faults_and_downtime_from_a_schedule():

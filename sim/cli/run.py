@@ -60,31 +60,46 @@ def add_episode_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 class Progress:
-    """A one-line progress bar on stderr (redrawn in place on a terminal, else every 10 %)."""
+    """A one-line progress bar on stderr (redrawn in place on a terminal, else every 10 %)
+    with the wall time left at the pace so far (`eta`)."""
 
-    def __init__(self, stream=None, width: int = 30):
+    def __init__(self, stream=None, width: int = 30, clock=None):
+        import time
+
         # stderr as it is now (not when this module was imported: a test harness swaps it)
         self.stream = sys.stderr if stream is None else stream
         self.width = width
         self.tty = self.stream.isatty()
         self._last_decile = -1
+        self.clock = time.monotonic if clock is None else clock
+        self.start = self.clock()
 
     def __call__(self, fraction: float, text: str) -> None:
         fraction = min(max(fraction, 0.0), 1.0)
+        left = eta(self.clock() - self.start, fraction)
         if self.tty:
             filled = int(round(fraction * self.width))
             bar = "#" * filled + "." * (self.width - filled)
-            self.stream.write(f"\r[{bar}] {fraction:4.0%} {text}\x1b[K")
+            self.stream.write(f"\r[{bar}] {fraction:4.0%} {left} {text}\x1b[K")
             self.stream.flush()
         elif int(fraction * 10) > self._last_decile:
             self._last_decile = int(fraction * 10)
-            self.stream.write(f"{fraction:4.0%} {text}\n")
+            self.stream.write(f"{fraction:4.0%} {left} {text}\n")
             self.stream.flush()
 
     def done(self) -> None:
         if self.tty:
             self.stream.write("\n")
             self.stream.flush()
+
+
+def eta(elapsed_s: float, fraction: float) -> str:
+    """'ETA h:mm:ss': the wall time left when the rest goes at the pace of `elapsed_s` [s]
+    for `fraction` done ('ETA -' before there is a pace)."""
+    if fraction <= 0.0 or elapsed_s <= 0.0:
+        return "ETA -"
+    left = round(elapsed_s * (1.0 - fraction) / fraction)
+    return f"ETA {left // 3600}:{left // 60 % 60:02d}:{left % 60:02d}"
 
 
 def _by_class(row: dict, what: str) -> str:
@@ -226,6 +241,7 @@ def check_perception(config) -> None:
 def main(args: argparse.Namespace) -> int:
     """Run one episode and write its files."""
     from sim.paths import remove_stale_temporaries
+    from sim.results import outputs
     from sim.results.locks import FolderLock
     from sim.results.outputs import OutputError
     from sim.user_cache import existing_cache_dir
@@ -245,20 +261,21 @@ def main(args: argparse.Namespace) -> int:
         progress = None if args.quiet else Progress()
         timeline = open_timeline(out, config)
         try:
-            result, video = run_with_video(config, video_path, progress, timeline)
+            with outputs.PickStream(out / "picks.csv") as picks:
+                result, video = run_streamed(config, video_path, progress, picks, out, timeline)
+                if progress is not None:
+                    progress.done()
+                print(summary(result))
+                try:
+                    written = write_run(out, config, result, picks, timeline)
+                    timeline.path.unlink(missing_ok=True)
+                except OutputError as exc:  # the one line names the video's failure too
+                    if video is None or video.failure is None:
+                        raise
+                    too = f"the video {video_path} failed too ({video.failure})"
+                    raise OutputError(f"{exc}; {too}") from None
         finally:
             timeline.close()  # stopped or failed: timeline.partial.csv keeps the rows so far
-        if progress is not None:
-            progress.done()
-        print(summary(result))
-        try:
-            written = write_run(out, config, result)
-            timeline.path.unlink(missing_ok=True)
-        except OutputError as exc:  # the one line names the video's failure too
-            if video is None or video.failure is None:
-                raise
-            too = f"the video {video_path} failed too ({video.failure})"
-            raise OutputError(f"{exc}; {too}") from None
     if video is not None and video.failure is None:
         assert video_path is not None  # a video is made only to a path
         written.append(video_path)
@@ -278,7 +295,25 @@ def open_timeline(out: Path, config):
     return TimelineWriter(out / PARTIAL_FILE, timeline_columns(config.robot_count))
 
 
-def run_with_video(config, video_path: Path | None, progress, timeline=None):
+def run_streamed(config, video_path: Path | None, progress, picks, out: Path, timeline=None):
+    """`run_with_video` with the picks streamed to `picks` (`sim.results.outputs.PickStream`);
+    a Ctrl-C (or SIGTERM, SIGHUP) lands the picks finished so far in
+    `<out>/picks.interrupted.csv` (the folder's other files stay as they were), says so in one
+    line and stops the command as before."""
+    from sim.cli.main import Stopped
+    from sim.results.outputs import INTERRUPTED_PICKS
+
+    try:
+        return run_with_video(config, video_path, progress, picks, timeline)
+    except (KeyboardInterrupt, Stopped):
+        if progress is not None:
+            progress.done()
+        where = picks.land(out / INTERRUPTED_PICKS)
+        print(f"sortsim run: the {picks.rows} picks finished are in {where}", file=sys.stderr)
+        raise
+
+
+def run_with_video(config, video_path: Path | None, progress, picks=None, timeline=None):
     """Run the episode, its video (if any) through `KeptVideo`, so a failing video stops the
     video only.
 
@@ -286,6 +321,7 @@ def run_with_video(config, video_path: Path | None, progress, timeline=None):
         config: The episode's config.
         video_path: The MP4 to write, or None.
         progress: The progress callback, or None.
+        picks: Where the picks.csv rows go as they happen (`run_episode`'s `picks`), or None.
         timeline: Where the timeline's rows go (`sim.results.timeline.TimelineWriter`), or None.
 
     Returns:
@@ -294,27 +330,32 @@ def run_with_video(config, video_path: Path | None, progress, timeline=None):
     from sim.episode.runner import config_cell, episode_video, run_episode
 
     if video_path is None:
-        return run_episode(config, progress=progress, timeline=timeline), None
+        return run_episode(config, progress=progress, picks=picks, timeline=timeline), None
     cell = config_cell(config, sized=True)
     video = KeptVideo.start(episode_video, config, cell, video_path)
     try:
         result = run_episode(
-            config, cell=cell, progress=progress, recorder=video, timeline=timeline
+            config, cell=cell, progress=progress, recorder=video, picks=picks, timeline=timeline
         )
     finally:
         video.release_stderr()
     return result, video
 
 
-def write_run(out: Path, config, result) -> list[Path]:
+def write_run(out: Path, config, result, picks=None, streamed=None) -> list[Path]:
     """Write the run's episodes.csv, picks.csv, timeline.csv and manifest.json into `out` as one
     unit (the manifest last, naming the CSVs' digests); what cannot be written is kept
-    elsewhere.
+    elsewhere. The picks an interrupted run left (`picks.interrupted.csv`) go once a whole run
+    is written.
 
     Args:
         out: The run's folder.
         config: The episode's config.
         result: The episode's result.
+        picks: The `PickStream` its picks went to (its temporary lands as picks.csv); None:
+            the result's `pick_rows`.
+        streamed: The `TimelineWriter` its timeline went to (its file lands as timeline.csv);
+            None: the result's `timeline_rows`.
 
     Returns:
         The files written.
@@ -326,20 +367,29 @@ def write_run(out: Path, config, result) -> list[Path]:
 
     columns = outputs.episode_columns(config.materials) + outputs.line_columns(config.robot_count)
     steps = timeline.timeline_columns(config.robot_count)
-    files = {
+    files: dict[str, str | Path] = {
         "episodes.csv": outputs.to_csv_text(columns, [result.episode_row]),
-        "picks.csv": outputs.to_csv_text(outputs.PICK_COLUMNS, result.pick_rows),
-        timeline.TIMELINE_FILE: timeline.to_text(steps, result.timeline_rows),
+        "picks.csv": (
+            outputs.to_csv_text(outputs.PICK_COLUMNS, result.pick_rows)
+            if picks is None
+            else picks.finish()
+        ),
+        timeline.TIMELINE_FILE: (
+            timeline.to_text(steps, result.timeline_rows) if streamed is None else streamed.finish()
+        ),
     }
     record = manifest.build("run", config.to_dict(), [config.seed])
     record["catalogue_digest"] = config.item_catalogue.digest  # checked when repeated
-    record["files"] = manifest.file_digests(files)
+    record["files"] = {name: _digest(data) for name, data in files.items()}
     files[manifest.MANIFEST_FILE] = manifest.text(record)
     try:
-        return outputs.write_together(out, files)
+        written = outputs.write_together(out, files)
     except OSError as exc:
         reason = exc.strerror or type(exc).__name__
-        kept = outputs.keep_unwritten(out, files, f"{reason}: {exc.filename}")
+        texts = {
+            n: d.read_text(encoding="utf-8") if isinstance(d, Path) else d for n, d in files.items()
+        }
+        kept = outputs.keep_unwritten(out, texts, f"{reason}: {exc.filename}")
         where = (
             f"they are kept in {kept} (sim.results.outputs.restore_unwritten writes them back)"
             if kept is not None
@@ -347,6 +397,21 @@ def write_run(out: Path, config, result) -> list[Path]:
         )
         message = f"could not write the results into {out} ({reason}); {where}"
         raise outputs.OutputError(message) from None
+    (out / outputs.INTERRUPTED_PICKS).unlink(missing_ok=True)  # an earlier run's, stopped
+    return written
+
+
+def _digest(data: str | Path) -> str:
+    """The SHA-256 (hex) of a file's text, or of a written file read in blocks."""
+    import hashlib
+
+    if not isinstance(data, Path):
+        return hashlib.sha256(data.encode()).hexdigest()
+    digest = hashlib.sha256()
+    with data.open("rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
 
 
 class KeptVideo:

@@ -338,6 +338,7 @@ class Episode:
         travel = float(np.linalg.norm(meet_xy - robot.rest[:2]) + np.linalg.norm(drop_xy - meet_xy))
         pick = PickUnderWay(track, choice, station.energy.reading(), travel, t)
         robot.start(intercept, -1 if track.true_id is None else int(track.true_id))
+        parts.metrics.on_pick_started(station.index, t)
         path = None
         if parts.riding.in_window:
             assert intercept.plan is not None  # a feasible intercept has its plan

@@ -156,6 +156,7 @@ def run_episode(
     planner=None,
     recorder=None,
     timeline=None,
+    picks=None,
 ) -> EpisodeResult:
     """Run one episode; returns its episodes.csv row and picks.csv rows.
 
@@ -172,8 +173,12 @@ def run_episode(
             loop hands its frames to (`sim.render.live_view.LiveView`: MuJoCo's viewer);
             not with `video_path`.
         timeline: Where the timeline's rows go as they are made
-            (`sim.results.timeline.TimelineWriter`); kept in memory only when None. Either
-            way they are in the result's `timeline_rows`, the last one at the episode's end.
+            (`sim.results.timeline.TimelineWriter`: the result's `timeline_rows` then empty);
+            kept in memory for the result when None. The last row is at the episode's end.
+        picks: Where picks.csv's rows go as the picks happen, in order (`write_row`:
+            `sim.results.outputs.PickStream`; the rows held are handed over even when the
+            episode stops on an exception); the result's `pick_rows` is then empty. None:
+            the rows are kept for the result.
     """
     if recorder is not None and video_path is not None:
         raise InvalidInput("recorder", "a video_path or a recorder, not both", recorder)
@@ -185,11 +190,17 @@ def run_episode(
         timeline = RowList(timeline_columns(config.robot_count))
     with Episode(config, cell, video, progress, planner=planner, timeline=timeline) as episode:
         episode.reset()
-        episode.run()
+        metrics = episode.metrics
+        if picks is not None:
+            metrics.stream_picks(picks)
+        try:
+            episode.run()
+        finally:
+            metrics.finish_picks()
     parts = episode.parts
     assert parts is not None  # made by reset
     end_s = float(parts.data.time)
-    if not timeline.rows or timeline.rows[-1]["t_s"] < end_s:
+    if timeline.last is None or timeline.last["t_s"] < end_s:
         timeline(timeline_sample(parts, end_s))  # the end, counts closed out
     wall = time.perf_counter() - wall0
     label = config.planner if planner is None else planner_name(planner)
@@ -204,7 +215,7 @@ def run_episode(
     timings |= {f"video_{k}": float(v) for k, v in getattr(video, "stats", {}).items()}
     latencies = parts.timings.latencies
     picks = parts.metrics.pick_rows()
-    return EpisodeResult(config, variant, row, picks, timings, latencies, timeline.rows)
+    return EpisodeResult(config, variant, row, picks, timings, latencies, timeline.kept)
 
 
 def episode_video(config: EpisodeConfig, cell: Cell, path):

@@ -79,12 +79,12 @@ Accounting identities, true of every finished episode (`accounting_failures` che
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from perception.codes import ALUMINIUM, PAPER, PLASTIC, THESIS_MATERIALS, Materials
 from sim.monitors.energy import JOULES_PER_KWH
 from sim.monitors.visibility import VISIBLE_SHARE
+from sim.results.pick_log import PickLog, PickRecord, RowSink
 
 if TYPE_CHECKING:
     from sim.monitors.thrown import Throw
@@ -96,41 +96,6 @@ ITEM_CLASSES = (PAPER, PLASTIC, ALUMINIUM)
 def class_name(class_id: int | None, materials: Materials = THESIS_MATERIALS) -> str:
     """Name of a class id ('paper', ...), 'none' for None or 0."""
     return materials.name_of(class_id)
-
-
-@dataclass(frozen=True)
-class PickRecord:
-    """One pick attempt (a row of picks.csv)."""
-
-    t_start_s: float
-    t_end_s: float
-    item_id: int
-    true_class: int | None
-    predicted_class: int
-    bin: int | None
-    success: bool
-    travel_m: float = 0.0
-    energy_mech_j: float = 0.0
-    energy_elec_j: float = 0.0
-    sealed: bool = True  # False: the cup never sealed, it carried no item (not in picks.csv)
-    robot: int = 0  # the robot of a line that made the attempt (0 upstream)
-
-    def row(self, materials: Materials = THESIS_MATERIALS) -> dict[str, Any]:
-        """The picks.csv row of this attempt (class names those of `materials`)."""
-        return {
-            "t_start_s": self.t_start_s,
-            "t_end_s": self.t_end_s,
-            "item_id": self.item_id,
-            "true_class": class_name(self.true_class, materials),
-            "predicted_class": class_name(self.predicted_class, materials),
-            "bin": class_name(self.bin, materials),
-            "success": self.success,
-            "cycle_s": self.t_end_s - self.t_start_s,
-            "travel_m": self.travel_m,
-            "energy_mech_j": self.energy_mech_j,
-            "energy_elec_j": self.energy_elec_j,
-            "robot": self.robot,
-        }
 
 
 class EpisodeMetrics:
@@ -177,7 +142,7 @@ class EpisodeMetrics:
         self.binned: dict[int, tuple[int, int]] = {}
         self.missed: set[int] = set()
         self.dropped: set[int] = set()
-        self.picks: list[PickRecord] = []
+        self.pick_log = PickLog(materials)
         self.thrown_off: set[int] = set()  # items struck or flung off the belt
         # (sim.monitors.thrown.Throw, what the robot was doing)
         self.throws: list[tuple[Throw, str]] = []
@@ -246,9 +211,27 @@ class EpisodeMetrics:
         self.energy_mech_j = float(mechanical_j)
         self.energy_elec_j = float(electrical_j)
 
+    def on_pick_started(self, robot: int, t_start_s: float) -> None:
+        """Robot `robot` started a pick attempt at sim time `t_start_s` [s]."""
+        self.pick_log.started(robot, t_start_s)
+
     def on_pick(self, record: PickRecord) -> None:
         """A pick attempt finished (successfully or not)."""
-        self.picks.append(record)
+        self.pick_log.add(record)
+
+    def stream_picks(self, sink: RowSink) -> None:
+        """Hand picks.csv's rows to `sink` as they come, in order, instead of keeping them
+        (`sim.results.pick_log`); call `finish_picks` once the episode ends or stops."""
+        self.pick_log.stream_to(sink)
+
+    def finish_picks(self) -> None:
+        """The episode ended or stopped: the streamed rows still held go to the sink."""
+        self.pick_log.finish()
+
+    @property
+    def picks(self) -> list[PickRecord]:
+        """The attempts in the order they ended (empty when they are streamed)."""
+        return self.pick_log.kept or []
 
     @property
     def n_entered(self) -> int:
@@ -312,12 +295,12 @@ class EpisodeMetrics:
     @property
     def n_empty_picks(self) -> int:
         """Pick attempts whose cup never sealed."""
-        return sum(1 for p in self.picks if not p.sealed)
+        return self.pick_log.empty
 
     def row(self) -> dict[str, Any]:
         """The episode's counters as episodes.csv columns (config and timing added by caller)."""
         n_in = self.n_entered
-        cycles = [p.t_end_s - p.t_start_s for p in self.picks if p.success]
+        log = self.pick_log
         names = dict(zip(self.materials.ids, self.materials.names, strict=True))
         return {
             "picked": self.n_picked,
@@ -326,10 +309,10 @@ class EpisodeMetrics:
             "missed": len(self.missed),
             "accuracy": self.n_picked / n_in if n_in else 0.0,
             "profit_eur": self.profit,
-            "mean_cycle_s": sum(cycles) / len(cycles) if cycles else 0.0,
+            "mean_cycle_s": log.success_cycle_s / log.success_cycles if log.success_cycles else 0.0,
             "entered": n_in,
-            "attempts": len(self.picks),
-            "failed_picks": sum(1 for p in self.picks if not p.success),
+            "attempts": log.attempts,
+            "failed_picks": log.failed,
             "dropped": len(self.dropped),
             "left_on_belt": len(self.left_on_belt),
             "not_arrived": None if self.n_items is None else self.n_items - n_in,
@@ -373,9 +356,8 @@ class EpisodeMetrics:
         """A line's columns of one robot (`robot<k>_...`): its items binned, binned per minute,
         utilisation (the share of the episode its picks took, from start to release) and its
         motors' electrical energy [J]."""
-        mine = [p for p in self.picks if p.robot == robot]
-        binned = sum(1 for p in mine if p.success)
-        busy = sum(p.t_end_s - p.t_start_s for p in mine)
+        totals = self.pick_log.robots.get(robot)
+        binned, busy = (0, 0.0) if totals is None else (totals.binned, totals.busy_s)
         key = f"robot{robot}_"
         return {
             key + "picked": binned,
@@ -477,7 +459,7 @@ class EpisodeMetrics:
         for what, total in (("purity", by_bin), ("recovery", by_class)):
             if abs(total - own) > 1e-9:
                 fails.append(f"{what}-weighted items {total:g} != picked - wrong_bin {own}")
-        if any(p.success for p in self.picks if not p.sealed):
+        if self.pick_log.sealed_failures:
             fails.append("a pick whose cup never sealed counted as a success")
         if not row["empty_picks"] <= row["failed_picks"]:
             fails.append(f"empty_picks {row['empty_picks']} > failed_picks {row['failed_picks']}")
@@ -490,5 +472,4 @@ class EpisodeMetrics:
 
     def pick_rows(self) -> list[dict[str, Any]]:
         """picks.csv rows, in the order the attempts started."""
-        rows = sorted(self.picks, key=lambda p: (p.t_start_s, p.item_id))
-        return [p.row(self.materials) for p in rows]
+        return self.pick_log.rows()

@@ -256,7 +256,7 @@ def write_atomic(path: Path, data: str | bytes) -> Path:
     return path
 
 
-def write_together(folder: Path | str, files: Mapping[str, str | bytes]) -> list[Path]:
+def write_together(folder: Path | str, files: Mapping[str, str | bytes | Path]) -> list[Path]:
     """Write `files` into `folder` as one unit: every temporary written and synced first, then
     each renamed into place in the order given (put the manifest last), the folder synced.
 
@@ -266,7 +266,8 @@ def write_together(folder: Path | str, files: Mapping[str, str | bytes]) -> list
 
     Args:
         folder: The folder (created if need be).
-        files: {file name: its whole content}, in the order they are to land.
+        files: {file name: its whole content, or a temporary in `folder` already written and
+            synced (`PickStream.finish`)}, in the order they are to land.
 
     Returns:
         The paths written, in that order.
@@ -280,6 +281,9 @@ def write_together(folder: Path | str, files: Mapping[str, str | bytes]) -> list
     try:
         for name, data in files.items():
             path = folder / name
+            if isinstance(data, Path):  # written and synced already (`PickStream.finish`)
+                staged.append((data, path))
+                continue
             tmp = temporary_path(path)
             staged.append((tmp, path))
             _write_synced(tmp, data if isinstance(data, bytes) else data.encode("utf-8"))
@@ -287,7 +291,8 @@ def write_together(folder: Path | str, files: Mapping[str, str | bytes]) -> list
             os.replace(tmp, path)
     except BaseException:
         for tmp, _ in staged:
-            tmp.unlink(missing_ok=True)
+            if tmp not in files.values():  # a caller's staged file is the caller's to remove
+                tmp.unlink(missing_ok=True)
         raise
     _sync_folder(folder)
     return [path for _, path in staged]
@@ -509,6 +514,111 @@ def write_episodes(
 def write_picks(path: Path, rows: Iterable[Mapping[str, object]]) -> Path:
     """Write `picks.csv` (one row per pick attempt) atomically."""
     return write_atomic(path, to_csv_text(PICK_COLUMNS, rows))
+
+
+INTERRUPTED_PICKS = "picks.interrupted.csv"
+"""Where a run stopped by Ctrl-C (or SIGTERM) leaves the picks it had finished."""
+
+
+class PickStream:
+    """picks.csv written row by row while the episode runs (`sim.results.pick_log` hands the
+    rows over in order), into a hidden temporary beside it (`sim.paths.temporary_path`), so a
+    shift's rows are on the disk rather than in memory and a stopped run still has them.
+
+    Each row is written whole with `os.write` (no buffer to lose) and only whole rows count
+    (`size`): a stop in the middle of a row leaves that row out. The file lands by a rename:
+    with the run's other files (`write_together` takes `staged`), or alone (`land`). When the
+    disk fills, the rows written so far are read back and the stream goes on in memory
+    (`text` has them all), so the run's results can still be kept elsewhere. A stream that did
+    not land removes its temporary when it closes.
+
+    Args:
+        path: The picks.csv it stands for.
+        columns: Its columns.
+    """
+
+    def __init__(self, path: Path | str, columns: tuple[str, ...] = PICK_COLUMNS):
+        self.path, self.columns = Path(path), tuple(columns)
+        self.staged = temporary_path(self.path)
+        self.rows = 0
+        self.size = 0  # bytes of whole rows (and the header) on the disk
+        self._fd: int | None = None
+        self._memory: list[str] | None = None
+
+    def __enter__(self) -> PickStream:
+        self._fd = os.open(self.staged, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+        self._write(to_csv_text(self.columns, ()))
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self._close()
+        self.staged.unlink(missing_ok=True)
+
+    def write_row(self, row: Mapping[str, object]) -> None:
+        """Append one row (`format_value` of each column)."""
+        self._write(to_csv_text(self.columns, [row]).partition("\n")[2])
+        self.rows += 1
+
+    def _write(self, text: str) -> None:
+        if self._memory is not None:
+            self._memory.append(text)
+            return
+        data = text.encode("utf-8")
+        try:
+            written = 0
+            while written < len(data):
+                written += os.write(self._fd, data[written:])  # type: ignore[arg-type]
+        except OSError:
+            self._memory = [self._read_back(), text]
+            return
+        self.size += len(data)
+
+    def _read_back(self) -> str:
+        """The disk is full: the whole rows written so far, read back (the rest goes on in
+        memory), the temporary removed."""
+        self._close()
+        with self.staged.open("rb") as f:
+            text = f.read(self.size).decode("utf-8")
+        self.staged.unlink(missing_ok=True)
+        return text
+
+    def _close(self) -> None:
+        if self._fd is not None:
+            os.close(self._fd)
+            self._fd = None
+
+    @property
+    def on_disk(self) -> bool:
+        """Whether the rows are in the temporary (False: the disk filled, they are in memory)."""
+        return self._memory is None
+
+    def text(self) -> str:
+        """The whole CSV text so far (read back from the disk, or from memory)."""
+        if self._memory is not None:
+            return "".join(self._memory)
+        with self.staged.open("rb") as f:
+            return f.read(self.size).decode("utf-8")
+
+    def finish(self) -> Path | str:
+        """Close the stream: its temporary, synced and cut to its whole rows, for
+        `write_together`; or its text when the disk filled."""
+        if self._memory is not None:
+            return self.text()
+        if self._fd is not None:
+            os.ftruncate(self._fd, self.size)
+            os.fsync(self._fd)
+        self._close()
+        return self.staged
+
+    def land(self, path: Path | str | None = None) -> Path:
+        """Rename the rows written so far into `path` (picks.csv when None) on their own."""
+        target = self.path if path is None else Path(path)
+        staged = self.finish()
+        if isinstance(staged, str):
+            return write_atomic(target, staged)
+        os.replace(staged, target)
+        _sync_folder(target.parent)
+        return target
 
 
 SWEEP_PICK_COLUMNS = ("variant", "planner", "speed_factor", "n_items", "seed", *PICK_COLUMNS)

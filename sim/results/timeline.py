@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import csv
 import io
+import os
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
@@ -76,7 +77,8 @@ def format_cell(column: str, value: Any) -> str:
 
 
 class TimelineWriter:
-    """Rows streamed to a CSV file, each flushed to the OS as it is written; kept in `rows`.
+    """Rows streamed to a CSV file, each flushed to the OS as it is written; only the last is
+    kept (`last`), so a shift's timeline takes no memory as it grows. `kept` is empty.
 
     Args:
         path: The file (created or emptied now; its folder must exist).
@@ -85,7 +87,8 @@ class TimelineWriter:
 
     def __init__(self, path: Path | str, columns: Sequence[str]):
         self.path, self.columns = Path(path), tuple(columns)
-        self.rows: list[dict[str, Any]] = []
+        self.last: dict[str, Any] | None = None
+        self.kept: list[dict[str, Any]] = []
         self._file = self.path.open("w", newline="", encoding="utf-8")
         self._csv = csv.writer(self._file, lineterminator="\n")
         self._csv.writerow(self.columns)
@@ -93,23 +96,35 @@ class TimelineWriter:
 
     def __call__(self, row: dict[str, Any]) -> None:
         """Write `row` and flush it."""
-        self.rows.append(row)
+        self.last = row
         self._csv.writerow([format_cell(c, row.get(c, "")) for c in self.columns])
         self._file.flush()
+
+    def finish(self) -> Path:
+        """The file, synced to disk and closed: ready to be renamed into place."""
+        self._file.flush()
+        os.fsync(self._file.fileno())
+        self._file.close()
+        return self.path
 
     def close(self) -> None:
         self._file.close()
 
 
 class RowList:
-    """Rows kept in memory only (a sweep's episode, a test): the writer's interface."""
+    """Rows kept in memory only (a sweep's episode, a test): the writer's interface, every row
+    in `kept`."""
 
     def __init__(self, columns: Sequence[str]):
         self.columns = tuple(columns)
-        self.rows: list[dict[str, Any]] = []
+        self.kept: list[dict[str, Any]] = []
+
+    @property
+    def last(self) -> dict[str, Any] | None:
+        return self.kept[-1] if self.kept else None
 
     def __call__(self, row: dict[str, Any]) -> None:
-        self.rows.append(row)
+        self.kept.append(row)
 
     def close(self) -> None:
         pass
