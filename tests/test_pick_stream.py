@@ -9,6 +9,8 @@ import subprocess
 import sys
 import time
 
+import pytest
+
 from sim import config as episode_config
 from sim.episode.runner import run_episode
 from sim.paths import REPO_ROOT
@@ -119,3 +121,18 @@ def test_the_progress_bar_shows_the_wall_time_left():
     now[0] += 120.0
     bar(0.5, "t 14400.0 s")
     assert stream.getvalue() == " 50% ETA 0:02:00 t 14400.0 s\n"
+
+
+def test_latencies_are_kept_bounded_over_a_shift():
+    """Past `MAX_LATENCIES` calls a stage keeps a uniform sample of that size (flat memory)."""
+    from sim.episode.parts import MAX_LATENCIES, Timings
+
+    timings = Timings()
+    n = MAX_LATENCIES * 3
+    for k in range(n):
+        timings.add("decision", k / n, "decision")
+    kept = timings.latencies["decision"]
+    assert len(kept) == MAX_LATENCIES and timings.calls["decision"] == n
+    assert timings.seconds["decision"] == pytest.approx(sum(k / n for k in range(n)), rel=1e-9)
+    # a uniform sample of 0..1: its median within 0.02 of 0.5 (20,000 draws: sd about 0.004)
+    assert sorted(kept)[MAX_LATENCIES // 2] == pytest.approx(0.5, abs=0.02)

@@ -12,6 +12,7 @@ metrics, the tracker, the items' riding and the infeed. A user's hook or periodi
 
 from __future__ import annotations
 
+import random
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Protocol
@@ -143,20 +144,34 @@ class StepClock:
         self.last_step_s = duration_s
 
 
+MAX_LATENCIES = 20_000
+"""Latencies kept per stage: every call's up to this many, then a uniform sample of them all
+of this size (reservoir sampling), so a shift's memory stays flat; percentiles of a long run
+are then estimates from the sample."""
+
+
 class Timings:
-    """Wall time spent per stage of an episode [s], each call's latency kept for some stages,
-    and the decisions asked."""
+    """Wall time spent per stage of an episode [s], the calls' latencies kept for some stages
+    (at most `MAX_LATENCIES` each), and the decisions asked."""
 
     def __init__(self):
         self.seconds: dict[str, float] = dict.fromkeys(TIMED_STAGES, 0.0)
         self.latencies: dict[str, list[float]] = {"perception": [], "decision": [], "plan": []}
+        self.calls: dict[str, int] = dict.fromkeys(self.latencies, 0)
         self.decisions = 0
+        self._sample = random.Random(0)  # its own stream: wall times never touch the episode's
 
     def add(self, stage: str, seconds: float, latency: str | None = None) -> None:
         """`seconds` [s] more spent in `stage`; also one latency of `latency` when given."""
         self.seconds[stage] = self.seconds.get(stage, 0.0) + seconds
-        if latency is not None:
-            self.latencies[latency].append(seconds)
+        if latency is None:
+            return
+        kept, n = self.latencies[latency], self.calls[latency]
+        self.calls[latency] = n + 1
+        if n < MAX_LATENCIES:
+            kept.append(seconds)
+        elif (k := self._sample.randrange(n + 1)) < MAX_LATENCIES:
+            kept[k] = seconds
 
     def decided(self, seconds: float) -> None:
         """A decision manager was asked once, taking `seconds` [s]."""
