@@ -19,8 +19,10 @@ from sim.cell.depth_noise import ZED_CLASS
 from sim.cell.riding import ItemRiding
 from sim.cell.suction import SuctionConfig
 from sim.config import EpisodeConfig
+from sim.config.faults import FaultSchedule
 from sim.episode import item_checks
 from sim.episode.cycle_timing import cell_cycle_model
+from sim.episode.faults.cell_faults import CellFaults
 from sim.episode.infeed import Infeed
 from sim.episode.parts import EpisodeParts, StepClock, Timeline, Timings
 from sim.episode.pick_control import PRESS_DEPTH_M, PickController
@@ -248,10 +250,31 @@ def robot_stations(
     return stations
 
 
-def build_parts(config: EpisodeConfig, cell: Cell, planner) -> EpisodeParts:
+def fault_schedule(config: EpisodeConfig, faults: FaultSchedule | None) -> FaultSchedule:
+    """The episode's faults: `faults` when given, else the config's."""
+    if faults is not None:
+        return faults
+    of_config = getattr(config, "fault_schedule", None)
+    return of_config() if of_config is not None else FaultSchedule()
+
+
+def camera_count(config: EpisodeConfig) -> int:
+    """How many belt cameras the episode's perception has: one per robot on a line with
+    `[camera] per_robot`, else one (the truth perception's camera line counts as one)."""
+    per_robot = config.perception == "camera" and config.camera.per_robot
+    return config.robot_count if per_robot and config.robot_count > 1 else 1
+
+
+def build_parts(
+    config: EpisodeConfig, cell: Cell, planner, faults: FaultSchedule | None = None
+) -> EpisodeParts:
     """The parts of an episode of `config` on `cell` (reset here to the config's belt speed),
-    `planner` deciding for the first robot (`robot_stations`)."""
+    `planner` deciding for the first robot (`robot_stations`), `faults` failing its parts
+    (None: the config's)."""
     check_cell(cell, config)
+    schedule = fault_schedule(config, faults)
+    cameras = camera_count(config)
+    schedule.check_cell(config.robot_count, cameras, None)
     speed = config.belt_speed_mps
     cell.reset(speed)
     flow = episode_flow(config, cell)
@@ -267,7 +290,7 @@ def build_parts(config: EpisodeConfig, cell: Cell, planner) -> EpisodeParts:
     mj_warnings = WarningCounter(cell.data)
     throw_watch = ThrowWatch(cell.model, cell.pool)
     actuator_log = ActuatorLog(cell.data)  # read by every robot's energy meter
-    stations = robot_stations(config, cell, controllers, planner, radius, actuator_log)
+    stations = tuple(robot_stations(config, cell, controllers, planner, radius, actuator_log))
     return EpisodeParts(
         config=config,
         cell=cell,
@@ -276,7 +299,7 @@ def build_parts(config: EpisodeConfig, cell: Cell, planner) -> EpisodeParts:
         metrics=metrics,
         tracker=tracker,
         offers=Offers(tracker, speed, config.applied_min_class_confidence),
-        stations=tuple(stations),
+        stations=stations,
         perception=perception(config, cell, flow),
         infeed=Infeed(cell.items, flow, config.belt.infeed_hold, riding, metrics),
         riding=riding,
@@ -286,6 +309,8 @@ def build_parts(config: EpisodeConfig, cell: Cell, planner) -> EpisodeParts:
         throw_watch=throw_watch,
         clock=StepClock(),
         timings=Timings(),
+        faults=schedule,
+        fault_state=CellFaults(schedule, stations, cameras),
     )
 
 
@@ -328,14 +353,17 @@ def perception(config: EpisodeConfig, cell: Cell, flow: Flow):
 
 def own_events(parts: EpisodeParts) -> list:
     """The episode's own scheduled events, in the order they fire when due together: the
-    infeed's drops, the perception's observations, in camera perception the visibility
-    monitor's, then the item checks (`sim.episode.item_checks`)."""
+    faults' starts and ends (when it has any), the infeed's drops, the perception's
+    observations, in camera perception the visibility monitor's, then the item checks
+    (`sim.episode.item_checks`)."""
     config = parts.config
     events = [parts.infeed, PeriodicEvent(config.observation_period_s, observe)]
     if config.perception == "camera":
         monitor = visibility_monitor(parts.cell, config.camera.size, parts.metrics)
         events.append(PeriodicEvent(config.observation_period_s, monitor))
     events.append(PeriodicEvent(CHECK_PERIOD_S, item_checks.run_checks))
+    if parts.faults:  # only then: a run without faults steps as it always did
+        events.insert(0, parts.fault_state)
     return events
 
 
@@ -345,7 +373,9 @@ def observe(parts: EpisodeParts) -> None:
     t = parts.data.time
     t0 = time.perf_counter()
     parts.cell.items.kinematics()
-    created = parts.tracker.update(parts.perception.observe(t))
+    blind = parts.fault_state.blind_cameras
+    detections = parts.perception.observe(t, blind) if blind else parts.perception.observe(t)
+    created = parts.tracker.update(detections)
     parts.timings.add("perception", time.perf_counter() - t0, "perception")
     item_checks.attribute(parts, created, t)
 

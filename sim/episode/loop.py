@@ -30,6 +30,7 @@ from planner.decision.registry import ask_manager
 from sim.cell.cell import Cell
 from sim.cell.riding import PlannedPath
 from sim.config import EpisodeConfig
+from sim.config.faults import FaultSchedule
 from sim.episode import builder, chunks, item_checks, stations
 from sim.episode.builder import make_decision_manager
 from sim.episode.overlay import overlay_of
@@ -81,10 +82,21 @@ class Episode:
             or None.
         progress: Called with (fraction, status line) about once per simulated second.
         planner: A decision manager object (`choose`, `reset`); the config's when omitted.
+        faults: The faults of each episode (`sim.config.faults.FaultSchedule`); the config's
+            when omitted.
     """
 
-    def __init__(self, config: EpisodeConfig, cell: Cell, video=None, progress=None, planner=None):
+    def __init__(
+        self,
+        config: EpisodeConfig,
+        cell: Cell,
+        video=None,
+        progress=None,
+        planner=None,
+        faults: FaultSchedule | None = None,
+    ):
         self.config, self.cell, self.video, self.progress = config, cell, video, progress
+        self.faults = faults
         self.model, self.data = cell.model, cell.data
         self._timestep = float(self.model.opt.timestep)  # [s]
         self.planner = planner if planner is not None else make_decision_manager(config)
@@ -189,7 +201,7 @@ class Episode:
         None), every counter at zero, the decision manager reset, the hooks and events
         registered again (a user's kept, due from the start)."""
         self.config = self.config if seed is None else replace(self.config, seed=int(seed))
-        self.parts = builder.build_parts(self.config, self.cell, self.planner)
+        self.parts = builder.build_parts(self.config, self.cell, self.planner, self.faults)
         self._deciding, self._candidates = None, []
         self._last_report, self._closed_out = -1.0, False
         self._register()

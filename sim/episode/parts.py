@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Protocol
 
 import mujoco
 import numpy as np
@@ -22,6 +23,7 @@ from sim.cell.cell import Cell
 from sim.cell.held_slots import held_slots
 from sim.cell.riding import ItemRiding
 from sim.config import EpisodeConfig
+from sim.config.faults import Fault, FaultSchedule
 from sim.episode.infeed import Infeed
 from sim.episode.stations import Offers, RobotStation
 from sim.flow.config import X_INFEED
@@ -152,6 +154,18 @@ class Timings:
         self.decisions += 1
 
 
+class FaultState(Protocol):
+    """What the faults have failed now (`sim.episode.faults.cell_faults.CellFaults`)."""
+
+    blind_cameras: frozenset[int]
+
+    def active(self, t: float) -> tuple[Fault, ...]:
+        """The faults holding at sim time `t` [s]."""
+
+    def robot_state(self, k: int, t: float) -> str:
+        """Robot `k`'s state at sim time `t` [s]: "stopped", "picking" or "idle"."""
+
+
 @dataclass(frozen=True)
 class EpisodeParts:
     """What one episode is made of (see the module docstring).
@@ -174,6 +188,9 @@ class EpisodeParts:
         throw_watch: Items thrown off the belt.
         clock: The physics step.
         timings: Where the wall time went.
+        faults: The episode's faults (empty: nothing fails).
+        fault_state: What the faults have failed now (`robot_state(k, t)`, `active(t)`,
+            `sim.episode.faults.cell_faults.CellFaults`).
     """
 
     config: EpisodeConfig
@@ -193,6 +210,8 @@ class EpisodeParts:
     throw_watch: ThrowWatch
     clock: StepClock
     timings: Timings
+    faults: FaultSchedule
+    fault_state: FaultState
 
     @property
     def model(self) -> mujoco.MjModel:

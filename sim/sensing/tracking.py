@@ -193,6 +193,10 @@ class Tracker:
         """Forget a track (picked, or gone past the robot)."""
         return self._tracks.pop(track_id, None)
 
+    def restore(self, track: Track) -> None:
+        """Track `track` again (removed for a pick that was given up: its item is offered again)."""
+        self._tracks[track.track_id] = track
+
     def remove_true(self, true_id: int) -> list[Track]:
         """Forget and return the tracks of simulator item `true_id` (truth mode; none
         otherwise)."""

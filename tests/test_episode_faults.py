@@ -1,0 +1,98 @@
+"""Faults acting on an episode (`sim.episode.faults`): short truth episodes, each fault kind
+with every item accounted for (entered = picked + missed + dropped + left on the belt)."""
+
+from __future__ import annotations
+
+import pytest
+
+from sim import config as episode_config
+from sim.config.faults import Fault, FaultSchedule
+from sim.episode.loop import Episode
+from sim.episode.runner import config_cell
+from sim.flow.config import X_CAMERA
+
+
+def _episode(faults: tuple[Fault, ...], items: int, duration: float, seed: int = 5, **kw):
+    config = episode_config.load(
+        None, perception="truth", items=items, duration_s=duration, seed=seed, **kw
+    )
+    return Episode(config, config_cell(config), faults=FaultSchedule(faults))
+
+
+def _accounted(episode: Episode) -> tuple[int, int]:
+    m = episode.metrics
+    ends = len(m.binned) + len(m.missed) + len(m.dropped) + len(m.left_on_belt)
+    return m.n_entered, ends
+
+
+def test_a_stopped_robot_holds_decides_nothing_and_resumes():
+    stop = Fault("robot_stop", 2.0, 3.0, robot=0)
+    states = []
+    with _episode((stop,), 14, 8.0) as episode:
+        episode.reset()
+        episode.every(
+            0.1, lambda p: states.append((p.data.time, p.fault_state.robot_state(0, p.data.time)))
+        )
+        episode.run()
+        picks = episode.metrics.pick_rows()
+        entered, ends = _accounted(episode)
+    assert entered == ends == 14
+    assert not [p for p in picks if 2.0 <= p["t_start_s"] < 5.0 - 1e-9]
+    assert any(p["t_start_s"] >= 5.0 for p in picks)  # it picks again after the stop
+    assert {s for t, s in states if 2.05 < t < 4.95} == {"stopped"}
+    assert {s for t, s in states if t > 5.05} <= {"picking", "idle"}
+
+
+def test_a_camera_outage_loses_about_the_items_that_crossed_its_line_meanwhile():
+    outage = Fault("camera_outage", 8.0, 10.0)
+    crossed: dict[int, float] = {}
+
+    def crossings(parts):
+        items = parts.cell.items
+        for slot in items.active_slots():
+            item = int(items.pool.item_ids[slot])
+            if item not in crossed and items.position(slot)[0] >= X_CAMERA:
+                crossed[item] = float(parts.data.time)
+
+    with _episode((outage,), 24, 14.0) as episode:
+        episode.reset()
+        episode.every(0.02, crossings)
+        episode.run()
+        m = episode.metrics
+        entered, ends = _accounted(episode)
+        never = (set(m.binned) | m.missed | m.dropped) - m.detected
+        period = episode.config.observation_period_s
+    during = {i for i, t in crossed.items() if 8.0 <= t < 18.0}
+    assert entered == ends == 24
+    assert len(during) >= 8
+    # the items never detected are those that crossed the camera line during the outage, and
+    # no more (an item crossing within an observation period of either end may go either way)
+    edge = {i for i, t in crossed.items() if min(abs(t - 8.0), abs(t - 18.0)) < period + 0.02}
+    assert never - edge <= during
+    assert during - edge <= never
+
+
+def test_a_vacuum_drop_holds_less_and_every_item_is_accounted_for():
+    drop = Fault("vacuum_drop", 0.5, 30.0, vacuum_pa=25e3)
+    with _episode((), 14, 8.0) as episode:
+        episode.reset()
+        episode.run()
+        healthy = len(episode.metrics.binned)
+    with _episode((drop,), 14, 8.0) as episode:
+        episode.reset()
+        cup = episode.parts.stations[0].robot.suction
+        budget = cup.force_budget
+        episode.run()
+        weak = len(episode.metrics.binned)
+        entered, ends = _accounted(episode)
+        after = cup.force_budget
+    assert entered == ends == 14
+    assert weak < healthy
+    # the holding force fell with the supply (the episode ended before the fault did)
+    assert after == pytest.approx(budget * 25e3 / episode.config.cup.vacuum_pa)
+
+
+def test_a_fault_on_a_robot_the_cell_lacks_is_refused_before_the_episode():
+    with pytest.raises(Exception, match="faults.robot_stop.robot"):
+        with _episode((Fault("robot_stop", 1.0, 1.0, robot=1),), 4, 2.0) as episode:
+            episode.reset()
