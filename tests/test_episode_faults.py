@@ -96,3 +96,11 @@ def test_a_fault_on_a_robot_the_cell_lacks_is_refused_before_the_episode():
     with pytest.raises(Exception, match="faults.robot_stop.robot"):
         with _episode((Fault("robot_stop", 1.0, 1.0, robot=1),), 4, 2.0) as episode:
             episode.reset()
+
+
+@pytest.mark.parametrize("kind", ["belt_stop", "belt_speed"])
+def test_the_belts_faults_are_refused_in_one_line_until_modelled(kind):
+    keys = {"speed_factor": 0.5} if kind == "belt_speed" else {}
+    with pytest.raises(Exception, match="faults.kind"):
+        with _episode((Fault(kind, 1.0, 1.0, **keys),), 4, 2.0) as episode:
+            episode.reset()
