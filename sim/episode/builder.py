@@ -42,8 +42,7 @@ from sim.sensing.truth import TruthPerception
 CHECK_PERIOD_S = 0.02
 """How often items leaving the belt, landing in bins or falling are looked for [s]."""
 BELT_FAULTS = ("belt_stop", "belt_speed")
-"""Fault kinds an episode refuses for now: the belt's speed is constant through the tracker,
-the infeed, the planners and the camera's rows."""
+"""Fault kinds run with truth perception only: the camera's rows assume the belt's set speed."""
 _OBJECTIVES = {"value_over_distance": "v/d", "value_only": "d=1", "distance_only": "v=1"}
 
 
@@ -261,6 +260,18 @@ def fault_schedule(config: EpisodeConfig, faults: FaultSchedule | None) -> Fault
     return of_config() if of_config is not None else FaultSchedule()
 
 
+def belt_delay_s(schedule: FaultSchedule) -> float:
+    """How much later [s] the belt's faults make the flow pass: every stop's duration, and
+    the time a slowdown loses (duration x (1 / factor - 1))."""
+    delay = 0.0
+    for f in schedule.faults:
+        if f.kind == "belt_stop":
+            delay += f.duration_s
+        elif f.kind == "belt_speed" and f.speed_factor is not None and f.speed_factor < 1.0:
+            delay += f.duration_s * (1.0 / f.speed_factor - 1.0)
+    return delay
+
+
 def camera_count(config: EpisodeConfig) -> int:
     """How many belt cameras the episode's perception has: one per robot on a line with
     `[camera] per_robot`, else one (the truth perception's camera line counts as one)."""
@@ -279,13 +290,13 @@ def build_parts(
     cameras = camera_count(config)
     schedule.check_cell(config.robot_count, cameras, None)
     belt = [f.kind for f in schedule.faults if f.kind in BELT_FAULTS]
-    if belt:
-        allowed = "camera_outage | robot_stop | vacuum_drop (the belt's faults: not yet modelled)"
-        raise InvalidInput("faults.kind", allowed, belt[0])
+    if belt and config.perception != "truth":
+        allowed = "truth perception (the camera's rows assume a belt at its set speed)"
+        raise InvalidInput(f"faults.{belt[0]}", allowed, config.perception)
     speed = config.belt_speed_mps
     cell.reset(speed)
     flow = episode_flow(config, cell)
-    timeline = Timeline.of(cell, flow, speed, config.horizon_s)
+    timeline = Timeline.of(cell, flow, speed, config.horizon_s, belt_delay_s(schedule))
     metrics = episode_metrics(config, cell, flow)
     tracker = Tracker(speed)
     controllers = pick_controllers(config, cell, flow)

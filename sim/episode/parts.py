@@ -98,10 +98,16 @@ class Timeline:
 
     @classmethod
     def of(
-        cls, cell: Cell, flow: Flow, belt_speed: float, horizon_s: float | None = None
+        cls,
+        cell: Cell,
+        flow: Flow,
+        belt_speed: float,
+        horizon_s: float | None = None,
+        delay_s: float = 0.0,
     ) -> Timeline:
-        """The timeline of `flow` on `cell` at `belt_speed` [m/s], ended at `horizon_s` [s]."""
-        t_last_spawn = float(flow.t_spawn[-1]) if len(flow) else 0.0
+        """The timeline of `flow` on `cell` at `belt_speed` [m/s], ended at `horizon_s` [s], the
+        belt and infeed delayed by `delay_s` [s] (stopped or slowed by faults)."""
+        t_last_spawn = (float(flow.t_spawn[-1]) if len(flow) else 0.0) + delay_s
         x_discard = float(np.nanmax(cell.window.x_exit)) + DISCARD_MARGIN_M + cell.cup_extra_m
         t_end = t_last_spawn + (x_discard - X_INFEED) / belt_speed + SETTLE_S
         horizon = None if horizon_s is None else Horizon(float(horizon_s))
@@ -223,8 +229,8 @@ class EpisodeParts:
 
     @property
     def speed(self) -> float:
-        """The belt's speed [m/s]."""
-        return self.config.belt_speed_mps
+        """The belt's speed now [m/s] (the config's, but while a fault stops or slows it)."""
+        return self.tracker.belt_speed
 
     @property
     def last_step_s(self) -> float:

@@ -12,12 +12,20 @@ did). At a start it fails the part, at an end it brings it back, each as the rea
   meet it; another robot may), and the robot decides from there.
 - camera_outage: the camera gives no frames (`blind_cameras`, read by the observations).
 - vacuum_drop: every cup's supply falls to the fault's vacuum (`sim.cell.suction`).
+- belt_stop, belt_speed: the belt runs at 0 or the fault's factor of its speed, the infeed with
+  it (its drops shift: `sim.episode.infeed.Infeed.run_at`); the tracks move on at the new
+  speed from where the old one carried them, and every plan made from then on (the decision
+  managers' contexts, the pick controllers' intercepts) sees the belt as it runs now. A pick
+  under way goes on as planned, as a controller without conveyor tracking plays a chain it
+  has started: its cup may come down where its item is no more, then lifts empty, and the item
+  is offered again while it is in reach (truth perception reports it again).
 
 The timeline reads `robot_state(k, t)` and `active(t)`.
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 from sim.config.faults import Fault, FaultSchedule
@@ -27,6 +35,8 @@ if TYPE_CHECKING:
     from sim.episode.parts import EpisodeParts
     from sim.episode.stations import RobotStation
 
+BELT_KINDS = ("belt_stop", "belt_speed")
+"""The faults that change the belt's speed."""
 ROBOT_STATES = ("picking", "idle", "stopped")
 """What a robot is doing, as the timeline reports it."""
 
@@ -70,19 +80,53 @@ class CellFaults:
         return self._times[self._next] if self._next < len(self._times) else None
 
     def fire(self, parts: EpisodeParts) -> None:
-        """End the faults due to end, then start those due to start."""
+        """End the faults due to end, then start those due to start; then the belt's speed."""
         t = float(parts.data.time)
         while self._next < len(self._times) and is_due(t, self._times[self._next]):
             self._next += 1
-        faults = self.schedule.faults
+        faults, belt = self.schedule.faults, False
         for i, fault in enumerate(faults):
             if i in self._started and i not in self._ended and is_due(t, fault.end_s):
                 self._ended.add(i)
                 self._end(fault, parts, t)
+                belt |= fault.kind in BELT_KINDS
         for i, fault in enumerate(faults):
             if i not in self._started and is_due(t, fault.start_s):
                 self._started.add(i)
                 self._start(fault, parts, t)
+                belt |= fault.kind in BELT_KINDS
+        if belt:
+            self._run_belt(parts, t)
+
+    def belt_factor(self) -> float:
+        """The belt's speed now as a factor of its set speed (0: stopped)."""
+        running = [
+            f
+            for i, f in enumerate(self.schedule.faults)
+            if f.kind in BELT_KINDS and i in self._started and i not in self._ended
+        ]
+        if any(f.kind == "belt_stop" for f in running):
+            return 0.0
+        factor = 1.0
+        for f in running:
+            assert f.speed_factor is not None
+            factor *= f.speed_factor
+        return factor
+
+    def _run_belt(self, parts: EpisodeParts, t: float) -> None:
+        """The belt, the infeed, the tracks and every plan from now on at the belt's speed
+        now (the riders carried up to now at the old one: the items are brought up to date
+        before any event fires)."""
+        factor = self.belt_factor()
+        set_speed = parts.config.belt_speed_mps
+        speed = set_speed if factor == 1.0 else set_speed * factor
+        parts.cell.pool.belt.run_at(speed)
+        parts.infeed.run_at(t, factor)
+        parts.tracker.rebase(t, speed)
+        parts.offers.belt_speed = speed
+        for station in self.stations:
+            station.robot.belt_speed = speed
+            station.context = replace(station.context, belt_speed=speed)
 
     def _start(self, fault: Fault, parts: EpisodeParts, t: float) -> None:
         if fault.kind == "robot_stop":
