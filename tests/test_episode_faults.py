@@ -8,7 +8,7 @@ import pytest
 from sim import config as episode_config
 from sim.config.faults import Fault, FaultSchedule
 from sim.episode.loop import Episode
-from sim.episode.runner import config_cell
+from sim.episode.runner import config_cell, shared_cell
 from sim.flow.config import X_CAMERA
 
 
@@ -140,3 +140,27 @@ def test_the_belts_faults_with_camera_perception_are_refused_in_one_line():
     )
     with pytest.raises(Exception, match="faults.belt_stop"):
         episode.reset()
+
+
+def test_on_a_coordinated_line_a_stopped_robot_leaves_its_items_to_the_other():
+    config = episode_config.load(
+        None,
+        perception="truth",
+        robots=2,
+        items=66,
+        duration_s=12.0,
+        coordination="coordinated",
+        seed=3,
+    )
+    cell = shared_cell(config.cell_settings, config.item_catalogue, 2, config.line_cell)
+    stop = Fault("robot_stop", 23.0, 8.0, robot=1)  # robot 1 picks from 23 s on, unstopped
+    with Episode(config, cell, faults=FaultSchedule((stop,))) as episode:
+        episode.reset()
+        episode.run()
+        picks = episode.metrics.pick_rows()
+        entered, ends = _accounted(episode)
+    assert entered == ends == 66
+    starts = {k: [p["t_start_s"] for p in picks if p["robot"] == k] for k in (0, 1)}
+    assert not [t for t in starts[1] if 23.0 <= t < 31.0]
+    assert [t for t in starts[1] if t >= 31.0]  # it picks again after the stop
+    assert len([t for t in starts[0] if 23.0 <= t < 31.0]) >= 10  # robot 0 keeps picking

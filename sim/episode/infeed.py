@@ -118,6 +118,7 @@ class Infeed:
         """Hand the due items over to the belt (at its speed, as from an infeed conveyor) and
         book them as entered; an item dropped partly onto a flat one wakes that one."""
         first, flow, items = self.next_index, self.flow, self.items
+        dropped: list[int] | range
         if self.hold:
             self.next_index, dropped = self._feed_holding(first)
         elif self.clock is not None:
