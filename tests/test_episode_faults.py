@@ -25,22 +25,53 @@ def _accounted(episode: Episode) -> tuple[int, int]:
     return m.n_entered, ends
 
 
-def test_a_stopped_robot_holds_decides_nothing_and_resumes():
-    stop = Fault("robot_stop", 2.0, 3.0, robot=0)
-    states = []
+def test_a_stopped_robot_holds_its_item_decides_nothing_and_resumes():
+    with _episode((), 14, 8.0) as episode:
+        episode.reset()
+        episode.run()
+        first = episode.metrics.pick_rows()[0]
+    # stopped in the middle of its first pick, the item in the cup (the run the same till then)
+    start = round(first["t_start_s"] + 0.6 * (first["t_end_s"] - first["t_start_s"]), 2)
+    stop = Fault("robot_stop", start, 3.0, robot=0)
+    states, held = [], []
+
+    def watch(parts):
+        t = parts.data.time
+        states.append((t, parts.fault_state.robot_state(0, t)))
+        held.append((t, parts.stations[0].robot.suction.held_item))
+
     with _episode((stop,), 14, 8.0) as episode:
         episode.reset()
-        episode.every(
-            0.1, lambda p: states.append((p.data.time, p.fault_state.robot_state(0, p.data.time)))
-        )
+        episode.every(0.05, watch)
+        episode.run()
+        picks = episode.metrics.pick_rows()
+        binned = set(episode.metrics.binned)
+        entered, ends = _accounted(episode)
+    assert entered == ends == 14
+    in_stop = [h for t, h in held if start + 0.01 < t < stop.end_s - 0.01]
+    assert in_stop and in_stop[0] == first["item_id"] and set(in_stop) == {first["item_id"]}
+    assert first["item_id"] in binned  # carried to its bin after the stop
+    assert not [p for p in picks if start <= p["t_start_s"] < stop.end_s - 1e-6]
+    assert [p for p in picks if p["t_start_s"] >= stop.end_s - 1e-6 and p["success"]]
+    assert {s for t, s in states if start + 0.01 < t < stop.end_s - 0.01} == {"stopped"}
+    assert {s for t, s in states if t > stop.end_s + 0.01} <= {"picking", "idle"}
+
+
+def test_a_pick_stopped_before_its_seal_is_given_up_and_its_item_picked_again():
+    with _episode((), 14, 8.0) as episode:
+        episode.reset()
+        episode.run()
+        first = episode.metrics.pick_rows()[0]
+    start = round(first["t_start_s"] + 0.05, 2)  # on its way down, nothing sealed yet
+    stop = Fault("robot_stop", start, 1.0, robot=0)
+    with _episode((stop,), 14, 8.0) as episode:
+        episode.reset()
         episode.run()
         picks = episode.metrics.pick_rows()
         entered, ends = _accounted(episode)
     assert entered == ends == 14
-    assert not [p for p in picks if 2.0 <= p["t_start_s"] < 5.0 - 1e-9]
-    assert any(p["t_start_s"] >= 5.0 for p in picks)  # it picks again after the stop
-    assert {s for t, s in states if 2.05 < t < 4.95} == {"stopped"}
-    assert {s for t, s in states if t > 5.05} <= {"picking", "idle"}
+    again = [p for p in picks if p["item_id"] == first["item_id"]]
+    assert len(again) == 1 and again[0]["t_start_s"] >= stop.end_s - 1e-6 and again[0]["success"]
 
 
 def test_a_camera_outage_loses_about_the_items_that_crossed_its_line_meanwhile():
