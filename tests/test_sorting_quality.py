@@ -291,9 +291,9 @@ class SoftTruth:
     def __init__(self, truth):
         self.truth = truth
 
-    def observe(self, t: float) -> list[Detection]:
+    def observe(self, t: float, blind: frozenset[int] = frozenset()) -> list[Detection]:
         out = []
-        for det in self.truth.observe(t):
+        for det in self.truth.observe(t, blind):
             probs = [0.0] + [0.225] * 3
             probs[max(range(4), key=lambda k: det.probs[k])] = 0.55
             out.append(Detection(det.t, det.x, det.y, tuple(probs), det.true_id))

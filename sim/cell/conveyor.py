@@ -142,6 +142,20 @@ class Belt:
         surfacevel[:] = 0.0
         surfacevel[0] = speed
 
+    def run_at(self, speed: float) -> None:
+        """Runs the belt at `speed` [m/s] whatever the conveyor's rating: a fault's stop (0) or
+        slowdown (`sim.config.faults`), at most twice the rated top speed.
+
+        Raises:
+            InvalidInput: outside 0 to twice the rated top speed.
+        """
+        ok = isinstance(speed, int | float | np.floating) and 0.0 <= speed <= 2.0 * SPEED_MAX
+        if not ok:
+            raise InvalidInput("belt_speed", f"0 to {2.0 * SPEED_MAX:g} m/s (a fault's)", speed)
+        surfacevel = self._model.geom_surfacevel[self.geom_id]
+        surfacevel[:] = 0.0
+        surfacevel[0] = float(speed)
+
     def set_factor(self, factor: float) -> float:
         """Sets the speed of a thesis speed factor (1, 1.2, 1.5) and returns it [m/s]."""
         speed = speed_for_factor(factor)

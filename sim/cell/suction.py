@@ -30,7 +30,7 @@ acts through `r1_cup_link`, `r1_cup_site` and the pool's welds `r1_item_<n>_grip
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import mujoco
 import numpy as np
@@ -141,6 +141,9 @@ class SuctionCup:
         # A load below this cannot reach the budget however it splits into pull-off and shear
         # (F_n + F_t / mu <= |F| (1 + 1 / mu)), with a margin for the rounding [N].
         self._safe_force = self._budget / (1.0 + 1.0 / self.config.lip_friction) * (1.0 - 1e-9)
+        self._nominal: SuctionConfig | None = (
+            None  # the configured vacuum, while `supply` lowers it
+        )
         self._parts: tuple[int, int, int, float, int] | None = None  # `_held_parts`' last
         # Views of the data's arrays read every step (`_views`).
         self._data_views: tuple | None = None
@@ -175,6 +178,22 @@ class SuctionCup:
         """Whether `update` has anything to do: the vacuum is on or an item is held (else it
         changes nothing and returns no event)."""
         return self._vacuum or self._held is not None
+
+    def supply(self, vacuum_pa: float | None) -> None:
+        """The supply's vacuum falls to `vacuum_pa` [Pa] (None: back to the configured level):
+        the holding force falls with it (area x vacuum), and the seal builds up slower, its
+        time the configured one times the configured vacuum over this one (the cup's volume
+        drawn down by a weaker supply; at most 1 s)."""
+        if self._nominal is None:
+            self._nominal = self.config
+        nominal = self._nominal
+        config = nominal
+        if vacuum_pa is not None:
+            slower = nominal.seal_time * nominal.vacuum / float(vacuum_pa)
+            config = replace(nominal, vacuum=float(vacuum_pa), seal_time=min(slower, 1.0))
+        self.config = config
+        self._budget = self.force_budget
+        self._safe_force = self._budget / (1.0 + 1.0 / config.lip_friction) * (1.0 - 1e-9)
 
     def vacuum_on(self) -> None:
         """Opens the vacuum valve."""

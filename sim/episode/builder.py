@@ -19,8 +19,10 @@ from sim.cell.depth_noise import ZED_CLASS
 from sim.cell.riding import ItemRiding
 from sim.cell.suction import SuctionConfig
 from sim.config import EpisodeConfig
+from sim.config.faults import FaultSchedule
 from sim.episode import item_checks
 from sim.episode.cycle_timing import cell_cycle_model
+from sim.episode.faults.cell_faults import CellFaults
 from sim.episode.infeed import Infeed
 from sim.episode.parts import EpisodeParts, StepClock, Timeline, Timings
 from sim.episode.pick_control import PRESS_DEPTH_M, PickController
@@ -39,6 +41,8 @@ from sim.sensing.truth import TruthPerception
 
 CHECK_PERIOD_S = 0.02
 """How often items leaving the belt, landing in bins or falling are looked for [s]."""
+BELT_FAULTS = ("belt_stop", "belt_speed")
+"""Fault kinds run with truth perception only: the camera's rows assume the belt's set speed."""
 _OBJECTIVES = {"value_over_distance": "v/d", "value_only": "d=1", "distance_only": "v=1"}
 
 
@@ -248,14 +252,45 @@ def robot_stations(
     return stations
 
 
-def build_parts(config: EpisodeConfig, cell: Cell, planner, wrap_perception=None) -> EpisodeParts:
+def fault_schedule(config: EpisodeConfig, faults: FaultSchedule | None) -> FaultSchedule:
+    """The episode's faults: `faults` when given, else the config's."""
+    return faults if faults is not None else config.fault_schedule()
+
+
+def belt_delay_s(schedule: FaultSchedule) -> float:
+    """How much later [s] the belt's faults make the flow pass: every stop's duration, and
+    the time a slowdown loses (duration x (1 / factor - 1))."""
+    delay = 0.0
+    for f in schedule.faults:
+        if f.kind == "belt_stop":
+            delay += f.duration_s
+        elif f.kind == "belt_speed" and f.speed_factor is not None and f.speed_factor < 1.0:
+            delay += f.duration_s * (1.0 / f.speed_factor - 1.0)
+    return delay
+
+
+def build_parts(
+    config: EpisodeConfig,
+    cell: Cell,
+    planner,
+    wrap_perception=None,
+    faults: FaultSchedule | None = None,
+) -> EpisodeParts:
     """The parts of an episode of `config` on `cell` (reset here to the config's belt speed),
-    `planner` deciding for the first robot (`robot_stations`)."""
+    `planner` deciding for the first robot (`robot_stations`), `faults` failing its parts
+    (None: the config's)."""
     check_cell(cell, config)
+    schedule = fault_schedule(config, faults)
+    cameras = config.camera_count
+    schedule.check_cell(config.robot_count, cameras, None)
+    belt = [f.kind for f in schedule.faults if f.kind in BELT_FAULTS]
+    if belt and config.perception != "truth":
+        allowed = "truth perception (the camera's rows assume a belt at its set speed)"
+        raise InvalidInput(f"faults.{belt[0]}", allowed, config.perception)
     speed = config.belt_speed_mps
     cell.reset(speed)
     flow = episode_flow(config, cell)
-    timeline = Timeline.of(cell, flow, speed, config.horizon_s)
+    timeline = Timeline.of(cell, flow, speed, config.horizon_s, belt_delay_s(schedule))
     metrics = episode_metrics(config, cell, flow)
     tracker = Tracker(speed)
     controllers = pick_controllers(config, cell, flow)
@@ -267,7 +302,7 @@ def build_parts(config: EpisodeConfig, cell: Cell, planner, wrap_perception=None
     mj_warnings = WarningCounter(cell.data)
     throw_watch = ThrowWatch(cell.model, cell.pool)
     actuator_log = ActuatorLog(cell.data)  # read by every robot's energy meter
-    stations = robot_stations(config, cell, controllers, planner, radius, actuator_log)
+    stations = tuple(robot_stations(config, cell, controllers, planner, radius, actuator_log))
     seen = perception(config, cell, flow)
     return EpisodeParts(
         config=config,
@@ -277,7 +312,7 @@ def build_parts(config: EpisodeConfig, cell: Cell, planner, wrap_perception=None
         metrics=metrics,
         tracker=tracker,
         offers=Offers(tracker, speed, config.applied_min_class_confidence),
-        stations=tuple(stations),
+        stations=stations,
         perception=seen if wrap_perception is None else wrap_perception(seen),
         infeed=Infeed(cell.items, flow, config.belt.infeed_hold, riding, metrics),
         riding=riding,
@@ -287,6 +322,8 @@ def build_parts(config: EpisodeConfig, cell: Cell, planner, wrap_perception=None
         throw_watch=throw_watch,
         clock=StepClock(),
         timings=Timings(),
+        faults=schedule,
+        fault_state=CellFaults(schedule, stations, cameras),
     )
 
 
@@ -329,14 +366,17 @@ def perception(config: EpisodeConfig, cell: Cell, flow: Flow):
 
 def own_events(parts: EpisodeParts) -> list:
     """The episode's own scheduled events, in the order they fire when due together: the
-    infeed's drops, the perception's observations, in camera perception the visibility
-    monitor's, then the item checks (`sim.episode.item_checks`)."""
+    faults' starts and ends (when it has any), the infeed's drops, the perception's
+    observations, in camera perception the visibility monitor's, then the item checks
+    (`sim.episode.item_checks`)."""
     config = parts.config
     events = [parts.infeed, PeriodicEvent(config.observation_period_s, observe)]
     if config.perception == "camera":
         monitor = visibility_monitor(parts.cell, config.camera.size, parts.metrics)
         events.append(PeriodicEvent(config.observation_period_s, monitor))
     events.append(PeriodicEvent(CHECK_PERIOD_S, item_checks.run_checks))
+    if parts.faults:  # only then: a run without faults steps as it always did
+        events.insert(0, parts.fault_state)
     return events
 
 
@@ -346,7 +386,9 @@ def observe(parts: EpisodeParts) -> None:
     t = parts.data.time
     t0 = time.perf_counter()
     parts.cell.items.kinematics()
-    created = parts.tracker.update(parts.perception.observe(t))
+    blind = parts.fault_state.blind_cameras
+    detections = parts.perception.observe(t, blind) if blind else parts.perception.observe(t)
+    created = parts.tracker.update(detections)
     parts.timings.add("perception", time.perf_counter() - t0, "perception")
     item_checks.attribute(parts, created, t)
 

@@ -20,6 +20,7 @@ time has come or one is held back.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 from sim.cell.items import Items
@@ -63,6 +64,31 @@ class Infeed:
         """Items held back at least once."""
         self.waiting: dict[int, float] = {}
         """Flow index of each item held back -> since when [s]."""
+        self.clock: tuple[float, float, float] | None = None
+        """(since [s], the flow's time then [s], its rate) while a belt fault has made the
+        infeed run at a rate other than 1 (`run_at`); None: the flow's times are the drops'."""
+
+    def run_at(self, t: float, rate: float) -> None:
+        """From sim time `t` [s] the infeed runs at `rate` times its speed (0: stopped with the
+        belt): the flow's times pass that much slower, the drops shift with them."""
+        self.clock = (t, self.flow_time(t), float(rate))
+
+    def flow_time(self, t: float) -> float:
+        """The flow's time at sim time `t` [s]: `t` but after a belt fault."""
+        if self.clock is None:
+            return t
+        since, at, rate = self.clock
+        return at + rate * (t - since)
+
+    def drop_time(self, i: int) -> float:
+        """When flow item `i` drops [s] (inf while the infeed stands before it)."""
+        t_spawn = float(self.flow.t_spawn[i])
+        if self.clock is None:
+            return t_spawn
+        since, at, rate = self.clock
+        if t_spawn <= at:
+            return since
+        return since + (t_spawn - at) / rate if rate > 0 else math.inf
 
     @property
     def pending(self) -> bool:
@@ -71,6 +97,10 @@ class Infeed:
 
     def due(self, t: float) -> bool:
         """Whether an item drops at sim time `t` [s] (its time has come, or one is held)."""
+        if self.clock is not None:
+            return bool(self.waiting) or (
+                self.next_index < len(self.flow) and self.drop_time(self.next_index) <= t
+            )
         return bool(self.waiting) or (
             self.next_index < len(self.flow) and self.flow.t_spawn[self.next_index] <= t
         )
@@ -81,7 +111,8 @@ class Infeed:
         if self.waiting:
             return t
         if self.next_index < len(self.flow):
-            return float(self.flow.t_spawn[self.next_index])
+            when = self.drop_time(self.next_index)
+            return when if math.isfinite(when) else None
         return None
 
     def fire(self, parts: object) -> None:
@@ -91,6 +122,8 @@ class Infeed:
         dropped: Sequence[int]
         if self.hold:
             self.next_index, dropped = self._feed_holding(first)
+        elif self.clock is not None:
+            self.next_index, dropped = self._feed_shifted(first)
         else:
             self.next_index = items.feed(flow, first)
             dropped = range(first, self.next_index)
@@ -110,8 +143,8 @@ class Infeed:
         t, i = items.time, first
         dropped, waiting = [], {}
         due = [(k, X_INFEED, since) for k, since in self.waiting.items()]
-        while i < len(flow) and flow.t_spawn[i] <= t:
-            due.append((i, X_INFEED + items.pool.belt.speed * (t - float(flow.t_spawn[i])), t))
+        while i < len(flow) and self.drop_time(i) <= t:
+            due.append((i, X_INFEED + items.pool.belt.speed * (t - self.drop_time(i)), t))
             i += 1
         for k, x, since in due:
             slot = items.drop(flow, k, x)
@@ -127,6 +160,15 @@ class Infeed:
             dropped.append(k)
         self.waiting = waiting
         return i, dropped
+
+    def _feed_shifted(self, first: int) -> tuple[int, list[int]]:
+        """`Items.feed` at the drop times a belt fault has shifted: the next flow index and
+        the items dropped now."""
+        items, t, i = self.items, self.items.time, first
+        while i < len(self.flow) and self.drop_time(i) <= t:
+            items.drop(self.flow, i, X_INFEED + items.pool.belt.speed * (t - self.drop_time(i)))
+            i += 1
+        return i, list(range(first, i))
 
     def drop_above(self, k: int, x: float, slot: int) -> None:
         """Drop flow item `k`, which lies in `slot` inside another item, raised in steps of

@@ -30,6 +30,7 @@ from planner.decision.registry import ask_manager
 from sim.cell.cell import Cell
 from sim.cell.riding import PlannedPath
 from sim.config import EpisodeConfig
+from sim.config.faults import FaultSchedule
 from sim.episode import builder, chunks, item_checks, stations
 from sim.episode.builder import make_decision_manager
 from sim.episode.overlay import overlay_of
@@ -87,6 +88,8 @@ class Episode:
             (`observe(t)`, `close()`) observes instead: a study's noisier or softened sensor.
         timeline: Called with a timeline row every `[timeline] period_s` (`TimelineEvent`),
             or None.
+        faults: The faults of each episode (`sim.config.faults.FaultSchedule`); the config's
+            when omitted.
     """
 
     def __init__(
@@ -98,9 +101,11 @@ class Episode:
         planner=None,
         wrap_perception: Callable[[Perception], Perception] | None = None,
         timeline: Callable[[dict], object] | None = None,
+        faults: FaultSchedule | None = None,
     ):
         self.config, self.cell, self.video, self.progress = config, cell, video, progress
         self.timeline = timeline
+        self.faults = faults
         self.model, self.data = cell.model, cell.data
         self._timestep = float(self.model.opt.timestep)  # [s]
         self.planner = planner if planner is not None else make_decision_manager(config)
@@ -213,7 +218,7 @@ class Episode:
         registered again (a user's kept, due from the start)."""
         self.config = self.config if seed is None else replace(self.config, seed=int(seed))
         self.parts = builder.build_parts(
-            self.config, self.cell, self.planner, self._wrap_perception
+            self.config, self.cell, self.planner, self._wrap_perception, self.faults
         )
         self._deciding, self._candidates = None, []
         self._last_report, self._closed_out = -1.0, False

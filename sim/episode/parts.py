@@ -24,6 +24,7 @@ from sim.cell.cell import Cell
 from sim.cell.held_slots import held_slots
 from sim.cell.riding import ItemRiding
 from sim.config import EpisodeConfig
+from sim.config.faults import Fault, FaultSchedule
 from sim.episode.infeed import Infeed
 from sim.episode.stations import Offers, RobotStation
 from sim.flow.config import X_INFEED
@@ -57,8 +58,9 @@ class Perception(Protocol):
     """What reports the items crossing the camera line (`sim.sensing.truth.TruthPerception`,
     the camera pipelines of `sim.sensing.perception`)."""
 
-    def observe(self, t: float) -> list[Detection]:
-        """The detections at sim time `t` [s]."""
+    def observe(self, t: float, blind: frozenset[int] = frozenset()) -> list[Detection]:
+        """The detections at sim time `t` [s]; none from the cameras in `blind` (indices,
+        upstream first: an outage)."""
 
     def close(self) -> None:
         """Release what it holds (a renderer)."""
@@ -109,10 +111,16 @@ class Timeline:
 
     @classmethod
     def of(
-        cls, cell: Cell, flow: Flow, belt_speed: float, horizon_s: float | None = None
+        cls,
+        cell: Cell,
+        flow: Flow,
+        belt_speed: float,
+        horizon_s: float | None = None,
+        delay_s: float = 0.0,
     ) -> Timeline:
-        """The timeline of `flow` on `cell` at `belt_speed` [m/s], ended at `horizon_s` [s]."""
-        t_last_spawn = float(flow.t_spawn[-1]) if len(flow) else 0.0
+        """The timeline of `flow` on `cell` at `belt_speed` [m/s], ended at `horizon_s` [s], the
+        belt and infeed delayed by `delay_s` [s] (stopped or slowed by faults)."""
+        t_last_spawn = (float(flow.t_spawn[-1]) if len(flow) else 0.0) + delay_s
         x_discard = float(np.nanmax(cell.window.x_exit)) + DISCARD_MARGIN_M + cell.cup_extra_m
         t_end = t_last_spawn + (x_discard - X_INFEED) / belt_speed + SETTLE_S
         horizon = None if horizon_s is None else Horizon(float(horizon_s))
@@ -179,6 +187,18 @@ class Timings:
         self.decisions += 1
 
 
+class FaultState(Protocol):
+    """What the faults have failed now (`sim.episode.faults.cell_faults.CellFaults`)."""
+
+    blind_cameras: frozenset[int]
+
+    def active(self, t: float) -> tuple[Fault, ...]:
+        """The faults holding at sim time `t` [s]."""
+
+    def robot_state(self, k: int, t: float) -> str:
+        """Robot `k`'s state at sim time `t` [s]: "stopped", "picking" or "idle"."""
+
+
 @dataclass(frozen=True)
 class EpisodeParts:
     """What one episode is made of (see the module docstring).
@@ -201,6 +221,9 @@ class EpisodeParts:
         throw_watch: Items thrown off the belt.
         clock: The physics step.
         timings: Where the wall time went.
+        faults: The episode's faults (empty: nothing fails).
+        fault_state: What the faults have failed now (`robot_state(k, t)`, `active(t)`,
+            `sim.episode.faults.cell_faults.CellFaults`).
     """
 
     config: EpisodeConfig
@@ -220,6 +243,8 @@ class EpisodeParts:
     throw_watch: ThrowWatch
     clock: StepClock
     timings: Timings
+    faults: FaultSchedule
+    fault_state: FaultState
 
     @property
     def model(self) -> mujoco.MjModel:
@@ -231,8 +256,8 @@ class EpisodeParts:
 
     @property
     def speed(self) -> float:
-        """The belt's speed [m/s]."""
-        return self.config.belt_speed_mps
+        """The belt's speed now [m/s] (the config's, but while a fault stops or slows it)."""
+        return self.tracker.belt_speed
 
     @property
     def last_step_s(self) -> float:

@@ -251,6 +251,8 @@ class PickController:
         """The slots the other robots' picks under way aim at (a line sets it:
         `sim.episode.builder.pick_controllers`); an item touching one of them waits."""
         self.started: list[StartedPick] = []  # every pick started, as planned
+        self.halted = False
+        """A protective stop holds the robot: its set-points stay, its pick waits (`halt`)."""
 
     def slot_near(self, x: float, y: float) -> int | None:
         """Pool slot of the item on the belt nearest (x, y) now, within `NEAR_M`, or None."""
@@ -631,10 +633,33 @@ class PickController:
             f"{'holding item ' + str(held) if held is not None else 'holding nothing'}"
         )
 
+    def halt(self) -> None:
+        """A protective stop: the motors hold the last set-points, the cup keeps its vacuum
+        (an item held stays held), the pick under way waits (`resume`)."""
+        self.halted = True
+
+    def resume(self, t: float) -> bool:
+        """The end of a protective stop at sim time `t` [s]. True when the pick under way goes
+        on (the cup holds its item, or the release has begun) or there is none; False when it
+        was given up (not sealed: its item has ridden on), the robot now at rest where it
+        stopped, from where it plans its next pick."""
+        self.halted = False
+        pick, cup = self._pick, self.suction
+        if pick is None or cup.held_slot is not None or pick.vacuum_off:
+            return True
+        cup.vacuum_off(t)
+        self._pick, self.aimed_slot = None, None
+        self.sleep.idle()
+        data = self.cell.data
+        self.rest = tcp_position(self.cell.model, data, prefix=self.prefix)
+        self.axis4 = float(data.joint(f"{self.prefix}axis4_joint").qpos[0])
+        return False
+
     def before_step(self) -> None:
-        """Set-points of the coming control period (none once the chain has been played)."""
+        """Set-points of the coming control period (none once the chain has been played, nor
+        while halted: the motors hold the last)."""
         pick = self._pick
-        if pick is not None and pick.k < pick.playback.n:
+        if pick is not None and pick.k < pick.playback.n and not self.halted:
             pick.playback.apply(pick.k)
 
     def after_step(self) -> bool:
@@ -646,7 +671,7 @@ class PickController:
         pick, data, cup = self._pick, self.cell.data, self.suction
         if pick is None:
             return False
-        if pick.k < pick.playback.n:
+        if pick.k < pick.playback.n and not self.halted:
             t_traj = pick.times[pick.k]
             pick.k += 1
             if not pick.vacuum_on and t_traj >= pick.vacuum_from:
@@ -660,12 +685,12 @@ class PickController:
             if events:
                 pick.events.extend(events)
                 return True
-        return pick.k >= pick.playback.n
+        return pick.k >= pick.playback.n and not self.halted
 
     def poll(self) -> PickOutcome | None:
         """The outcome once the chain has been played and the cup has let go, else None."""
         pick, cup = self._pick, self.suction
-        if pick is None or pick.k < pick.playback.n:
+        if pick is None or pick.k < pick.playback.n or self.halted:
             return None
         if not pick.vacuum_off:
             cup.vacuum_off(float(self.cell.data.time))

@@ -83,10 +83,19 @@ class RobotStation:
         """The cup's planned path of the pick under way (riders it passes are woken)."""
         self.picks_done, self.pick_time_sum = 0, 0.0  # its finished picks and their time [s]
         self.cup_events_seen = 0
+        self.stopped_until = 0.0
+        """When its last protective stop ends [s] (`sim.episode.faults`): no decision before."""
 
     def start(self, pick: PickUnderWay, path: PlannedPath | None) -> None:
         """The pick `pick` is under way along `path` (None: riders are not woken by it)."""
         self.pick, self.path = pick, path
+
+    def stop_until(self, t: float) -> None:
+        """A protective stop holds the robot until sim time `t` [s]: it decides then, not before
+        (a pick under way is held by its controller, `PickController.halt`)."""
+        self.stopped_until = t
+        if self.pick is None:
+            self.next_decision = t
 
     def decide_at(self, t: float) -> None:
         """Ask the decision manager next at sim time `t` [s]."""
@@ -140,6 +149,7 @@ def line_offer(
             free_at = s.pick.t_start_s + s.mean_pick_s
         else:
             free_at = t
+        free_at = max(free_at, s.stopped_until)  # a stopped robot is free once restarted
         line.append(LineRobot(s.context, max(free_at, t), robot_class_ids[s.index]))
     return offered_items(coordination, items, line, station.index, t, station.mean_pick_s)
 

@@ -241,11 +241,14 @@ class CameraPerception:
         self.rows = self.unobserved = 0
         self.render_s = self.pipeline_s = self.hmm_s = 0.0
 
-    def observe(self, t: float) -> list[Detection]:
-        """Take the frame of time `t` [s]; return the items whose last row was the previous."""
+    def observe(self, t: float, blind: frozenset[int] = frozenset()) -> list[Detection]:
+        """Take the frame of time `t` [s]; return the items whose last row was the previous.
+        With the camera (0) in `blind` (an outage) there is no frame: its row reads empty."""
         t0 = time.perf_counter()
         stripes = self.classes.shape[1]
         try:
+            if 0 in blind:
+                raise PerceptionError("no frame: the camera is out")
             crop, depth = self._window_frame()
             if self.depth_noise is not None:
                 depth = self.depth_noise.apply(depth, self.rng)
@@ -402,18 +405,20 @@ class LineCameraPerception:
             raise InvalidInput("cameras", "at least one camera's perception", cameras)
         self.cameras = tuple(cameras)
 
-    def observe(self, t: float) -> list[Detection]:
+    def observe(self, t: float, blind: frozenset[int] = frozenset()) -> list[Detection]:
         """Every camera's frame of time `t` [s]; their detections, each marked with its camera.
 
         Args:
             t: Simulated time [s].
+            blind: The cameras out (no frame: their rows read empty), 0 upstream.
 
         Returns:
             The detections of every camera, upstream camera first.
         """
         out = []
         for index, camera in enumerate(self.cameras):
-            out += [replace(det, camera=index) for det in camera.observe(t)]
+            seen = camera.observe(t, frozenset({0}) if index in blind else frozenset())
+            out += [replace(det, camera=index) for det in seen]
         return out
 
     @property

@@ -193,6 +193,17 @@ class Tracker:
         """Forget a track (picked, or gone past the robot)."""
         return self._tracks.pop(track_id, None)
 
+    def rebase(self, t: float, belt_speed: float) -> None:
+        """The belt runs at `belt_speed` [m/s] from sim time `t` [s] on: every track is placed
+        where the old speed has carried it by `t`, and moves on at the new one."""
+        for track in self._tracks.values():
+            track.x0, track.t0 = track.x_at(t, self.belt_speed), t
+        self.belt_speed = float(belt_speed)
+
+    def restore(self, track: Track) -> None:
+        """Track `track` again (removed for a pick that was given up: its item is offered again)."""
+        self._tracks[track.track_id] = track
+
     def remove_true(self, true_id: int) -> list[Track]:
         """Forget and return the tracks of simulator item `true_id` (truth mode; none
         otherwise)."""

@@ -37,9 +37,13 @@ class TruthPerception:
         self.half_width = items.pool.belt.geometry.y_half
         """Half the belt's width [m] (the model's): items beyond it are off the belt."""
         self.rows = self.unobserved = 0
+        self.seen: set[int | None] = set()  # the items reported, the camera working
+        self.unseen: set[int | None] = set()  # items that crossed the line while it was out
 
-    def observe(self, t: float) -> list[Detection]:
-        """Every item on the belt past the camera line, where the simulation has it now."""
+    def observe(self, t: float, blind: frozenset[int] = frozenset()) -> list[Detection]:
+        """Every item on the belt past the camera line, where the simulation has it now; none
+        while the camera (0) is in `blind` (an outage), and never an item that crossed the line
+        during one (the camera line sees an item as it crosses)."""
         self.rows += 1
         out = []
         for slot in self.items.active_slots():
@@ -50,6 +54,12 @@ class TruthPerception:
                 cls = int(self.flow.class_id[item_id])
                 probs = one_hot(cls, self.n_states)
                 out.append(Detection(t, float(x), float(y), probs, true_id=item_id))
+        if 0 in blind:
+            self.unseen |= {d.true_id for d in out} - self.seen
+            return []
+        if self.unseen:
+            out = [d for d in out if d.true_id not in self.unseen]
+        self.seen.update(d.true_id for d in out)
         return out
 
     def close(self) -> None:
