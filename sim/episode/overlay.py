@@ -83,9 +83,8 @@ def bin_labels(parts) -> list[BinLabel]:
 
 def fault_lines(parts, t: float) -> list[str]:
     """The counters' line of the faults active at `t` [s] (`sim.config.faults.Fault.label`),
-    none while nothing has failed (the parts' schedule, `faults`)."""
-    schedule = getattr(parts, "faults", None)
-    active = schedule.active(t) if schedule is not None else ()
+    none while nothing has failed (`parts.faults`)."""
+    active = parts.faults.active(t)
     return ["fault: " + "; ".join(f.label() for f in active)] if active else []
 
 

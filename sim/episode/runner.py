@@ -258,7 +258,7 @@ def episode_row(parts: EpisodeParts, planner: str, variant: str, wall_s: float) 
         "real_time_factor": sim_s / wall_s if wall_s > 0 else 0.0,
         **metrics.line_row(sim_s, energies, config.coordination),
         "code_digest": code_digest(),
-        **downtime_row(getattr(parts, "faults", None), config.robot_count, sim_s),
+        **downtime_row(parts.faults, config.robot_count, sim_s),
     }
     feed_s = min(config.duration_s, config.horizon_s or config.duration_s)  # items fed [s]
     return row | per_hour_columns(row, feed_s, config.robot_count, _economics(config))

@@ -150,16 +150,16 @@ class TimelineEvent:
 
 def timeline_sample(parts: EpisodeParts, t: float) -> dict:
     """The episode's timeline row at sim time `t` [s] (`sim.results.timeline.timeline_row`):
-    the faults from the parts' schedule (`faults`, none without one)."""
-    schedule = getattr(parts, "faults", None)
+    the faults active then (`parts.faults`)."""
+    schedule = parts.faults
     states = [timeline.robot_state(s.robot.busy, s.index, t, schedule) for s in parts.stations]
-    active = schedule.active(t) if schedule is not None else ()
+    active = schedule.active(t)
     on_belt = len(parts.cell.items.active_slots()) + len(parts.metrics.left_on_belt)
     return timeline.timeline_row(t, parts.metrics, on_belt, states, active)
 
 
 class Scheduler:
-    """The events of an parts, in the order they fire when due together."""
+    """The events of an episode, in the order they fire when due together."""
 
     def __init__(self):
         self.events: list[Event] = []
