@@ -48,3 +48,25 @@ def items_sorted_by(
     if class_ids is None:
         return list(items)
     return [item for item in items if sorts(class_ids, item)]
+
+
+def covering_stopped(
+    class_ids: Sequence[frozenset[int] | None], stopped: Iterable[int]
+) -> tuple[frozenset[int] | None, ...]:
+    """Each robot's classes while the robots `stopped` (indices) are stopped: every robot still
+    running takes the stopped robots' materials too (a line's robots each have a bin for every
+    material), so their items are not lost for want of a sorter; a stopped robot keeps its own.
+
+    Args:
+        class_ids: Per robot, the material class ids it sorts (None: every material).
+        stopped: The indices of the robots stopped now.
+    """
+    down = set(stopped)
+    if not down:
+        return tuple(class_ids)
+    if any(class_ids[k] is None for k in down):
+        return tuple(ids if k in down else None for k, ids in enumerate(class_ids))
+    taken = frozenset().union(*(class_ids[k] or frozenset() for k in down))
+    return tuple(
+        ids if k in down or ids is None else ids | taken for k, ids in enumerate(class_ids)
+    )

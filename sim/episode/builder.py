@@ -19,7 +19,7 @@ from sim.cell.depth_noise import ZED_CLASS
 from sim.cell.riding import ItemRiding
 from sim.cell.suction import SuctionConfig
 from sim.config import EpisodeConfig
-from sim.config.faults import FaultSchedule
+from sim.config.faults import FaultSchedule, check_perception
 from sim.episode import item_checks
 from sim.episode.cycle_timing import cell_cycle_model
 from sim.episode.faults.cell_faults import CellFaults
@@ -41,8 +41,6 @@ from sim.sensing.truth import TruthPerception
 
 CHECK_PERIOD_S = 0.02
 """How often items leaving the belt, landing in bins or falling are looked for [s]."""
-BELT_FAULTS = ("belt_stop", "belt_speed")
-"""Fault kinds run with truth perception only: the camera's rows assume the belt's set speed."""
 _OBJECTIVES = {"value_over_distance": "v/d", "value_only": "d=1", "distance_only": "v=1"}
 
 
@@ -283,10 +281,7 @@ def build_parts(
     schedule = fault_schedule(config, faults)
     cameras = config.camera_count
     schedule.check_cell(config.robot_count, cameras, None)
-    belt = [f.kind for f in schedule.faults if f.kind in BELT_FAULTS]
-    if belt and config.perception != "truth":
-        allowed = "truth perception (the camera's rows assume a belt at its set speed)"
-        raise InvalidInput(f"faults.{belt[0]}", allowed, config.perception)
+    check_perception(schedule, config.perception)
     speed = config.belt_speed_mps
     cell.reset(speed)
     flow = episode_flow(config, cell)

@@ -14,6 +14,7 @@ import numpy as np
 
 from planner.decision.interface import Choice, DecisionContext, TrackedItem
 from planner.decision.line_coordination import LineRobot, offered_items
+from planner.decision.robot_materials import covering_stopped
 from sim.cell.riding import PlannedPath
 from sim.cell.suction import SuctionEvent
 from sim.episode.pick_control import PickController, PickOutcome
@@ -138,10 +139,14 @@ def line_offer(
         items: The tracked items.
         t: Sim time now [s].
         coordination: "independent" or "coordinated".
-        robot_class_ids: Per robot, the material class ids it sorts (None: every material).
+        robot_class_ids: Per robot, the material class ids it sorts (None: every material);
+            while a robot is stopped the others take its materials too
+            (`planner.decision.robot_materials.covering_stopped`).
     """
     if len(stations) <= 1 or not items:
         return items
+    stopped = [s.index for s in stations if s.stopped_until > t]
+    classes = covering_stopped(robot_class_ids, stopped)  # a stopped robot's items re-offered
     line = []
     for s in stations:
         if s.robot.busy:
@@ -150,7 +155,7 @@ def line_offer(
         else:
             free_at = t
         free_at = max(free_at, s.stopped_until)  # a stopped robot is free once restarted
-        line.append(LineRobot(s.context, max(free_at, t), robot_class_ids[s.index]))
+        line.append(LineRobot(s.context, max(free_at, t), classes[s.index]))
     return offered_items(coordination, items, line, station.index, t, station.mean_pick_s)
 
 
