@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from sim.cell.cell import Cell
 from sim.config import EpisodeConfig
 from sim.config.plant import CellSettings
+from sim.episode.builder import belt_delay_s
 from sim.episode.loop import Episode, make_decision_manager
 from sim.episode.parts import EpisodeParts
 from sim.episode.scheduler import timeline_sample
@@ -260,5 +261,7 @@ def episode_row(parts: EpisodeParts, planner: str, variant: str, wall_s: float) 
         "code_digest": code_digest(),
         **downtime_row(parts.faults, config.robot_count, sim_s),
     }
-    feed_s = min(config.duration_s, config.horizon_s or config.duration_s)  # items fed [s]
+    # How long the items were fed [s]: a belt stopped or slowed stretched the feed with it.
+    fed = config.duration_s + belt_delay_s(parts.faults)
+    feed_s = min(fed, config.horizon_s or fed)
     return row | per_hour_columns(row, feed_s, config.robot_count, _economics(config))
