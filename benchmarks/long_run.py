@@ -138,6 +138,9 @@ def main(argv: list[str] | None = None) -> int:
     with PickStream(out / "picks.csv") as picks:
         result = run_episode(config, progress=sampler, picks=picks)
         picks.land()
+    if not sampler.points or sampler.points[-1]["t"] < end_s:  # the shift's end: its last line
+        sampler.peak_mb = max(sampler.peak_mb, rss_mb())
+        sampler.point(end_s)
     row = result.episode_row
     print(
         f"entered {row['entered']}, picked {row['picked']}, missed {row['missed']}, dropped "
