@@ -89,9 +89,9 @@ def test_a_shift_file_loads_writes_back_and_draws_by_seed(shift):
 
 def test_the_end_is_the_horizon_when_set_and_the_cameras_the_lines():
     stop = Fault("belt_stop", 50.0, 5.0)
-    assert EpisodeConfig(faults=(stop,)).end_s == 90.0
+    assert EpisodeConfig(faults=(stop,), perception="truth").end_s == 90.0
     with pytest.raises(InvalidInput) as err:
-        EpisodeConfig(faults=(stop,), horizon_s=40.0)
+        EpisodeConfig(faults=(stop,), horizon_s=40.0, perception="truth")
     assert str(err.value).startswith("faults.belt_stop.start_s") and "40 s" in str(err.value)
     outage = Fault("camera_outage", 10.0, 5.0, camera=1)
     line = {"robots": 2, "perception": "camera"}

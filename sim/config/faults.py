@@ -49,6 +49,20 @@ FAULT_STREAM = 48
 """The random faults' own stream of the episode's seed (the flow's draws stay as they are)."""
 
 
+def _check_kind_value(
+    kind: str, field: str, speed_factor: float | None, vacuum_pa: float | None
+) -> None:
+    """Refuse in one line a `belt_speed` fault's factor outside `SPEED_FACTOR_RANGE` or a
+    `vacuum_drop`'s vacuum that is not a positive number [Pa] (`field`: the key's prefix)."""
+    if kind == "belt_speed":
+        lo, hi = SPEED_FACTOR_RANGE
+        ok = is_finite_number(speed_factor) and lo <= speed_factor <= hi
+        check(ok, f"{field}.speed_factor", f"{lo:g}..{hi:g}", speed_factor)
+    if kind == "vacuum_drop":
+        ok = is_finite_number(vacuum_pa) and vacuum_pa > 0
+        check(ok, f"{field}.vacuum_pa", "a vacuum > 0 Pa", vacuum_pa)
+
+
 @dataclass(frozen=True)
 class Fault:
     """One fault: `kind` over [start_s, start_s + duration_s) [s], on the part its keys name.
@@ -90,13 +104,7 @@ class Fault:
         if self.kind == "camera_outage" and self.camera is not None:
             ok = is_integer(self.camera) and self.camera >= 0
             check(ok, f"{field}.camera", "a camera's index, 0 upstream; left out: all", self.camera)
-        if self.kind == "belt_speed":
-            lo, hi = SPEED_FACTOR_RANGE
-            ok = is_finite_number(self.speed_factor) and lo <= self.speed_factor <= hi
-            check(ok, f"{field}.speed_factor", f"{lo:g}..{hi:g}", self.speed_factor)
-        if self.kind == "vacuum_drop":
-            ok = is_finite_number(self.vacuum_pa) and self.vacuum_pa > 0
-            check(ok, f"{field}.vacuum_pa", "a vacuum > 0 Pa", self.vacuum_pa)
+        _check_kind_value(self.kind, field, self.speed_factor, self.vacuum_pa)
 
     def _keys(self) -> str:
         return ", ".join(("kind", "start_s", "duration_s", *KIND_KEYS[self.kind]))
@@ -242,13 +250,7 @@ class RandomFaults:
             if key not in own:
                 allowed = "only the keys " + ", ".join(("mtbf_s", "mttr_s", *own))
                 check(getattr(self, key) is None, f"{field}.{key}", allowed, getattr(self, key))
-        if self.kind == "belt_speed":
-            lo, hi = SPEED_FACTOR_RANGE
-            ok = is_finite_number(self.speed_factor) and lo <= self.speed_factor <= hi
-            check(ok, f"{field}.speed_factor", f"{lo:g}..{hi:g}", self.speed_factor)
-        if self.kind == "vacuum_drop":
-            ok = is_finite_number(self.vacuum_pa) and self.vacuum_pa > 0
-            check(ok, f"{field}.vacuum_pa", "a vacuum > 0 Pa", self.vacuum_pa)
+        _check_kind_value(self.kind, field, self.speed_factor, self.vacuum_pa)
 
     def draw(self, rng: np.random.Generator, parts: tuple, end_s: float) -> list[Fault]:
         """This kind's faults on each of `parts` (robot or camera indices; (None,) for the belt
