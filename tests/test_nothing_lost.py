@@ -174,11 +174,12 @@ def test_a_disk_that_fills_during_the_run_keeps_the_results_elsewhere(tmp_path, 
     assert record["folder"] == str(small / "run")
     restored = outputs.restore_unwritten(kept, tmp_path / "restored")
     kept.unlink()
-    assert [p.name for p in restored] == ["episodes.csv", "picks.csv", "manifest.json"]
-    for name in ("episodes.csv", "picks.csv"):
+    names = ["episodes.csv", "picks.csv", "timeline.csv", "manifest.json"]
+    assert [p.name for p in restored] == names
+    for name in ("episodes.csv", "picks.csv", "timeline.csv"):
         assert _rows(tmp_path / "restored" / name) == _rows(reference / name)
     manifest = json.loads((tmp_path / "restored" / "manifest.json").read_text())
-    assert set(manifest["files"]) == {"episodes.csv", "picks.csv"}
+    assert set(manifest["files"]) == {"episodes.csv", "picks.csv", "timeline.csv"}
 
 
 def test_files_land_together_or_not_at_all(tmp_path, monkeypatch):

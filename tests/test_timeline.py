@@ -49,7 +49,7 @@ def test_rows_add_up_and_the_episode_is_the_same_with_them(cell, tmp_path):
     episode = _episode(cell)
     episode.scheduler.add(TimelineEvent(period, both))
     episode.run()
-    writer.close()
+    writer.land(tmp_path / "t.csv")
     assert episode.metrics.pick_rows() == plain.metrics.pick_rows()  # to the bit
     assert episode.metrics.row() == plain.metrics.row()
     assert float(episode.data.time) == float(plain.data.time)
@@ -84,13 +84,14 @@ def test_the_runs_last_row_is_the_episodes_end(cell, tmp_path):
 
 
 def test_rows_are_on_disk_as_soon_as_they_are_made(tmp_path):
-    path = tmp_path / "timeline.partial.csv"
-    writer = TimelineWriter(path, timeline_columns(2))
+    writer = TimelineWriter(tmp_path / "timeline.csv", timeline_columns(2))
     row = {"t_s": 10.0, "entered": 3, "picked": 1, "missed": 0, "wrong_bin": 0, "dropped": 0}
     row |= {"profit_eur": 0.25, "on_belt": 2, "robot_0_state": "idle"}
     row |= {"robot_1_state": "stopped", "faults": "robot_stop 1; belt_stop"}
     writer(row)
-    text = path.read_text()  # not closed: a run stopped now leaves this
+    [staged] = [p for p in tmp_path.iterdir() if p.name.startswith(".timeline.csv")]
+    text = staged.read_text()  # not closed: the rows are on the disk already
+    assert writer.land(tmp_path / timeline.INTERRUPTED_FILE).read_text() == text  # Ctrl-C
     assert text == (
         "t_s,entered,picked,missed,wrong_bin,dropped,profit_eur,on_belt,robot_0_state,"
         "robot_1_state,faults\n10.000,3,1,0,0,0,0.2500,2,idle,stopped,robot_stop 1; belt_stop\n"

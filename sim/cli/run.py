@@ -1,23 +1,23 @@
 """`sortsim run`: one closed-loop episode of the sorting cell.
 
-Writes `<out>/episodes.csv`, `<out>/picks.csv`, `<out>/timeline.csv` (`sim.results.timeline`;
-streamed into `timeline.partial.csv` while the episode runs, which a stopped run leaves) and,
-with `--video`, the MP4; prints a progress line on stderr while it runs and a one-screen
-summary at the end. Everything is checked before
-anything is simulated (`preflight`): the config (TOML and options), the output folder and video
-path (creatable, writable, not a folder), and for camera perception or a video the rendering
-back-end, the camera's calibration, the cached stripe HMMs and the video encoder. A refused
-value exits with code 2 and one line naming it, and nothing is written. Temporaries a killed
-run left behind are removed when the next run starts.
+Writes `<out>/episodes.csv`, `<out>/picks.csv`, `<out>/timeline.csv` (`sim.results.timeline`; picks
+and timeline streamed while the episode runs: Ctrl-C leaves them in `picks.interrupted.csv` and
+`timeline.interrupted.csv`) and, with `--video`, the MP4; prints a progress line on stderr while it
+runs and a one-screen summary at the end. Everything is checked before anything is simulated
+(`preflight`): the config (TOML and options), the output folder and video path (creatable,
+writable, not a folder), and for camera perception or a video the rendering back-end, the camera's
+calibration, the cached stripe HMMs and the video encoder. A refused value exits with code 2 and
+one line naming it, and nothing is written. Temporaries a killed run left behind are removed when
+the next run starts.
 
-The folder is locked while the run uses it (`sim.results.locks.FolderLock`): a second run or
-sweep into it is refused in one line (exit 2) before any work, and a sweep's folder is refused
-too (a run would replace its rows). The files land together (`write_run`: written to
-temporaries, renamed into place, the manifest last); when they cannot be written (a full disk)
-their texts are kept as JSON elsewhere (`sim.results.outputs.keep_unwritten`), one line says
-where, and the exit code is 1. A video that fails (its disk full, its encoder gone) never costs
-the CSVs: the episode runs on without it (`KeptVideo`), the CSVs are written, one line says the
-video failed, and the exit code is 1.
+The folder is locked while the run uses it (`sim.results.locks.FolderLock`): a second run or sweep
+into it is refused in one line (exit 2) before any work, and a sweep's folder is refused too (a run
+would replace its rows). The files land together (`write_run`: written to temporaries, renamed into
+place, the manifest last); when they cannot be written (a full disk) their texts are kept as JSON
+elsewhere (`sim.results.outputs.keep_unwritten`), one line says where, and the exit code is 1. A
+video that fails (its disk full, its encoder gone) never costs the CSVs: the episode runs on
+without it (`KeptVideo`), the CSVs are written, one line says the video failed, and the exit code
+is 1.
 """
 
 from __future__ import annotations
@@ -190,10 +190,10 @@ def preflight(config, out: Path, video: str | Path | None) -> None:
         video: The MP4 path as given (a trailing separator means a folder), or None.
     """
     from sim.results import outputs
-    from sim.results.timeline import PARTIAL_FILE, TIMELINE_FILE
+    from sim.results.timeline import INTERRUPTED_FILE, TIMELINE_FILE
 
     outputs.check_output_dir(out, "--out")
-    for name in ("episodes.csv", "picks.csv", TIMELINE_FILE, PARTIAL_FILE):
+    for name in ("episodes.csv", "picks.csv", TIMELINE_FILE, INTERRUPTED_FILE):
         outputs.check_output_file(out / name, "--out")
     if (out / SWEEP_FILE).exists():
         from sim.errors import InvalidInput
@@ -268,14 +268,13 @@ def main(args: argparse.Namespace) -> int:
                 print(summary(result))
                 try:
                     written = write_run(out, config, result, picks, timeline)
-                    timeline.path.unlink(missing_ok=True)
                 except OutputError as exc:  # the one line names the video's failure too
                     if video is None or video.failure is None:
                         raise
                     too = f"the video {video_path} failed too ({video.failure})"
                     raise OutputError(f"{exc}; {too}") from None
         finally:
-            timeline.close()  # stopped or failed: timeline.partial.csv keeps the rows so far
+            timeline.close()  # its temporary removed unless it landed
     if video is not None and video.failure is None:
         assert video_path is not None  # a video is made only to a path
         written.append(video_path)
@@ -288,11 +287,11 @@ def main(args: argparse.Namespace) -> int:
 
 
 def open_timeline(out: Path, config):
-    """The timeline's writer, streaming its rows into `out`/timeline.partial.csv."""
-    from sim.results.timeline import PARTIAL_FILE, TimelineWriter, timeline_columns
+    """The timeline's writer, streaming its rows into a temporary beside `out`/timeline.csv."""
+    from sim.results.timeline import TIMELINE_FILE, TimelineWriter, timeline_columns
 
     out.mkdir(parents=True, exist_ok=True)
-    return TimelineWriter(out / PARTIAL_FILE, timeline_columns(config.robot_count))
+    return TimelineWriter(out / TIMELINE_FILE, timeline_columns(config.robot_count))
 
 
 def run_streamed(config, video_path: Path | None, progress, picks, out: Path, timeline=None):
@@ -310,6 +309,11 @@ def run_streamed(config, video_path: Path | None, progress, picks, out: Path, ti
             progress.done()
         where = picks.land(out / INTERRUPTED_PICKS)
         print(f"sortsim run: the {picks.rows} picks finished are in {where}", file=sys.stderr)
+        if timeline is not None:
+            from sim.results.timeline import INTERRUPTED_FILE
+
+            where = timeline.land(out / INTERRUPTED_FILE)
+            print(f"sortsim run: the timeline so far is in {where}", file=sys.stderr)
         raise
 
 
@@ -398,6 +402,7 @@ def write_run(out: Path, config, result, picks=None, streamed=None) -> list[Path
         message = f"could not write the results into {out} ({reason}); {where}"
         raise outputs.OutputError(message) from None
     (out / outputs.INTERRUPTED_PICKS).unlink(missing_ok=True)  # an earlier run's, stopped
+    (out / timeline.INTERRUPTED_FILE).unlink(missing_ok=True)
     return written
 
 

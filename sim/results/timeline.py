@@ -6,17 +6,17 @@ those left on the belt at the horizon), each robot's state (picking | idle | sto
 faults active then (their labels, `sim.config.faults.Fault.label`, joined by "; "). The counts
 add up in every row: entered = picked + missed + dropped + on_belt.
 
-Rows are streamed to disk as they are made (`TimelineWriter`: each written and flushed), into
-`timeline.partial.csv` beside the run's files: a run stopped by Ctrl-C or killed leaves the
-rows made so far there. A run that finishes writes `timeline.csv` with its other files (one
-unit, `sim.results.outputs.write_together`) and removes the partial file.
+Rows are streamed to disk as they are made (`TimelineWriter`, as picks.csv's rows are): a run
+stopped by Ctrl-C leaves the rows made so far in `timeline.interrupted.csv`; a run that
+finishes writes `timeline.csv` with its other files (one unit,
+`sim.results.outputs.write_together`); a disk that fills keeps them in memory, and with the
+run's other results elsewhere.
 """
 
 from __future__ import annotations
 
 import csv
 import io
-import os
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
@@ -24,9 +24,8 @@ from typing import Any
 from sim.config.faults import FAULT_KINDS, FaultSchedule, availability
 
 TIMELINE_FILE = "timeline.csv"
-PARTIAL_FILE = "timeline.partial.csv"
-"""Where the rows go while the episode runs (what a stopped run leaves)."""
-"""The timeline's period when the config has no `[timeline] period_s` [s]."""
+INTERRUPTED_FILE = "timeline.interrupted.csv"
+"""Where a stopped `sortsim run` leaves the timeline's rows so far."""
 ROBOT_STATES = ("picking", "idle", "stopped")
 COUNT_COLUMNS = ("entered", "picked", "missed", "wrong_bin", "dropped")
 DECIMALS = {"t_s": 3, "profit_eur": 4}
@@ -77,38 +76,45 @@ def format_cell(column: str, value: Any) -> str:
 
 
 class TimelineWriter:
-    """Rows streamed to a CSV file, each flushed to the OS as it is written; only the last is
-    kept (`last`), so a shift's timeline takes no memory as it grows. `kept` is empty.
+    """Rows streamed to the disk as they are made (`sim.results.outputs.PickStream`: a hidden
+    temporary beside timeline.csv, whole rows only, in memory once the disk fills); only the
+    last row is kept (`last`), so a shift's timeline takes no memory as it grows. `kept` is
+    empty. `finish()` hands the rows to `write_together`; `land(path)` renames the rows so far
+    on their own (a stopped run's `INTERRUPTED_FILE`); `close()` removes a temporary that did
+    not land.
 
     Args:
-        path: The file (created or emptied now; its folder must exist).
+        path: The timeline.csv it stands for.
         columns: Its columns.
     """
 
     def __init__(self, path: Path | str, columns: Sequence[str]):
+        from sim.results.outputs import PickStream
+
         self.path, self.columns = Path(path), tuple(columns)
         self.last: dict[str, Any] | None = None
         self.kept: list[dict[str, Any]] = []
-        self._file = self.path.open("w", newline="", encoding="utf-8")
-        self._csv = csv.writer(self._file, lineterminator="\n")
-        self._csv.writerow(self.columns)
-        self._file.flush()
+        self._stream = PickStream(self.path, self.columns).__enter__()
 
     def __call__(self, row: dict[str, Any]) -> None:
-        """Write `row` and flush it."""
+        """Write `row` (its cells as `format_cell` writes them) whole."""
         self.last = row
-        self._csv.writerow([format_cell(c, row.get(c, "")) for c in self.columns])
-        self._file.flush()
+        self._stream.write_row({c: format_cell(c, row.get(c, "")) for c in self.columns})
 
-    def finish(self) -> Path:
-        """The file, synced to disk and closed: ready to be renamed into place."""
-        self._file.flush()
-        os.fsync(self._file.fileno())
-        self._file.close()
-        return self.path
+    def text(self) -> str:
+        """The CSV text of the rows so far."""
+        return self._stream.text()
+
+    def finish(self) -> Path | str:
+        """The rows, ready for `write_together`: the synced temporary, or their text."""
+        return self._stream.finish()
+
+    def land(self, path: Path | str) -> Path:
+        """Rename the rows so far into `path` on their own."""
+        return self._stream.land(path)
 
     def close(self) -> None:
-        self._file.close()
+        self._stream.__exit__(None, None, None)
 
 
 class RowList:
