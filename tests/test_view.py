@@ -2,8 +2,7 @@
 
 The slow test starts its own Xvfb, runs a short truth episode in the viewer, grabs the X
 display's pixels while the window shows the cell, and checks the picture and the exit code.
-It is skipped where Xvfb is not installed (Debian: apt-get install xvfb); `.ci/run` installs
-it, and says so when it cannot.
+It is skipped where Xvfb is not installed (Debian: apt-get install xvfb).
 """
 
 from __future__ import annotations
