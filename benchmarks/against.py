@@ -121,10 +121,12 @@ def command(case: Case, seed: int, out: Path, line_config: Path) -> list[str]:
 
 
 def rows_without_wall(path: Path) -> list[dict]:
-    """The rows of a CSV without its wall-clock columns."""
+    """The rows of a CSV without its wall-clock columns and its code digest (a digest of the
+    code that ran: it differs between two commits by design)."""
     with path.open(newline="") as f:
         rows = list(csv.DictReader(f))
-    wall = {k for k in (rows[0] if rows else {}) if k.startswith("wall") or k == "real_time_factor"}
+    apart = ("real_time_factor", "code_digest")
+    wall = {k for k in (rows[0] if rows else {}) if k.startswith("wall") or k in apart}
     return [{k: v for k, v in row.items() if k not in wall} for row in rows]
 
 
