@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import pytest
 
+from planner.decision.registry import make_planner
+from planner.errors import PlannerInputError
 from sim.config import from_dict
 from sim.config.migration import migrated
 from sim.errors import InvalidInput
@@ -63,3 +65,12 @@ def test_an_old_manifest_with_the_robot_section_repeats_its_run_byte_for_byte(tm
     assert (first / "picks.csv").read_bytes() == (again / "picks.csv").read_bytes()
     a, b = (outputs.strip_wall_clock((d / "episodes.csv").read_text()) for d in (first, again))
     assert a == b
+
+
+def test_a_file_naming_the_planner_oracle_runs_seen_best():
+    """`oracle` was `seen_best`'s name: an old file or manifest naming it still loads, as
+    `seen_best`; the registry refuses the old name."""
+    old = {"planner": "oracle", "perception": "truth"}
+    assert from_dict(old) == from_dict({**old, "planner": "seen_best"})
+    with pytest.raises(PlannerInputError, match="seen_best"):
+        make_planner("oracle")

@@ -45,14 +45,14 @@ def test_oracle_bounds_the_planners_on_200_held_out_belts():
     assert summary["qlearning"][2] > summary["proximity"][2]
 
 
-def test_the_oracle_plays_its_own_bound():
-    """Replanning over what it sees, the oracle planner reaches the bound on belts it sees
+def test_seen_best_plays_the_oracle_bound_on_belts_seen_whole():
+    """Replanning over what it sees, seen_best reaches the bound on belts it sees
     whole (every item in view, at most 12 items)."""
     for seed in range(5):
         belt = short_belt(seed, items=(6, 9))
         ctx = cell_context(belt.speed)
         bound = oracle_bound(belt, ctx).profit
-        played = simulate(make_planner("oracle"), belt, ctx, view_start=-10.0).profit
+        played = simulate(make_planner("seen_best"), belt, ctx, view_start=-10.0).profit
         assert played == pytest.approx(bound, abs=1e-9)
 
 

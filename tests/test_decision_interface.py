@@ -71,7 +71,7 @@ def test_registry_builds_every_planner_and_refuses_unknown_names_and_options():
         make_planner("randomly")
     assert err.value.allowed == (
         "qlearning | rollout | lookahead | learned | proximity | fifo | greedy | random | "
-        "oracle | module:Class "
+        "seen_best | module:Class "
         "(a class with choose() and reset())"
     )
     with pytest.raises(PlannerInputError) as err:
@@ -80,7 +80,7 @@ def test_registry_builds_every_planner_and_refuses_unknown_names_and_options():
     with pytest.raises(PlannerInputError):
         make_planner("proximity", gamma=0.9)
     with pytest.raises(PlannerInputError):
-        make_planner("oracle", max_items=0)
+        make_planner("seen_best", max_items=0)
     assert make_planner("qlearning", gamma=0.5, objective="d=1").config.gamma == 0.5
     assert make_planner("qlearning", seed=7).config.seed == 7
     assert make_planner("rollout", gamma=0.5, episode_starts=0).config.episode_starts == 0
@@ -133,7 +133,7 @@ def test_expected_value_ranks_a_confident_aluminium_above_an_uncertain_one():
         ("rollout", {}),
         ("lookahead", {}),
         ("greedy", {}),
-        ("oracle", {}),
+        ("seen_best", {}),
     ]:
         items = [uncertain, TrackedItem(1, 0.0, -0.1, confident.class_probs)]
         assert make_planner(name, **kw).choose(items, robot, ctx).item_id == 1, name

@@ -47,7 +47,7 @@ def test_far_aluminium_about_to_leave_versus_two_near_papers():
     assert best.sequence == (0, 2, 1) and best.exact
     assert best.profit == pytest.approx(0.22 + 0.27 + 0.22)
     profit = {n: simulate(make_planner(n), belt, ctx, PAPER_BIN).profit for n in PLANNERS}
-    for name in ("oracle", "fifo", "lookahead"):
+    for name in ("seen_best", "fifo", "lookahead"):
         assert profit[name] == pytest.approx(0.71), name
     for name in ("proximity", "rollout", "greedy"):
         assert profit[name] == pytest.approx(0.44), name
@@ -60,7 +60,7 @@ def test_far_aluminium_about_to_leave_versus_two_near_papers():
 
 def test_item_about_to_leave_the_window():
     """A plastic sits next to the robot; a paper is 0.1 m (0.54 s of belt travel) from the
-    window's downstream edge on the far side. FIFO and the oracle go for the paper first and
+    window's downstream edge on the far side. FIFO and seen_best go for the paper first and
     lose nothing; proximity, the rollout and greedy take the plastic and lose the paper."""
     ctx = cell_context(V)
     start = (-0.21, 0.51, 0.06)  # plastic bin
@@ -70,11 +70,11 @@ def test_item_about_to_leave_the_window():
     met = intercept(ctx, start, 0.0, leaving[0], leaving[1])
     assert met is not None and not met[2]  # reachable now, without waiting
     first = _first_choices(belt, ctx, start)
-    assert first["fifo"] == first["oracle"] == first["lookahead"] == 0
+    assert first["fifo"] == first["seen_best"] == first["lookahead"] == 0
     assert first["proximity"] == first["rollout"] == first["greedy"] == 1
     profit = {n: simulate(make_planner(n), belt, ctx, start).profit for n in PLANNERS}
     assert profit["fifo"] == pytest.approx(0.22 + 0.25 + 0.25)
-    assert profit["oracle"] == profit["lookahead"] == pytest.approx(0.72)
+    assert profit["seen_best"] == profit["lookahead"] == pytest.approx(0.72)
     for name in ("proximity", "rollout", "greedy"):
         assert profit[name] == pytest.approx(0.50), name
     assert len(set(_qlearning_firsts(belt, ctx, start))) > 1

@@ -36,8 +36,8 @@ import math
 import time
 from dataclasses import dataclass
 
-from planner.decision.candidates import Candidate, candidates, choice_of, exit_time, intercept
-from planner.decision.interface import Choice, DecisionContext, RobotState, TrackedItem
+from planner.decision.candidates import exit_time, intercept
+from planner.decision.interface import DecisionContext, RobotState, TrackedItem
 from planner.errors import PlannerInputError
 from planner.motion.cycle_model import CycleTimeModel, jerk_limited_time
 from planner.motion.straight_line_timing import StraightLineCycleModel
@@ -160,8 +160,8 @@ class _Stop(Exception):
 
 
 class SequenceSearch:
-    """Branch and bound over the pick orders of a fixed set of items (shared by the oracle and
-    the look-ahead planner).
+    """Branch and bound over the pick orders of a fixed set of items (shared by `best_sequence`,
+    the `seen_best` planner and the look-ahead planner).
 
     Args:
         items: Items on the belt, x at robot.time [m].
@@ -463,43 +463,3 @@ def best_sequence(
         raise PlannerInputError("max_nodes", "an integer >= 1 or None", max_nodes)
     search = SequenceSearch(items, values, bin_classes, robot, context)
     return search.plan(search.run(max_nodes=max_nodes))
-
-
-class OraclePlanner:
-    """Replans the best sequence over the items in view at every decision; takes its first pick.
-
-    With one-hot (truth) probabilities it plays the exact optimum of the items it sees; with
-    class probabilities it optimises expected value. `max_items` caps the search (the most
-    urgent feasible items are kept) because it is exponential in the worst case.
-    """
-
-    name = "oracle"
-
-    def __init__(self, max_items: int = 12):
-        if isinstance(max_items, bool) or not isinstance(max_items, int) or max_items < 1:
-            raise PlannerInputError("max_items", "an integer >= 1", max_items)
-        self.max_items = max_items
-
-    def reset(self) -> None:
-        """Stateless: replans from scratch at every decision."""
-
-    def choose(
-        self, items: list[TrackedItem], robot: RobotState, context: DecisionContext
-    ) -> Choice | None:
-        """First pick of the best sequence over (at most max_items of) the feasible items."""
-        cands: list[Candidate] = candidates(items, robot, context)[: self.max_items]
-        if not cands:
-            return None
-        plan = best_sequence(
-            [c.item for c in cands],
-            [c.expected_value for c in cands],
-            [c.bin_class for c in cands],
-            robot,
-            context,
-        )
-        if not plan.sequence:
-            return None
-        first = next(c for c in cands if c.item.item_id == plan.sequence[0])
-        return choice_of(
-            first, f"best sequence of {len(plan.sequence)} picks, {plan.profit:.2f} EUR"
-        )

@@ -3,7 +3,7 @@
 `make_planner('qlearning', gamma=0.9)` builds a built-in manager (qlearning: the thesis's algorithm;
 rollout: our timed rollout over its reward; lookahead: our budgeted branch and bound; proximity,
 fifo, greedy; random: a uniform draw among the items the cup can meet, the thesis's "random picker";
-oracle: exact search over the items in view). `make_planner('mymod:MyPlanner')` (or
+seen_best: the best order over the items in view, replanned at each decision: no bound). `make_planner('mymod:MyPlanner')` (or
 `path/to/file.py:MyPlanner`) imports the user's class and builds it with no arguments. A user's
 class implements `planner.decision.interface.DecisionManager`: a `choose(items, robot, context)`
 returning a `Choice` or None, and a `reset()` called at the start of every episode; its `name`
@@ -41,7 +41,7 @@ _BUILT_IN = {
     "fifo": "planner.decision.managers.fifo:FifoPlanner",
     "greedy": "planner.decision.managers.greedy:GreedyPlanner",
     "random": "planner.decision.managers.random_pick:RandomPlanner",
-    "oracle": "planner.decision.oracle:OraclePlanner",
+    "seen_best": "planner.decision.managers.seen_best:SeenBestPlanner",
 }
 PLANNERS = tuple(_BUILT_IN)
 """The built-in decision managers' names."""
@@ -130,7 +130,7 @@ def _built_in(name: str) -> tuple[type, tuple[str, ...]]:
     if name in _CONFIGS:
         return cls, tuple(f.name for f in dataclasses.fields(_load(_CONFIGS[name])))
     extra = {
-        "oracle": ("max_items",),
+        "seen_best": ("max_items",),
         "learned": ("policy_file",),
         "random": ("seed", "stream"),
     }
@@ -143,7 +143,7 @@ def make_planner(spec: str, **params):
     Args:
         spec: One of PLANNERS, or `module:Class` of the user's own class.
         **params: Options of that planner (qlearning, rollout, lookahead: the fields of
-            QLearningConfig, RolloutConfig, LookaheadConfig; oracle: max_items; learned:
+            QLearningConfig, RolloutConfig, LookaheadConfig; seen_best: max_items; learned:
             policy_file (a JSON written by `sortsim train`); random: seed and stream; the
             others, and users' classes, take none).
 

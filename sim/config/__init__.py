@@ -29,7 +29,7 @@ TOML layout (every key optional; defaults are the headline episode)::
     speed_factor = 1.0          # belt speed = 0.185 m/s x factor, inside 0.135..0.277 m/s;
                                 # or [belt] speed_mps (below), not both
     planner = "qlearning"       # qlearning | rollout | lookahead | proximity | fifo | greedy
-                                # | random | oracle | module:Class
+                                # | random | seen_best | module:Class
     perception = "camera"       # camera | truth
     duration_s = 90.0           # items arrive over this time [s]
     horizon_s = 90.0            # the run ends at this time [s], the items still on the belt

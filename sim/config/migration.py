@@ -9,6 +9,11 @@ An old file (and an old manifest) gives every robot's pauses in one `[robot]` se
 
 `migrated` checks the section (naming `robot.<key>`) and writes its keys into each robot's
 `[[robots]]` table (`robots = N`: N tables), so those files repeat their runs byte for byte.
+
+An old file may also name the planner `oracle`, the name `seen_best` had before it was renamed
+(it is no bound in physics, `planner.decision.managers.seen_best`): it is read as `seen_best`,
+so the run repeats (its episodes.csv then names `seen_best`). The command line and the registry
+know only the new name.
 """
 
 from __future__ import annotations
@@ -23,6 +28,8 @@ from sim.errors import InvalidInput
 
 SECTION = "robot"
 """The old section's key."""
+RENAMED_PLANNERS = {"oracle": "seen_best"}
+"""Old planner names -> today's, for files written before the rename."""
 RANGES: dict[str, Range] = {
     f"{SECTION}.{f.name}": spec.range
     for f, spec in settings_of(RobotSpec)
@@ -39,12 +46,15 @@ def migrated(data: dict[str, Any], where: str | None) -> dict[str, Any]:
         where: The file they came from, named by a refusal.
 
     Returns:
-        `data` itself when it has no `[robot]` section, else a new dict without it.
+        `data` itself when it has no `[robot]` section and no renamed planner, else a new
+        dict in today's layout.
 
     Raises:
         InvalidInput: One line naming `robot` or `robot.<key>` when the section is not a table
             of `RobotSpec`'s pauses and `idle_sleep` within their ranges.
     """
+    if data.get("planner") in RENAMED_PLANNERS:
+        data = {**data, "planner": RENAMED_PLANNERS[data["planner"]]}
     if SECTION not in data:
         return data
     section = _checked_section(data[SECTION], where)

@@ -2,7 +2,7 @@
 
 `draw_configs` draws episodes across the space the cell runs in (item density up to the flow's
 limit of 12 items per metre, belt speeds x1 / x1.2 / x1.5, every built-in decision manager but
-the oracle, every riding mode, random seeds and durations); `soak_episode` runs one and checks:
+seen_best, every riding mode, random seeds and durations); `soak_episode` runs one and checks:
 
 - the accounting identities of `sim.results.metrics` (entered = picked + missed + dropped, ...)
   and that every item of the flow entered the belt and left it before the time cap;
