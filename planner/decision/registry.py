@@ -3,12 +3,13 @@
 `make_planner('qlearning', gamma=0.9)` builds a built-in manager (qlearning: the thesis's algorithm;
 rollout: our timed rollout over its reward; lookahead: our budgeted branch and bound; proximity,
 fifo, greedy; random: a uniform draw among the items the cup can meet, the thesis's "random picker";
-seen_best: the best order over the items in view, replanned at each decision: no bound). `make_planner('mymod:MyPlanner')` (or
-`path/to/file.py:MyPlanner`) imports the user's class and builds it with no arguments. A user's
-class implements `planner.decision.interface.DecisionManager`: a `choose(items, robot, context)`
-returning a `Choice` or None, and a `reset()` called at the start of every episode; its `name`
-attribute, if any, is what episodes.csv records (else the spec). Unknown names, specs that do not
-import and options a manager does not take are refused with one line.
+seen_best: the best order over the items in view, replanned at each decision: no bound).
+`make_planner('mymod:MyPlanner')` (or `path/to/file.py:MyPlanner`) imports the user's class and
+builds it with no arguments. A user's class implements
+`planner.decision.interface.DecisionManager`: a `choose(items, robot, context)` returning a
+`Choice` or None, and a `reset()` called at the start of every episode; its `name` attribute,
+if any, is what episodes.csv records (else the spec). Unknown names, specs that do not import and
+options a manager does not take are refused with one line.
 
 An episode asks its manager through `ask_manager`: a `choose()` that returns
 anything but a `Choice` or None (the item itself, say) ends the episode with one line naming the

@@ -196,6 +196,27 @@ def _aimed_by(controllers: list[PickController]):
     return aimed
 
 
+def station_context(config: EpisodeConfig, cell: Cell, view, robot: PickController):
+    """The decision context of a robot of the cell (`view`, driven by `robot`): its window,
+    bins and cycle-time model (its lift and its pauses), the config's values and prices."""
+    return DecisionContext(
+        belt_speed=config.belt_speed_mps,
+        cycle_model=cell_cycle_model(
+            limits=view.limits,
+            pick_z=PICK_Z_NOMINAL,
+            # The lift the robot makes: the held item's bottom to the clear height.
+            lift_height=robot.clear_z + PRESS_DEPTH_M,
+            seal_time=robot.config.seal_time,
+            release_time=robot.config.release_time,
+        ),
+        window=view.window,
+        bins=view.bins_tuple(),
+        values=config.values.for_planning(cell.catalogue),
+        energy=EnergyPrice(config.energy_price_eur_per_kwh),
+        belt_half_width=cell.belt.geometry.y_half,
+    )
+
+
 def robot_stations(
     config: EpisodeConfig,
     cell: Cell,
@@ -218,22 +239,7 @@ def robot_stations(
     """
     stations = []
     for k, (view, robot) in enumerate(zip(cell.robots, controllers, strict=True)):
-        context = DecisionContext(
-            belt_speed=config.belt_speed_mps,
-            cycle_model=cell_cycle_model(
-                limits=view.limits,
-                pick_z=PICK_Z_NOMINAL,
-                # The lift the robot makes: the held item's bottom to the clear height.
-                lift_height=robot.clear_z + PRESS_DEPTH_M,
-                seal_time=robot.config.seal_time,
-                release_time=robot.config.release_time,
-            ),
-            window=view.window,
-            bins=view.bins_tuple(),
-            values=config.values.for_planning(cell.catalogue),
-            energy=EnergyPrice(config.energy_price_eur_per_kwh),
-            belt_half_width=cell.belt.geometry.y_half,
-        )
+        context = station_context(config, cell, view, robot)
         manager = planner if k == 0 else make_decision_manager(config, robot=k)
         manager.reset()
         # How far the cup, or an item hanging from it, reaches around and below its centre

@@ -1,0 +1,121 @@
+"""The profit bound of an episode's whole flow, and the best order found on it replayed in physics.
+
+`flow_facts` reads an episode config's flow as the episode makes it (`sim.episode.builder`):
+each item's place at t = 0 (dropped at `X_INFEED` at its spawn time, riding at the belt's
+speed), its class and value, and the first robot's decision context (its reach window, bins,
+and cycle-time model with the regime's pauses). `bound_of` is the relaxation of
+`planner.decision.flow_bound` on it: no pick order earns more in the episode.
+
+`best_order` searches with the whole flow known: the look-ahead planner on the kinematic belt
+(`planner.decision.kinematic_belt`) with every item in view from t = 0. `replay` runs that order
+in physics (`planner.decision.managers.follow_order`); its profit is what the best known order
+earns there, a lower bound on the best order's.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from planner.decision.flow_bound import FlowBound, interval_bound, pick_place_times, reach_windows
+from planner.decision.interface import DecisionContext
+from planner.decision.kinematic_belt import Belt, BeltItem, one_hot, simulate
+from planner.decision.managers.follow_order import FollowOrderPlanner
+from planner.decision.oracle import pick_lower_bound, place_lower_bound
+from planner.decision.registry import make_planner
+from sim.config import EpisodeConfig
+from sim.flow.config import X_INFEED
+
+SEARCH = "lookahead"
+"""The planner whose run over the whole known flow gives the best known order."""
+
+
+@dataclass(frozen=True)
+class FlowFacts:
+    """An episode's flow as a bound sees it (arrays by flow item id).
+
+    Attributes:
+        x0: x of each item at t = 0 [m] (upstream of the infeed before its spawn).
+        y: Its y [m].
+        classes: Its class id (2 paper, 3 plastic, 4 aluminium).
+        values: What binning it earns [EUR].
+        context: The first robot's decision context.
+    """
+
+    x0: np.ndarray
+    y: np.ndarray
+    classes: np.ndarray
+    values: np.ndarray
+    context: DecisionContext
+
+
+def flow_facts(config: EpisodeConfig) -> FlowFacts:
+    """The flow, values and context of `config`'s episode (no physics stepped)."""
+    from sim.episode import builder
+    from sim.episode.runner import config_cell
+
+    cell = config_cell(config, sized=True)
+    flow = builder.episode_flow(config, cell)
+    controller = builder.pick_controllers(config, cell, flow)[0]
+    context = builder.station_context(config, cell, cell.robots[0], controller)
+    metrics = builder.episode_metrics(config, cell, flow)
+    classes = np.asarray(flow.class_id, dtype=int)
+    values = np.array(
+        [metrics.item_values.get(j, metrics.values[int(c)]) for j, c in enumerate(classes)]
+    )
+    x0 = X_INFEED - config.belt_speed_mps * np.asarray(flow.t_spawn, dtype=float)
+    return FlowFacts(x0, np.asarray(flow.y, dtype=float), classes, values, context)
+
+
+def bound_of(facts: FlowFacts, scale: float = 1.0) -> FlowBound:
+    """The most any pick order can earn on the flow [EUR] (`interval_bound`), the least pick
+    and place times times `scale` (`time_scale`)."""
+    release, deadline = reach_windows(facts.context, facts.x0, facts.y)
+    pick, place = pick_place_times(facts.context, facts.y, facts.classes, scale)
+    return interval_bound(release, deadline, facts.values, pick, place)
+
+
+def time_scale(facts: FlowFacts, pick_rows: list[dict]) -> float:
+    """The least ratio, over a physics run's picks (picks.csv rows of the flow), of the pick's
+    cycle (its start at the last bin to its end) to the least pick and place times from that
+    bin to that item (1 when none is faster): the bound's times are scaled by it, so no pick
+    measured in physics is faster than the relaxation allows. The first pick (from the robot's
+    rest) and picks that did not end in a bin are left out."""
+    ids = {row["true_class"]: int(facts.classes[int(row["item_id"])]) for row in pick_rows}
+    ratio = 1.0
+    where = None
+    for row in pick_rows:
+        j, bin_class = int(row["item_id"]), ids.get(row["bin"])
+        if where is not None and bin_class is not None:
+            lower = pick_lower_bound(facts.context, where, float(facts.y[j])) + place_lower_bound(
+                facts.context, float(facts.y[j]), bin_class
+            )
+            if lower > 0.0:
+                ratio = min(ratio, float(row["cycle_s"]) / lower)
+        where = None if bin_class is None else facts.context.bin_of(bin_class)
+    return ratio
+
+
+def best_order(facts: FlowFacts) -> tuple[tuple[int, ...], float]:
+    """(order of flow ids, its profit on the kinematic belt [EUR]) of `SEARCH` with the whole
+    flow in view from the start."""
+    items = tuple(
+        BeltItem(j, float(x), float(y), int(c), one_hot(int(c)))
+        for j, (x, y, c) in enumerate(zip(facts.x0, facts.y, facts.classes, strict=True))
+    )
+    belt = Belt(items, facts.context.belt_speed)
+    result = simulate(make_planner(SEARCH), belt, facts.context, view_start=-math.inf)
+    return tuple(p.item_id for p in result.picks), result.profit
+
+
+def replay(config: EpisodeConfig, facts: FlowFacts, order: tuple[int, ...]) -> dict:
+    """The episode of `config` with `order` followed in physics: its episodes.csv row, with
+    `followed` (picks that followed the order)."""
+    from sim.episode.runner import run_episode
+
+    planner = FollowOrderPlanner(order, facts.x0, facts.y)
+    row = dict(run_episode(config, planner=planner).episode_row)
+    row["followed"] = planner.followed
+    return row
