@@ -115,3 +115,67 @@ def test_an_interrupted_sweep_leaves_whole_rows_and_resumes(swept, tmp_path, mon
     monkeypatch.setattr(sweep, "run_spec", real)
     sweep.run_sweep(config, tmp_path, workers=1)
     assert (tmp_path / sweep.TIMELINE_FILE).read_bytes() == (out / sweep.TIMELINE_FILE).read_bytes()
+
+
+def _rows(seed: str, picked: list[int], faults: list[str], period: float = 30.0) -> list[dict]:
+    return [
+        {"variant": "base", "planner": "fifo", "speed_factor": "1.000", "n_items": "9",
+         "seed": seed, "t_s": f"{period * (k + 1):.3f}", "picked": str(n),
+         "profit_eur": f"{0.25 * n:.4f}", "faults": f}
+        for k, (n, f) in enumerate(zip(picked, faults, strict=True))
+    ]  # fmt: skip
+
+
+def test_the_figure_of_a_grid_point_is_the_mean_and_range_of_its_seeds():
+    """Picks per minute over the last minute (from t = 0 for the first rows), the profit's
+    mean, lowest and highest seed, the share of the seeds with a fault of each kind."""
+    from sim.experiments.reporting import sweep_timeline as figure
+
+    one = _rows("1", [3, 6, 12, 12], ["", "robot_stop 1", "robot_stop 1", ""])
+    two = _rows("2", [1, 4, 4, 10, 11], ["", "", "belt_stop", "", ""])  # one row longer
+    assert figure.recent_rates(one) == pytest.approx([6.0, 6.0, 9.0, 6.0])
+    (point, seeds), *others = figure.by_point(one + two).items()
+    assert not others and point == ("base", "fifo", "1.000", "9") and list(seeds) == ["1", "2"]
+    timeline = figure.point_timeline(seeds)
+    assert timeline.minutes == pytest.approx([0.5, 1.0, 1.5, 2.0])  # the times both sampled
+    assert timeline.seeds == 2
+    assert timeline.rate.mean == pytest.approx([4.0, 5.0, 6.0, 6.0])  # seed 2: 2, 4, 3, 6
+    assert timeline.profit.low == pytest.approx([0.25, 1.0, 1.0, 2.5])
+    assert timeline.profit.high == pytest.approx([0.75, 1.5, 3.0, 3.0])
+    assert timeline.fault_share == {
+        "robot_stop": [0.0, 0.5, 0.5, 0.0],
+        "belt_stop": [0.0, 0.0, 0.5, 0.0],
+    }
+
+
+def test_the_report_of_a_sweep_draws_each_grid_points_timeline(swept, tmp_path):
+    from sim.experiments.report import write_report
+
+    _, out = swept
+    written = {p.name for p in write_report([out], tmp_path / "report")}
+    figures = {"timeline_every_second.png", "timeline_every_1_5_s.png", "timeline_profit.png"}
+    assert figures <= written
+    for name in figures:
+        assert (tmp_path / "report" / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "timeline_every_second.png" in (tmp_path / "report" / "report.md").read_text()
+
+
+def test_the_shift_sweep_pairs_random_faults_with_none_on_the_same_seeds():
+    """experiments/shift.toml: the same seeds' hours with the random faults and without them
+    (their own random stream: the flows are the same), as shift_hour.toml runs one of them."""
+    from pathlib import Path
+
+    from sim import config as episode_config
+
+    root = Path(__file__).resolve().parents[1] / "experiments"
+    shift = sweep_config.load(root / "shift.toml")
+    by_variant: dict[str, list] = {}
+    for spec in shift.episodes:
+        by_variant.setdefault(spec.variant, []).append(spec.config)
+    faulty, plain = by_variant["random faults"], by_variant["no faults"]
+    assert [c.seed for c in faulty] == [c.seed for c in plain] == [900, 901, 902]
+    assert all(c.duration_s == c.horizon_s == 3600.0 and c.robot_count == 2 for c in faulty)
+    assert all(c.fault_schedule().faults for c in faulty)
+    assert not any(c.fault_schedule().faults for c in plain)
+    hour = episode_config.load(root / "shift_hour.toml", seed=900)
+    assert hour.fault_schedule() == faulty[0].fault_schedule()
