@@ -109,7 +109,7 @@ def test_resume_runs_only_the_missing_episodes(swept, monkeypatch):
 
     def fake_run(spec):
         ran.append(spec.key)
-        return {**rows[1]}, []
+        return {**rows[1]}, [], []
 
     monkeypatch.setattr(sweep, "run_spec", fake_run)
     again = sweep.run_sweep(config, out, workers=1)
@@ -153,7 +153,7 @@ def blank_episode(spec):
     row = {"seed": c.seed, "planner": c.planner, "speed_factor": c.speed_factor,
            "n_items": c.items, "accuracy": 1.0, "profit_eur": 0.0,
            "code_digest": code_digest.code_digest()}  # fmt: skip
-    return row, []
+    return row, [], []
 
 
 def test_results_of_another_sweep_are_refused_not_merged(tmp_path, monkeypatch):

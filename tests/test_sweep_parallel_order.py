@@ -97,6 +97,11 @@ def test_rows_are_rewritten_in_grid_order(swept):
         assert int(row["entered"]) == 2
         assert int(row["picked"]) + int(row["missed"]) + int(row["dropped"]) == 2
     assert int(on_disk[0]["picked"]) == 0  # the patient manager never picks
+    steps = outputs.read_rows(out / sweep.TIMELINE_FILE)  # each episode's rows together
+    assert list(dict.fromkeys(sweep.row_key(r) for r in steps)) == grid
+    assert [sweep.row_key(r) for r in steps] == sorted(
+        (sweep.row_key(r) for r in steps), key=grid.index
+    )
 
 
 def test_a_resumed_run_keeps_the_grid_order(swept):

@@ -4,9 +4,10 @@ The whole config is validated before the first episode (a bad key or value stops
 line naming the key, the file and the grid point, exit 2), and so are the output folder (an
 `episodes.csv` of another sweep there is refused, not merged) and, for camera perception, the
 rendering back-end. Finished episodes are appended to `<out>/episodes.csv` one row at a time,
-each with the digest of the code it ran on (`code_digest`); running the same sweep again skips
-them. A folder whose episodes ran on other code (another digest) is refused in one line (exit
-2, the folder untouched) unless `--mix-code` says to add to it knowingly. A refusal raised
+each with the digest of the code it ran on (`code_digest`), their picks and timelines to
+`picks.csv` and `timeline.csv` beside it; running the same sweep again skips them. A folder
+whose episodes ran on other code (another digest) is refused in one line (exit 2, the folder
+untouched) unless `--mix-code` says to add to it knowingly. A refusal raised
 while an episode runs, in whichever worker process, stops the sweep with its one line. At the
 end the thesis's table is printed with our means beside its numbers and the matching figures are
 saved as PNG files in `<out>`.

@@ -8,6 +8,13 @@ one column per setting the sweep's variants change (`variant.<key>`,
 `SweepConfig.variant_columns`); a folder written before those columns existed gets them filled
 in, from each row's episode, when the sweep resumes.
 
+`<out>/timeline.csv` holds every episode's timeline (`sim.results.timeline`), each row led by
+its episode's key columns (`timeline_columns`), appended as the episode finishes, before its
+row in episodes.csv: an episode whose row is there has its timeline rows. A start drops the
+timeline rows (and picks) of an episode killed before its row was written, so a resumed sweep
+reruns it without counting them twice. Only the sweep's own process writes the three files,
+each write a whole rewrite through a temporary: workers hand their rows over, never write.
+
 The output folder is checked before the first episode (`check_out_dir`): it must be creatable
 and writable, and an `episodes.csv` already there must be this sweep's. The sweep's identity
 (`SweepConfig.identity`, a hash of its resolved grid, seeds aside) is recorded in `sweep.json`
@@ -50,16 +57,19 @@ from sim.checks import check, is_integer
 from sim.errors import InvalidInput, RefusedInput
 from sim.experiments.sweep_config import EpisodeSpec, SweepConfig, episode_key, variant_values
 from sim.paths import remove_stale_temporaries
-from sim.results import code_digest, manifest, outputs
+from sim.results import code_digest, manifest, outputs, timeline
 
 IDENTITY_FILE = "sweep.json"
 """The file beside `episodes.csv` that names the sweep its rows belong to."""
 
-RowCallback = Callable[[EpisodeSpec, dict, list[dict]], None]
+RowCallback = Callable[[EpisodeSpec, dict, list[dict], list[dict]], None]
+"""Called in the sweep's process with an episode's row, picks and timeline rows."""
 PICKS_FILE = "picks.csv"
 """Every pick attempt of the sweep's episodes, each with its episode's key columns."""
 PICK_KEY_COLUMNS = ("variant", "planner", "speed_factor", "n_items", "seed")
 """The columns that name a pick's episode in the sweep's picks.csv."""
+TIMELINE_FILE = timeline.TIMELINE_FILE
+"""Every episode's timeline, each row with its episode's key columns ahead."""
 PARENT_POLL_S = 0.5
 """How often a local worker's watchdog checks that the sweep's process is still there [s]."""
 _PR_SET_PDEATHSIG = 1
@@ -196,14 +206,19 @@ def _start(sweep: SweepConfig, out: Path) -> None:
     rows = outputs.read_rows(episodes_path)
     if _with_variant_values(sweep, rows):  # rows of before the variants' columns: filled in
         outputs.write_episodes(episodes_path, rows, episode_columns(sweep))
+    done = set(_row_keys(out / "episodes.csv"))
     picks_path = out / PICKS_FILE
     if picks_path.exists():  # drop the picks of an episode killed before its row was written
-        done = set(_row_keys(out / "episodes.csv"))
         rows = outputs.read_rows(picks_path)
         kept = [r for r in rows if row_key(r) in done]
         filled = _with_variant_values(sweep, kept)
         if len(kept) != len(rows) or filled:
             outputs.write_sweep_picks(picks_path, kept, pick_columns(sweep))
+    steps_path = out / TIMELINE_FILE
+    steps = outputs.read_rows(steps_path)
+    kept = [r for r in steps if row_key(r) in done]  # as for the picks
+    if len(kept) != len(steps):
+        timeline.write_rows(steps_path, timeline_columns(sweep), kept)
 
 
 def seeds(sweep: SweepConfig) -> list[int]:
@@ -251,6 +266,14 @@ def pick_columns(sweep: SweepConfig) -> tuple[str, ...]:
     return outputs.SWEEP_PICK_COLUMNS + sweep.variant_columns
 
 
+def timeline_columns(sweep: SweepConfig) -> tuple[str, ...]:
+    """The columns of a sweep's timeline.csv: the episode's key and its variants' settings,
+    then a timeline's (a state column per robot of the sweep's largest line)."""
+    robots = max((spec.config.robot_count for spec in sweep.episodes), default=1)
+    key = PICK_KEY_COLUMNS + sweep.variant_columns
+    return key + timeline.timeline_columns(robots)
+
+
 def _with_variant_values(sweep: SweepConfig, rows: list[dict]) -> bool:
     """Give rows written without a variant column (a folder of before the column existed)
     the values of their episode, in place; True if any row got one."""
@@ -268,13 +291,13 @@ def _with_variant_values(sweep: SweepConfig, rows: list[dict]) -> bool:
     return filled
 
 
-def run_spec(spec: EpisodeSpec) -> tuple[dict, list[dict]]:
+def run_spec(spec: EpisodeSpec) -> tuple[dict, list[dict], list[dict]]:
     """Run one episode of a sweep in this process (the compiled model is cached per process);
-    returns its episodes.csv row and picks.csv rows."""
+    returns its episodes.csv row, picks.csv rows and timeline rows."""
     from sim.episode.runner import run_episode
 
     result = run_episode(spec.config, variant=spec.variant)
-    return result.episode_row, result.pick_rows
+    return result.episode_row, result.pick_rows, result.timeline_rows
 
 
 def dispatch_order(specs: list[EpisodeSpec]) -> list[EpisodeSpec]:
@@ -309,8 +332,8 @@ def _local(specs: list[EpisodeSpec], workers: int, on_row: RowCallback) -> None:
                 )
             )
         by_key = {spec.key: spec for spec in specs}
-        for key, (row, picks) in pool.imap_unordered(_keyed, specs, chunksize=1):
-            on_row(by_key[key], row, picks)
+        for key, result in pool.imap_unordered(_keyed, specs, chunksize=1):
+            on_row(by_key[key], *result)
 
 
 @contextlib.contextmanager
@@ -359,7 +382,7 @@ def _watch_parent(parent: int) -> None:
             os._exit(1)
 
 
-def _keyed(spec: EpisodeSpec) -> tuple[str, tuple[dict, list[dict]]]:
+def _keyed(spec: EpisodeSpec) -> tuple[str, tuple[dict, list[dict], list[dict]]]:
     return spec.key, run_spec(spec)
 
 
@@ -382,12 +405,9 @@ def _ray(specs: list[EpisodeSpec], address: str, workers: int, on_row: RowCallba
         """Keeps the compiled models and renderers alive between episodes: the actor's
         process caches one cell per model settings (`sim.episode.runner.shared_cell`)."""
 
-        def run(self, spec: EpisodeSpec) -> tuple[str, tuple[dict, list[dict]]]:
-            from sim.episode.runner import run_episode
-
+        def run(self, spec: EpisodeSpec) -> tuple[str, tuple[dict, list[dict], list[dict]]]:
             # the actor's process keeps one cell per catalogue (`shared_cell`)
-            result = run_episode(spec.config, variant=spec.variant)
-            return spec.key, (result.episode_row, result.pick_rows)
+            return _keyed(spec)
 
     remote_actor = ray.remote(EpisodeActor)  # @ray.remote, written so that mypy sees it
     ray.init(address=None if address in ("", "local") else address, ignore_reinit_error=True)
@@ -395,10 +415,8 @@ def _ray(specs: list[EpisodeSpec], address: str, workers: int, on_row: RowCallba
     pool = ActorPool([remote_actor.remote() for _ in range(n)])
     by_key = {spec.key: spec for spec in specs}
     try:
-        for key, (row, picks) in pool.map_unordered(
-            lambda actor, spec: actor.run.remote(spec), specs
-        ):
-            on_row(by_key[key], row, picks)
+        for key, result in pool.map_unordered(lambda actor, spec: actor.run.remote(spec), specs):
+            on_row(by_key[key], *result)
     except Exception as exc:  # Ray wraps an actor's exception: a refusal keeps its one line
         cause = getattr(exc, "cause", None)
         if isinstance(cause, RefusedInput):
@@ -435,6 +453,7 @@ def run_sweep(
     _start(sweep, Path(out_dir))
     csv_path = Path(out_dir) / "episodes.csv"
     picks_path = Path(out_dir) / PICKS_FILE
+    steps_path = Path(out_dir) / TIMELINE_FILE
     todo = pending(sweep, csv_path)
     total, start = len(sweep.episodes), time.perf_counter()
     done_before = total - len(todo)
@@ -442,14 +461,18 @@ def run_sweep(
         progress(f"{sweep.name}: {len(todo)} of {total} episodes to run ({done_before} done)")
     count = [done_before]
 
-    def on_row(spec: EpisodeSpec, row: dict, picks: list[dict]) -> None:
+    def on_row(spec: EpisodeSpec, row: dict, picks: list[dict], steps: list[dict]) -> None:
         settings = variant_values(spec, sweep.variant_keys)
         row = {**row, "variant": spec.variant, **settings}
-        # The picks first: a sweep killed between the two writes leaves picks of an episode
-        # without its row, which the next start removes (`_start`); never a row without picks.
+        # The picks and timeline first: a sweep killed between the writes leaves rows of an
+        # episode without its row, which the next start removes (`_start`); never a row
+        # without its picks and timeline.
         key = {c: row.get(c) for c in PICK_KEY_COLUMNS}
         keyed = [{**key, **p, **settings} for p in picks]
         _write_or_stop(outputs.append_sweep_picks, picks_path, keyed, pick_columns(sweep))
+        cells = {c: outputs.format_value(c, v) for c, v in (key | settings).items()}
+        keyed = [{**cells, **s} for s in steps]
+        _write_or_stop(timeline.append_rows, steps_path, timeline_columns(sweep), keyed)
         _write_or_stop(outputs.append_episode, csv_path, row, episode_columns(sweep))
         count[0] += 1
         elapsed = time.perf_counter() - start
@@ -503,8 +526,9 @@ def eta_text(elapsed_s: float, done: int, left: int) -> str:
 
 
 def _sorted_rewrite(sweep: SweepConfig, csv_path: Path) -> list[dict]:
-    """Rewrite episodes.csv, and picks.csv beside it, in the grid's order (each episode's
-    picks in the order they were made); returns the episode rows."""
+    """Rewrite episodes.csv, and picks.csv and timeline.csv beside it, in the grid's order
+    (each episode's picks and timeline rows in the order they were made); returns the episode
+    rows."""
     rows = outputs.read_rows(csv_path)
     order = {spec.key: i for i, spec in enumerate(sweep.episodes)}
 
@@ -520,6 +544,11 @@ def _sorted_rewrite(sweep: SweepConfig, csv_path: Path) -> list[dict]:
         ordered = sorted(picks, key=grid_order)  # stable: each episode's picks keep their order
         if ordered != picks:
             outputs.write_sweep_picks(picks_path, ordered, pick_columns(sweep))
+    steps_path = csv_path.parent / TIMELINE_FILE
+    steps = outputs.read_rows(steps_path)
+    ordered = sorted(steps, key=grid_order)
+    if ordered != steps:
+        timeline.write_rows(steps_path, timeline_columns(sweep), ordered)
     return rows
 
 

@@ -11,6 +11,10 @@ stopped by Ctrl-C leaves the rows made so far in `timeline.interrupted.csv`; a r
 finishes writes `timeline.csv` with its other files (one unit,
 `sim.results.outputs.write_together`); a disk that fills keeps them in memory, and with the
 run's other results elsewhere.
+
+A sweep keeps each episode's rows in memory and appends them, each led by its episode's key
+columns, to the sweep's own timeline.csv as the episode finishes
+(`sim.experiments.sweep_runner`, `append_rows`).
 """
 
 from __future__ import annotations
@@ -144,6 +148,22 @@ def to_text(columns: Sequence[str], rows: Iterable[dict[str, Any]]) -> str:
     for row in rows:
         writer.writerow([format_cell(c, row.get(c, "")) for c in columns])
     return buffer.getvalue()
+
+
+def write_rows(path: Path | str, columns: Sequence[str], rows: Iterable[dict[str, Any]]) -> Path:
+    """Write a timeline file of `rows` whole, through a temporary and a rename (a sweep's
+    timeline.csv: each row's episode key cells given as text)."""
+    from sim.results.outputs import write_atomic
+
+    return write_atomic(Path(path), to_text(columns, rows))
+
+
+def append_rows(path: Path | str, columns: Sequence[str], rows: Iterable[dict[str, Any]]) -> Path:
+    """Add `rows` at the end of the timeline file `path` (rewritten whole, as `write_rows`; the
+    rows already there are kept as text: `format_cell` of a cell's text is that text)."""
+    from sim.results.outputs import read_rows
+
+    return write_rows(path, columns, [*read_rows(Path(path)), *rows])
 
 
 def downtime_columns() -> tuple[str, ...]:

@@ -1,5 +1,6 @@
 """A run's timeline as a figure (`sim.results.timeline`): picks per minute and profit over
-time, the faults active as shaded bands.
+time, the faults active as shaded bands. A sweep's timeline (its rows keyed by episode) is drawn
+per grid point over its seeds (`sim.experiments.reporting.sweep_timeline`).
 
 The picks per minute of a row are the picks since the row before over the minutes between
 them; a fault's band covers the rows during which the timeline saw it active (the faults column,
@@ -91,14 +92,23 @@ def timeline_png(rows: list[dict[str, str]], title: str) -> bytes:
 
 
 def timeline_figures(folders: list[Path]) -> dict[str, tuple[str, bytes]]:
-    """{file name: (title in words, PNG)} of each folder's timeline.csv (a run's; a folder
-    without one adds nothing)."""
+    """{file name: (title in words, PNG)} of each folder's timeline.csv: a run's figure, or a
+    sweep's, one per grid point (`sweep_timeline`); a folder without one adds nothing. With
+    several folders each file name starts with its folder's (`timeline_<folder>...png`)."""
+    from sim.experiments.reporting.sweep_timeline import is_sweep_timeline, sweep_timeline_figures
+
     out = {}
     for folder in folders:
         rows = read_timeline(Path(folder) / TIMELINE_FILE)
         if not rows:
             continue
-        name = "timeline.png" if len(folders) == 1 else f"timeline_{Path(folder).name}.png"
-        title = f"Picks per minute and profit over time, faults shaded ({Path(folder).name})"
-        out[name] = (title, timeline_png(rows, title))
+        where = Path(folder).name
+        if is_sweep_timeline(rows):
+            figures = sweep_timeline_figures(rows, where)
+        else:
+            title = f"Picks per minute and profit over time, faults shaded ({where})"
+            figures = {"timeline.png": (title, timeline_png(rows, title))}
+        for name, figure in figures.items():
+            own = name if len(folders) == 1 else name.replace("timeline", f"timeline_{where}", 1)
+            out[own] = figure
     return out
