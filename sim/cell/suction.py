@@ -195,6 +195,14 @@ class SuctionCup:
         self._budget = self.force_budget
         self._safe_force = self._budget / (1.0 + 1.0 / config.lip_friction) * (1.0 - 1e-9)
 
+    @property
+    def seal_delay(self) -> float:
+        """How much longer the seal takes now than at the configured vacuum [s] (0 unless
+        `supply` lowered it): what a vacuum switch makes the controller wait on the item."""
+        if self._nominal is None:
+            return 0.0
+        return max(self.config.seal_time - self._nominal.seal_time, 0.0)
+
     def vacuum_on(self) -> None:
         """Opens the vacuum valve."""
         self._vacuum = True

@@ -509,7 +509,13 @@ class PickController:
         below_lip = around.below_lip()
         approach = self.config.approach_height
         for _ in range(MAX_RAISES + 1):
-            config = replace(self.config, lift_height=aim.lift, approach_height=approach)
+            config = replace(
+                self.config,
+                lift_height=aim.lift,
+                approach_height=approach,
+                # The vacuum switch holds the cup on the item until the seal is made.
+                seal_time=self.config.seal_time + self.suction.seal_delay,
+            )
             try:
                 hit = intercept_item(
                     State.at_rest(self.rest), item_xy, self.belt_speed,
