@@ -22,6 +22,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
+from sim.cell.conveyor import BeltEncoder
 from sim.checks import check, is_finite_number
 from sim.episode.parts import DUE_TOLERANCE_S, EpisodeParts, is_due
 from sim.errors import InvalidInput
@@ -98,7 +99,7 @@ class BeltRowEvent:
         encoder: The belt's encoder.
     """
 
-    def __init__(self, period_s: float, fn: Callable[[EpisodeParts], object], encoder):
+    def __init__(self, period_s: float, fn: Callable[[EpisodeParts], object], encoder: BeltEncoder):
         self.clock = PeriodicEvent(period_s, fn)  # its next_s: the belt's clock of the next row
         self.encoder = encoder
 
