@@ -88,3 +88,23 @@ def test_every_item_type_rides_at_belt_speed(factor, yaw):
         assert np.linalg.norm(vel[3:]) < SPIN_TOLERANCE, where
         assert abs(pos[2] - item_type.rest_height) < HEIGHT_TOLERANCE, where
         assert belt.geometry.on_belt(pos[:2]), where
+
+
+def test_the_encoder_reads_the_belts_travel_through_a_stop_and_a_slowdown():
+    """Without a change the encoder's clock is the sim time itself; a stop holds its travel,
+    a slowdown runs it at the new speed, and `time_at` inverts the clock at the speed now."""
+    model, _ = cell()
+    belt = Belt(model)
+    belt.set_speed(0.185)
+    encoder = belt.encoder
+    assert encoder.travel(2.0) == 0.185 * 2.0 and encoder.clock(2.0) == 2.0
+    assert encoder.time_at(2.5) == 2.5
+    belt.run_at(0.0, 4.0)  # stopped at 4 s
+    assert model.geom_surfacevel[belt.geom_id, 0] == 0.0
+    assert encoder.travel(9.0) == pytest.approx(0.74) and encoder.clock(9.0) == pytest.approx(4.0)
+    assert encoder.time_at(4.5) is None  # the next row never comes while it stands
+    belt.run_at(0.0925, 10.0)  # on at half speed at 10 s
+    assert encoder.clock(12.0) == pytest.approx(5.0)
+    assert encoder.time_at(5.5) == pytest.approx(13.0)
+    belt.set_speed(0.2)  # an episode's start: the encoder from 0 again
+    assert not encoder.changed and encoder.travel(1.0) == 0.2

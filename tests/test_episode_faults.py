@@ -9,7 +9,6 @@ from sim import config as episode_config
 from sim.config.faults import Fault, FaultSchedule
 from sim.episode.loop import Episode
 from sim.episode.runner import config_cell, shared_cell
-from sim.errors import InvalidInput
 from sim.flow.config import X_CAMERA
 
 
@@ -168,19 +167,6 @@ def test_the_belt_stops_or_slows_and_nothing_is_thrown_lost_or_left(fault):
     assert len(m.binned) >= healthy - 1 and len(failed) <= 1  # a pick under way may miss once
     # the robot keeps picking what is in its reach, the belt stopped or slow
     assert [p for p in picks if fault.start_s <= p["t_start_s"] < fault.end_s]
-
-
-def test_the_belts_faults_with_camera_perception_are_refused_in_one_line():
-    stop = {"kind": "belt_stop", "start_s": 1.0, "duration_s": 1.0}
-    with pytest.raises(InvalidInput, match="^faults.belt_stop: allowed truth perception"):
-        episode_config.from_dict({"perception": "camera", "items": 4, "duration_s": 2.0,
-                                  "faults": [stop]})  # fmt: skip
-    config = episode_config.load(None, perception="camera", items=4, duration_s=2.0)
-    episode = Episode(
-        config, config_cell(config), faults=FaultSchedule((Fault("belt_stop", 1.0, 1.0),))
-    )
-    with pytest.raises(InvalidInput, match="^faults.belt_stop"):
-        episode.reset()
 
 
 def test_a_stopped_robots_materials_go_to_the_robot_still_running():

@@ -115,3 +115,27 @@ def test_steps_until_due_is_the_loops_due_test():
         assert is_due(clock, when)
         if n > 1:
             assert not is_due(clock - dt, when)
+
+
+def test_the_cameras_rows_follow_the_belts_travel():
+    """A `BeltRowEvent` is due when a `PeriodicEvent` of its period is while the belt runs at
+    its set speed, never while it stands, every two periods at half speed."""
+    from sim.cell.conveyor import BeltEncoder
+    from sim.episode.scheduler import BeltRowEvent, PeriodicEvent
+
+    fired: list[float] = []
+    encoder = BeltEncoder(0.185)
+    rows = BeltRowEvent(0.5, lambda parts: fired.append(parts), encoder)
+    periodic = PeriodicEvent(0.5, lambda parts: None)
+    for k in range(4):
+        t = 0.5 * k
+        assert rows.due(t) and periodic.due(t) and rows.next_time(t) == periodic.next_time(t)
+        rows.fire(t)  # type: ignore[arg-type]
+        periodic.fire(None)  # type: ignore[arg-type]
+    encoder.run_at(1.9, 0.0)  # stopped 0.1 s before the row of 2 s
+    assert rows.next_time(1.9) is None and not rows.due(100.0)
+    encoder.run_at(10.0, 0.0925)  # on at half speed: 0.1 s of the set speed's clock left
+    assert rows.next_time(10.0) == pytest.approx(10.2) and not rows.due(10.19)
+    rows.fire(10.2)  # type: ignore[arg-type]
+    assert rows.next_time(10.2) == pytest.approx(11.2)
+    assert fired == [0.0, 0.5, 1.0, 1.5, 10.2]

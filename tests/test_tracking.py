@@ -113,3 +113,19 @@ def test_a_downstream_detection_never_joins_a_track_past_the_gate_or_by_the_matc
     assert track.camera == 0 and len(tracker) == 2
     # The first camera's detections never join a downstream camera's track (4.5 cm away).
     assert len(tracker.update([Detection(13.0, 1.0, 0.2, AL)])) == 1
+
+
+def test_a_track_restored_after_the_belt_changed_speed_is_where_the_belt_carried_it():
+    """A track out of the tracker (its pick under way) while the belt stopped and ran on at
+    half speed comes back where the belt carried it, not where the old speed would have."""
+    tracker = Tracker(belt_speed=0.2)
+    [track] = tracker.update([Detection(1.0, -1.0, 0.1, AL)])
+    tracker.remove(track.track_id)
+    tracker.rebase(2.0, 0.0)  # stopped at 2 s (the track 0.2 m on)
+    tracker.rebase(5.0, 0.1)  # on at half speed at 5 s
+    tracker.restore(track)
+    assert track.x_at(7.0, tracker.belt_speed) == pytest.approx(-1.0 + 0.2 + 0.2)
+    # A track kept in the tracker meanwhile is moved by the same rule.
+    [kept] = tracker.update([Detection(7.0, 0.5, -0.2, PAPER)])
+    tracker.rebase(8.0, 0.2)
+    assert kept.x_at(9.0, tracker.belt_speed) == pytest.approx(0.5 + 0.1 + 0.2)

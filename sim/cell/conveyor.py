@@ -5,6 +5,9 @@ velocity, so items resting on it are carried by friction alone (no teleporting, 
 writes). The speed is changed at run time through `model.geom_surfacevel[belt]` (six components
 in MuJoCo 4: linear x, y, z and angular x, y, z; only the linear x is used).
 
+The belt's encoder (`BeltEncoder`) reads how far the surface has run: what a line-scan camera
+triggers its rows on, so its rows stay one row of belt apart when a fault stops or slows the belt.
+
 The thesis's conveyor runs at 135-277 mm/s (section 2.1.1). Its experiments use speed factors
 x1, x1.2 and x1.5; we set x1 = 0.185 m/s so that x1.5 = 0.2775 m/s is the conveyor's top
 speed, which is rated to the whole millimetre per second (the range check therefore allows half
@@ -97,6 +100,52 @@ class BeltGeometry:
         )
 
 
+class BeltEncoder:
+    """How far the belt's surface has run since the episode's start [m], as an encoder on its
+    drive reads it: at the set speed from t = 0, then at each speed a fault sets from its time.
+
+    The belt's clock (`clock`) is the time the travel takes at the set speed [s]: the sim time
+    itself until a fault changes the speed (so a run without faults reads exactly its time).
+
+    Args:
+        set_speed: The belt's set speed [m/s], > 0.
+    """
+
+    def __init__(self, set_speed: float):
+        self.reset(set_speed)
+
+    def reset(self, set_speed: float) -> None:
+        """At t = 0, at `set_speed` [m/s], nothing run yet."""
+        self.set_speed = self.speed = float(set_speed)
+        self._t0 = self._x0 = 0.0
+        self.changed = False
+        """Whether a fault has changed the speed since t = 0."""
+
+    def run_at(self, t: float, speed: float) -> None:
+        """The belt runs at `speed` [m/s] from sim time `t` [s] on."""
+        self._x0, self._t0 = self.travel(t), float(t)
+        self.speed, self.changed = float(speed), True
+
+    def travel(self, t: float) -> float:
+        """How far the belt has run at sim time `t` [s] (not before the last change) [m]."""
+        if not self.changed:
+            return self.speed * t
+        return self._x0 + self.speed * (t - self._t0)
+
+    def clock(self, t: float) -> float:
+        """The belt's clock at sim time `t` [s]: its travel over its set speed [s]."""
+        return t if not self.changed else self.travel(t) / self.set_speed
+
+    def time_at(self, clock: float) -> float | None:
+        """When the belt's clock reads `clock` [s] at the speed it runs now: a sim time [s]
+        (None while the belt stands)."""
+        if not self.changed:
+            return clock
+        if self.speed <= 0.0:
+            return None
+        return self._t0 + (clock * self.set_speed - self._x0) / self.speed
+
+
 class Belt:
     """Speed control and geometry of the belt geom of a compiled model.
 
@@ -117,6 +166,8 @@ class Belt:
             raise InvalidInput("belt", "an axis-aligned box", model.geom_quat[geom_id].tolist())
         self._model = model
         self.geom_id = geom_id
+        self.encoder = BeltEncoder(max(self.speed, SPEED_MIN))
+        """The belt's encoder, reset at each `set_speed` (an episode's start)."""
         pos, size = model.geom_pos[geom_id], model.geom_size[geom_id]
         self.geometry = BeltGeometry(
             x_infeed=float(pos[0] - size[0]),
@@ -132,7 +183,8 @@ class Belt:
         return float(self._model.geom_surfacevel[self.geom_id, 0])
 
     def set_speed(self, speed: float) -> None:
-        """Sets the belt speed [m/s]; takes effect at the next step.
+        """Sets the belt speed [m/s]; takes effect at the next step; the encoder starts again
+        from 0 at this speed (the clock at 0: an episode's start).
 
         Raises:
             InvalidInput: outside the conveyor's 0.135-0.277 m/s.
@@ -141,10 +193,12 @@ class Belt:
         surfacevel = self._model.geom_surfacevel[self.geom_id]
         surfacevel[:] = 0.0
         surfacevel[0] = speed
+        self.encoder.reset(speed)
 
-    def run_at(self, speed: float) -> None:
-        """Runs the belt at `speed` [m/s] whatever the conveyor's rating: a fault's stop (0) or
-        slowdown (`sim.config.faults`), at most twice the rated top speed.
+    def run_at(self, speed: float, t: float) -> None:
+        """Runs the belt at `speed` [m/s] from sim time `t` [s] on whatever the conveyor's
+        rating: a fault's stop (0) or slowdown (`sim.config.faults`), at most twice the rated
+        top speed; the encoder counts on at it.
 
         Raises:
             InvalidInput: outside 0 to twice the rated top speed.
@@ -155,6 +209,7 @@ class Belt:
         surfacevel = self._model.geom_surfacevel[self.geom_id]
         surfacevel[:] = 0.0
         surfacevel[0] = float(speed)
+        self.encoder.run_at(t, speed)
 
     def set_factor(self, factor: float) -> float:
         """Sets the speed of a thesis speed factor (1, 1.2, 1.5) and returns it [m/s]."""

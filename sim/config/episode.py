@@ -22,7 +22,6 @@ from sim.config.faults import (
     Fault,
     FaultSchedule,
     RandomFaults,
-    check_perception,
     draw_schedule,
     fault_tables,
     faults_of_tables,
@@ -367,7 +366,6 @@ class EpisodeConfig(EpisodeSettings):
         robots, cameras, end = self.robot_count, self.camera_count, self.end_s
         schedule = draw_schedule(self.faults, self.faults_random, self.seed, robots, cameras, end)
         schedule.check_cell(robots, cameras, end)
-        check_perception(schedule, self.perception)
         return schedule
 
     def _check_faults(self) -> None:

@@ -191,19 +191,6 @@ class FaultSchedule:
                 check(False, f"faults.{f.kind}.start_s", allowed, f.start_s)
 
 
-BELT_FAULTS = ("belt_stop", "belt_speed")
-"""Fault kinds run with truth perception only: the camera's rows assume the belt's set speed."""
-
-
-def check_perception(schedule: FaultSchedule, perception: str) -> None:
-    """Refuse in one line a belt fault (`BELT_FAULTS`) with another perception than truth: the
-    camera's grid rows are one observation period of belt travel at the set speed."""
-    belt = [f.kind for f in schedule.faults if f.kind in BELT_FAULTS]
-    if belt and perception != "truth":
-        allowed = "truth perception (the camera's rows assume a belt at its set speed)"
-        check(False, f"faults.{belt[0]}", allowed, perception)
-
-
 def _same_part_pairs(faults: tuple[Fault, ...]):
     """(earlier, later) pairs of consecutive faults of one kind on one part (`camera_outage`
     of every camera overlaps each single camera's)."""

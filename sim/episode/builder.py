@@ -19,14 +19,14 @@ from sim.cell.depth_noise import ZED_CLASS
 from sim.cell.riding import ItemRiding
 from sim.cell.suction import SuctionConfig
 from sim.config import EpisodeConfig
-from sim.config.faults import FaultSchedule, check_perception
+from sim.config.faults import FaultSchedule
 from sim.episode import item_checks
 from sim.episode.cycle_timing import cell_cycle_model
 from sim.episode.faults.cell_faults import CellFaults
 from sim.episode.infeed import Infeed
 from sim.episode.parts import EpisodeParts, StepClock, Timeline, Timings
 from sim.episode.pick_control import PRESS_DEPTH_M, PickController
-from sim.episode.scheduler import PeriodicEvent
+from sim.episode.scheduler import BeltRowEvent, PeriodicEvent
 from sim.episode.stations import Offers, RobotStation
 from sim.errors import InvalidInput
 from sim.flow.generator import Flow, generate_flow, max_items_on_belt
@@ -287,7 +287,6 @@ def build_parts(
     schedule = fault_schedule(config, faults)
     cameras = config.camera_count
     schedule.check_cell(config.robot_count, cameras, None)
-    check_perception(schedule, config.perception)
     speed = config.belt_speed_mps
     cell.reset(speed)
     flow = episode_flow(config, cell)
@@ -348,6 +347,7 @@ def perception(config: EpisodeConfig, cell: Cell, flow: Flow):
         "mix": config.mix_kwargs,
         "size": config.camera.size,
         "coupled": config.hmm.coupled,
+        "encoder": cell.belt.encoder,
     }
     data, catalogue = cell.items.current(), cell.catalogue
     if not (config.camera.per_robot and len(cell.robots) > 1):
@@ -369,12 +369,18 @@ def own_events(parts: EpisodeParts) -> list:
     """The episode's own scheduled events, in the order they fire when due together: the
     faults' starts and ends (when it has any), the infeed's drops, the perception's
     observations, in camera perception the visibility monitor's, then the item checks
-    (`sim.episode.item_checks`)."""
-    config = parts.config
-    events = [parts.infeed, PeriodicEvent(config.observation_period_s, observe)]
-    if config.perception == "camera":
+    (`sim.episode.item_checks`). The camera's observations and the monitor's are the belt's
+    rows (`BeltRowEvent`: one row of belt travel apart, none while it stands); truth's are
+    every observation period of time (it reports where the items are, the belt running or not).
+    """
+    config, period = parts.config, parts.config.observation_period_s
+    if config.perception != "camera":
+        events = [parts.infeed, PeriodicEvent(period, observe)]
+    else:
+        encoder = parts.cell.belt.encoder
         monitor = visibility_monitor(parts.cell, config.camera.size, parts.metrics)
-        events.append(PeriodicEvent(config.observation_period_s, monitor))
+        rows = (BeltRowEvent(period, observe, encoder), BeltRowEvent(period, monitor, encoder))
+        events = [parts.infeed, *rows]
     events.append(PeriodicEvent(CHECK_PERIOD_S, item_checks.run_checks))
     if parts.faults:  # only then: a run without faults steps as it always did
         events.insert(0, parts.fault_state)

@@ -22,6 +22,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
+from sim.cell.conveyor import BeltEncoder
 from sim.checks import check, is_finite_number
 from sim.episode.parts import DUE_TOLERANCE_S, EpisodeParts, is_due
 from sim.errors import InvalidInput
@@ -84,6 +85,36 @@ class PeriodicEvent:
         """Call the function; due again a period later."""
         self.fn(parts)
         self.next_s += self.period_s
+
+
+class BeltRowEvent:
+    """A function called with the episode's parts each time the belt has run one row: the
+    belt's clock (`sim.cell.conveyor.BeltEncoder.clock`) a multiple of `period_s`, as a
+    line-scan camera's frames triggered by the belt's encoder. At the set speed it is due
+    exactly when a `PeriodicEvent` of the period is; never while a fault stops the belt.
+
+    Args:
+        period_s: The belt's clock between rows [s] (the observation period), > 0.
+        fn: Called with the episode's parts.
+        encoder: The belt's encoder.
+    """
+
+    def __init__(self, period_s: float, fn: Callable[[EpisodeParts], object], encoder: BeltEncoder):
+        self.clock = PeriodicEvent(period_s, fn)  # its next_s: the belt's clock of the next row
+        self.encoder = encoder
+
+    def due(self, t: float) -> bool:
+        """Whether the belt has run to the next row at sim time `t` [s]."""
+        when = self.encoder.time_at(self.clock.next_s)
+        return when is not None and is_due(t, when)
+
+    def next_time(self, t: float) -> float | None:
+        """When the belt will have run to the next row at its speed now [s] (None: stopped)."""
+        return self.encoder.time_at(self.clock.next_s)
+
+    def fire(self, parts: EpisodeParts) -> None:
+        """Call the function; due again a row later."""
+        self.clock.fire(parts)
 
 
 class FrameEvent:

@@ -18,6 +18,13 @@ The camera's source of detections, with the interface of `sim.sensing.truth.Trut
   the cells they cover as class probabilities. (Connected regions of one decoded class, the
   components alternative of `items_from_grid`, split an item whose cells decode to two materials
   into two phantom items.) A frame the pipeline cannot use is counted and its row read as empty.
+
+The rows are belt travel, not time, as a line-scan camera's triggered by the belt's encoder
+(`sim.cell.conveyor.BeltEncoder`): a frame is taken each time the belt has run one row (the
+set speed x the observation period; the episode's `BeltRowEvent`), and every belt coordinate
+is the encoder's travel. A belt that a fault stops gives no rows, one that runs slow fewer a
+second, and the stripe HMMs, the item window and the reported positions are as at the set
+speed.
 """
 
 from __future__ import annotations
@@ -37,6 +44,7 @@ from perception.items.blobs import item_blobs
 from perception.items.classifier import CLASSIFIER_MODES, combine
 from perception.items.features import item_features
 from perception.items.split import SplitSettings
+from sim.cell.conveyor import BeltEncoder
 from sim.cell.depth_noise import ZED_CLASS, StereoDepthNoise
 from sim.config.plant import FRAME_SIZE
 from sim.errors import InvalidInput
@@ -186,6 +194,7 @@ class CameraPerception:
         size: tuple[int, int] = CAMERA_SIZE,
         prefix: str = "",
         coupled: bool = False,
+        encoder: BeltEncoder | None = None,
     ):
         from sim.cell.camera import (
             PERCEPTION_SAMPLES,
@@ -200,6 +209,8 @@ class CameraPerception:
         if classifier not in CLASSIFIER_MODES:
             raise InvalidInput("classifier", " | ".join(CLASSIFIER_MODES), classifier)
         self.data, self.speed, self.period = data, float(belt_speed), float(period_s)
+        # The belt's encoder (`belt_speed` its set speed): the rows' belt coordinates.
+        self.encoder = BeltEncoder(belt_speed) if encoder is None else encoder
         self.mode = classifier
         self.item_classifier = (
             None if classifier == "hmm" else trained_item_classifier(catalogue, mix)
@@ -242,10 +253,12 @@ class CameraPerception:
         self.render_s = self.pipeline_s = self.hmm_s = 0.0
 
     def observe(self, t: float, blind: frozenset[int] = frozenset()) -> list[Detection]:
-        """Take the frame of time `t` [s]; return the items whose last row was the previous.
-        With the camera (0) in `blind` (an outage) there is no frame: its row reads empty."""
+        """Take the frame of time `t` [s] (the belt one row on since the last); return the
+        items whose last row was the previous. With the camera (0) in `blind` (an outage)
+        there is no frame: its row reads empty."""
         t0 = time.perf_counter()
         stripes = self.classes.shape[1]
+        travel = self.encoder.travel(t)
         try:
             if 0 in blind:
                 raise PerceptionError("no frame: the camera is out")
@@ -253,7 +266,7 @@ class CameraPerception:
             if self.depth_noise is not None:
                 depth = self.depth_noise.apply(depth, self.rng)
             t1 = time.perf_counter()
-            row = self.pipeline.observe_window(crop, depth, self.speed, t)
+            row = self.pipeline.observe_window(crop, depth, self.speed, self.encoder.clock(t))
             codes = row.codes
             pixels = [np.asarray(c.pixels, dtype=float).reshape(-1, 2) for c in row.cells]
             heights = [np.asarray(c.heights, dtype=float) for c in row.cells]
@@ -267,7 +280,7 @@ class CameraPerception:
             heights = [np.zeros(0)] * stripes
             rgb = [np.zeros((0, 3), np.uint8)] * stripes
         # Belt coordinate b of each item pixel: the belt travel until it crosses the camera line.
-        self.pixels = self.pixels[1:] + [[self.speed * t + self.x_line - p[:, 0] for p in pixels]]
+        self.pixels = self.pixels[1:] + [[travel + self.x_line - p[:, 0] for p in pixels]]
         self.pixel_y = self.pixel_y[1:] + [[p[:, 1] for p in pixels]]
         self.pixel_height = self.pixel_height[1:] + [heights]
         self.pixel_rgb = self.pixel_rgb[1:] + [rgb]
@@ -280,7 +293,7 @@ class CameraPerception:
         self.classes[-1], self.posteriors[-1] = est.classes, est.filtered
         self.predicted[-1] = est.predicted
         self.rows += 1
-        out = self._completed_items(t)
+        out = self._completed_items(t, travel)
         self.render_s += t1 - t0
         self.pipeline_s += t2 - t1
         self.hmm_s += time.perf_counter() - t2
@@ -304,7 +317,8 @@ class CameraPerception:
             return frame[roi], depth[roi]
         return self.camera.window(*pipeline.band_mapper(self.speed).roi).render_rgbd(self.data)
 
-    def _completed_items(self, t: float) -> list[Detection]:
+    def _completed_items(self, t: float, travel: float) -> list[Detection]:
+        """The items complete at time `t` [s], the belt's travel then `travel` [m]."""
         out: list[Detection] = []
         # Regions that still touch the newest row are still growing; older ones were reported.
         blobs = item_blobs(
@@ -332,7 +346,7 @@ class CameraPerception:
             assert clf is not None  # every mode but "hmm" has a classifier
             probs = combine(self.mode, priors, clf_probs, clf.train_prior)
         for k, blob in enumerate(blobs):
-            x = self.x_line + self.speed * t - blob.b
+            x = self.x_line + travel - blob.b
             det = Detection(t, x, blob.y, (0.0, *(float(p) for p in probs[k])))
             out.append(det)
             self.reported.append(
@@ -471,7 +485,7 @@ def line_camera_perception(
         cameras: Each camera's renderer (`Cell.belt_camera`), in the same order; None entries
             make their own.
         **options: `CameraPerception`'s other arguments (belt_speed, period_s, classifier,
-            depth_noise, seed, mix, size, coupled), the same for every camera.
+            depth_noise, seed, mix, size, coupled, encoder), the same for every camera.
 
     Returns:
         The composite perception. The first camera's depth noise is drawn from the stream a

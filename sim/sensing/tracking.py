@@ -81,7 +81,7 @@ class Track:
 
 
 class Tracker:
-    """Tracks on a belt moving at a constant speed.
+    """Tracks on a belt moving at a constant speed but where a fault changes it (`rebase`).
 
     Args:
         belt_speed: Belt speed [m/s].
@@ -98,6 +98,8 @@ class Tracker:
         self.fusion_gate = float(fusion_gate)
         self._tracks: dict[int, Track] = {}
         self._next_id = 0
+        # (sim time [s], the speed before it [m/s]) of each change of the belt's speed (`rebase`).
+        self._speed_changes: list[tuple[float, float]] = []
 
     def __len__(self) -> int:
         return len(self._tracks)
@@ -198,10 +200,15 @@ class Tracker:
         where the old speed has carried it by `t`, and moves on at the new one."""
         for track in self._tracks.values():
             track.x0, track.t0 = track.x_at(t, self.belt_speed), t
+        self._speed_changes.append((float(t), self.belt_speed))
         self.belt_speed = float(belt_speed)
 
     def restore(self, track: Track) -> None:
-        """Track `track` again (removed for a pick that was given up: its item is offered again)."""
+        """Track `track` again (removed for a pick that was given up: its item is offered
+        again), placed where the belt carried it through the changes of its speed meanwhile."""
+        for t, speed in self._speed_changes:
+            if t > track.t0:
+                track.x0, track.t0 = track.x_at(t, speed), t
         self._tracks[track.track_id] = track
 
     def remove_true(self, true_id: int) -> list[Track]:

@@ -120,7 +120,7 @@ class CellFaults:
         factor = self.belt_factor()
         set_speed = parts.config.belt_speed_mps
         speed = set_speed if factor == 1.0 else set_speed * factor
-        parts.cell.pool.belt.run_at(speed)
+        parts.cell.pool.belt.run_at(speed, t)
         parts.infeed.run_at(t, factor)
         parts.tracker.rebase(t, speed)
         parts.offers.belt_speed = speed
