@@ -138,6 +138,15 @@ def test_one_robot_moved_down_the_belt_takes_its_cage_and_bins_along():
     assert line.geom("belt").size[0] == pytest.approx(0.5 * (0.7 + 4.5))
 
 
+def test_a_lone_robots_belt_is_the_configured_one_whatever_its_pool():
+    short = CellSettings(belt_length_m=4.0)  # the range's shortest: ends 1.0 m past the robot
+    for pool_size in (None, 24):
+        line = compile_line(LineLayout(), short, pool_size=pool_size)
+        assert 2 * line.geom("belt").size[0] == pytest.approx(4.0, abs=1e-12)
+    moved = compile_line(LineLayout(1, (0.5,)), short, pool_size=24)
+    assert 2 * moved.geom("belt").size[0] == pytest.approx(0.5 + 4.5, abs=1e-12)
+
+
 _NAMED = {  # kind: the model's count of it
     "body": "nbody", "joint": "njnt", "geom": "ngeom", "site": "nsite", "actuator": "nu",
     "equality": "neq", "key": "nkey",
