@@ -102,6 +102,7 @@ def test_default_layouts():
         ({"robots": 2, "prefixes": ("a_", "a_")}, "line.prefixes"),
         ({"robots": 1, "prefixes": ("r 0",)}, "line.prefixes"),
         ({"robots": 1, "prefixes": ("r0_", "r1_")}, "line.prefixes"),
+        ({"robots": 1, "prefixes": ("r0_",)}, "line.prefixes"),  # a lone robot has one naming
         ({"robots": 2, "cameras_per_robot": 1}, "line.cameras_per_robot"),
     ],
 )
@@ -135,6 +136,58 @@ def test_one_robot_moved_down_the_belt_takes_its_cage_and_bins_along():
         np.testing.assert_allclose(data.site(site).xpos - cell_data.site(site).xpos, [0.7, 0, 0])
     np.testing.assert_allclose(line.geom("cage_mount_plate").pos, [0.7, 0.0, 1.09])
     assert line.geom("belt").size[0] == pytest.approx(0.5 * (0.7 + 4.5))
+
+
+def test_a_lone_robots_belt_is_the_configured_one_whatever_its_pool():
+    short = CellSettings(belt_length_m=4.0)  # the range's shortest: ends 1.0 m past the robot
+    for pool_size in (None, 24):
+        line = compile_line(LineLayout(), short, pool_size=pool_size)
+        assert 2 * line.geom("belt").size[0] == pytest.approx(4.0, abs=1e-12)
+    moved = compile_line(LineLayout(1, (0.5,)), short, pool_size=24)
+    assert 2 * moved.geom("belt").size[0] == pytest.approx(0.5 + 4.5, abs=1e-12)
+
+
+_NAMED = {  # kind: the model's count of it
+    "body": "nbody", "joint": "njnt", "geom": "ngeom", "site": "nsite", "actuator": "nu",
+    "equality": "neq", "key": "nkey",
+}  # fmt: skip
+
+
+def names_but_the_pool(model: mujoco.MjModel) -> dict[str, set[str]]:
+    """The names of a model's elements of each kind of `_NAMED`, less the item pool's
+    (`item_<n>...`, as many as the pool has slots) and the legs under a longer belt."""
+    out = {}
+    for kind, count in _NAMED.items():
+        obj = getattr(mujoco.mjtObj, f"mjOBJ_{kind.upper()}")
+        names = {mujoco.mj_id2name(model, obj, i) or "" for i in range(getattr(model, count))}
+        out[kind] = {n for n in names if not n.startswith(("item_", "belt_leg_"))}
+    return out
+
+
+def test_a_lone_robot_has_one_naming_wherever_it_stands_and_whatever_its_pool():
+    from sim.cell.cell import Cell
+    from sim.episode.runner import shared_cell
+    from sim.model.mjcf import robot_elements
+
+    cells = {
+        "x = 0": Cell(),
+        "moved": shared_cell(positions_m=(1.1,)),
+        "small pool": shared_cell(pool_size=24),
+        "dense": shared_cell(line=True, pool_size=100),
+    }
+    sizes = {name: cell.pool.size for name, cell in cells.items()}
+    assert sizes == {"x = 0": 72, "moved": 160, "small pool": 24, "dense": 100}
+    expected = names_but_the_pool(cells["x = 0"].model)
+    for kinds, name in robot_elements(""):  # every name the code looks a robot's element up by
+        assert any(name in expected[k] for k in kinds), name
+    for name, cell in cells.items():
+        assert [robot.prefix for robot in cell.robots] == [""], name
+        assert names_but_the_pool(cell.model) == expected, name
+        model = cell.model
+        grips = [model.equality(f"item_{k}_grip").id for k in range(sizes[name])]
+        assert {model.body(model.eq_obj1id[g]).name for g in grips} == {"cup_link"}, name
+    moved = cells["moved"]
+    np.testing.assert_allclose(tcp_position(moved.model, moved.data), [1.1, 0.0, 0.15], atol=1e-9)
 
 
 # --- several robots -------------------------------------------------------------------------

@@ -24,7 +24,7 @@ from sim.cell.robots import DESIGN_PAYLOAD_KG, PICK_Z_NOMINAL, RobotView
 from sim.config.plant import CUP_DIAMETER_M, CellSettings
 from sim.errors import InvalidInput
 from sim.flow.catalogue import Catalogue, load_catalogue
-from sim.model.scene_edits import compile_scene
+from sim.model.line_model import LineLayout, compile_line
 
 if TYPE_CHECKING:
     from sim.cell.camera import SceneRenderer
@@ -36,16 +36,16 @@ class Cell:
     """The compiled cell (model, data), its belt, item pool and robots.
 
     Args:
-        model: A compiled cell; `models/cell/scene.xml` compiled with `settings` and one bin
-            per material of `catalogue` when omitted. A line's model comes from
-            `sim.model.line_model.compile_line`.
+        model: A compiled cell (`sim.model.line_model.compile_line`); the lone robot at
+            x = 0, `models/cell/scene.xml` compiled with `settings` and one bin per material of
+            `catalogue`, when omitted.
         settings: The cup's diameter and the belt's length (`sim.model.scene_edits`): what
             `model` is compiled with, or was compiled with when given; the scene's own when
             None.
         catalogue: The item catalogue (its materials name the bins); the default one
             (`sim/data/items.toml`, the thesis's paper, plastic and aluminium) when omitted.
-        prefixes: The robots' name prefixes in the model, upstream first; ("",) (the scene's
-            one robot) when omitted.
+        prefixes: The robots' name prefixes in the model, upstream first (`LineLayout`'s):
+            ("",), a lone robot's, when omitted.
         pool_capacity: The items on the belt at once that the flows it takes are refused
             beyond (`sim.episode.builder.episode_flow`); its pool's size when omitted.
     """
@@ -65,7 +65,9 @@ class Cell:
         self.settings = settings or CellSettings()
         """What the model was compiled with (cup, belt)."""
         self.model = (
-            model if model is not None else compile_scene(self.settings, materials=self.materials)
+            model
+            if model is not None
+            else compile_line(LineLayout(), self.settings, self.materials)
         )
         self.data = mujoco.MjData(self.model)
         self.belt = Belt(self.model)

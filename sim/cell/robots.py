@@ -1,11 +1,11 @@
 """One robot of a cell, as its pick controller and the episode see it.
 
 A cell holds one to four IRB 360s over one belt (one robot is a line of one). Each robot's
-named parts carry its name prefix in the compiled model ("" for the scene's one robot; `r0_`,
-`r1_`, ... on a line's model, `sim.model.line_model`). A `RobotView` gathers what belongs to
-that robot alone: its geometry read from the MJCF, its trajectory generator and executor, its
-reachable window along the belt and its bins' release points. Model, data, belt and items are
-the cell's, shared by every robot.
+named parts carry its name prefix in the compiled model ("" for a lone robot, wherever it
+stands; `r0_`, `r1_`, ... on a line of several, `sim.model.line_model`). A `RobotView` gathers
+what belongs to that robot alone: its geometry read from the MJCF, its trajectory generator and
+executor, its reachable window along the belt and its bins' release points. Model, data, belt
+and items are the cell's, shared by every robot.
 """
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ class RobotView:
         model: The compiled cell.
         data: Its data (poses read at construction: bins' release points).
         index: The robot's index, 0 upstream.
-        prefix: Its name prefix in `model` ("" for the scene's own names).
+        prefix: Its name prefix in `model` ("" for a lone robot: the scene's own names).
         materials: The catalogue's materials (one bin each, in material order).
     """
 

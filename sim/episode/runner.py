@@ -83,33 +83,27 @@ def shared_cell(
     once per process, settings and catalogue, reused by every episode run here with them, so a
     sweep over the cup's diameter, the belt's length or the catalogue gets each its own model.
     A line of `robots` stands at `positions_m` along the belt [m] (() the default spacing,
-    `sim.model.line_model.LineLayout`); one robot away from x = 0 runs on a line's model; a
-    line of several robots with `cameras_per_robot` has a belt camera for each robot. Its item
-    pool has `pool_size` bodies (`pool_capacity` when None: the most any flow may need)."""
+    `sim.model.line_model.LineLayout`); a line of several robots with `cameras_per_robot` has
+    a belt camera for each robot. Every cell is compiled by `compile_line`, so a lone robot
+    has the scene's names wherever it stands and whatever its pool. The pool has `pool_size`
+    bodies (`pool_capacity` when None: the most any flow may need; a line's, `line`, for
+    several robots or one away from x = 0)."""
     from sim.model.line_model import LineLayout, compile_line
 
     if catalogue is None:
         from sim.flow.catalogue import load_catalogue
 
         catalogue = load_catalogue()
-    prefixes = ("r0_",) if robots == 1 else ()
     cameras = bool(cameras_per_robot) and robots > 1
-    layout = LineLayout(robots, tuple(positions_m), prefixes, cameras_per_robot=cameras)
+    layout = LineLayout(robots, tuple(positions_m), cameras_per_robot=cameras)
     line = line or robots > 1 or layout.positions_m[0] != 0.0
     settings = settings or CellSettings()
     capacity = pool_capacity(line)
     size = capacity if pool_size is None else min(int(pool_size), capacity)
     key = (os.getpid(), settings, catalogue.digest, robots, line, layout.positions_m, cameras, size)
     if key not in _CELLS:
-        if not line and size == capacity:
-            cell = Cell(settings=key[1], catalogue=catalogue)
-        elif not line:  # the single cell with a smaller pool
-            model = compile_line(LineLayout(), key[1], catalogue.materials, pool_size=size)
-            cell = Cell(model, key[1], catalogue, pool_capacity=capacity)
-        else:  # a sorting line, or one robot with a line's item pool
-            model = compile_line(layout, key[1], catalogue.materials, pool_size=size)
-            cell = Cell(model, key[1], catalogue, layout.prefixes, pool_capacity=capacity)
-        _CELLS[key] = cell
+        model = compile_line(layout, settings, catalogue.materials, pool_size=size)
+        _CELLS[key] = Cell(model, settings, catalogue, layout.prefixes, pool_capacity=capacity)
     return _CELLS[key]
 
 

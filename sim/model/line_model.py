@@ -1,8 +1,8 @@
 """A sorting line: one to four IRB 360s in series over one belt, assembled with `MjSpec`.
 
 `compile_line(layout)` starts from the cell's scene (`models/cell/scene.xml`: belt, camera,
-markers, lights, item pool, and the robot, its cage and its bins) and gives every robot of
-`layout` (a `LineLayout`) its own copy of them, `x` metres down the belt:
+markers, lights, item pool, and the robot, its cage and its bins) and gives every robot of a
+`layout` (a `LineLayout`) of several robots its own copy of them, `x` metres down the belt:
 
 - the robot: `models/abb_irb360/irb360.xml` attached whole (`MjSpec.attach` on a frame at
   (x, 0, 0)) with the robot's name prefix on every element, so robot "r1_" has `r1_base_link`,
@@ -21,7 +21,8 @@ is prefixed. The keyframe `home` holds every robot at its home pose (the items p
 robot's `<prefix>home` holds that robot at home and the rest at `qpos0` (`reset_robot_home`
 puts one robot back without touching the others). The belt keeps its infeed end and runs to
 1.5 m past the last robot, as the scene's runs 1.5 m past its robot (longer when `settings`
-ask so); the camera stays where it is, 1.48 m or more upstream of the first robot.
+ask so; a lone robot at x = 0 has the settings' belt, 4 m and up); the camera stays where it
+is, 1.48 m or more upstream of the first robot.
 
 Robots are kept apart by their cages: each stands in its own, 1.8 m long, so neighbours are at
 least 1.8 m apart; their working circles (1.13 m across) and bins (within 0.42 m of the robot
@@ -42,10 +43,13 @@ camera line instead of +-0.32 m, so that the box clears the arms and rods of bot
 their whole reach and neither robot nor an item it carries comes between the camera and a
 marker (`tests/test_line_model.py`). Without it (the default) a line has the one camera.
 
-A line of one robot with the prefix "" (`LineLayout()`) is the single cell: the scene edited in
-place (moved when its position is not 0), which at x = 0 compiles to the scene file's cell to the
-byte. Every per-robot function of the cell takes that prefix (`sim.cell.robot`, `sim.cell.executor`,
-`sim.cell.suction`, `sim.monitors.energy`, `sim.episode.pick_control`).
+A lone robot is compiled one way wherever it stands and whatever its pool: the scene edited in
+place (`LineLayout(1, (x,))`, prefix "": the scene file's names), its robot, cage, bins and home
+pose moved `x` down the belt, its belt at least 1.5 m past it when `x` > 0. At x = 0 with the
+scene's pool it compiles to the scene file's cell to the byte. Only a line of several robots
+is assembled by attaching (prefixes "r0_", "r1_", ...). Every per-robot function of the cell
+takes the prefix (`sim.cell.robot`, `sim.cell.executor`, `sim.cell.suction`,
+`sim.monitors.energy`, `sim.episode.pick_control`).
 """
 
 from __future__ import annotations
@@ -111,9 +115,9 @@ class LineLayout:
             first at x >= 0 (the camera, at -1.48 m, stays upstream of it), each at least
             `MIN_SPACING_M` past the one before, the last at most `MAX_LAST_X_M`. Default:
             0, 1.8, 3.6, ... m.
-        prefixes: Name prefix of each robot's elements (a letter, letters or digits, "_").
-            Default: "" for one robot (the single cell's names), else "r0_", "r1_", ...; ""
-            is allowed only for a line of one robot.
+        prefixes: Name prefix of each robot's elements. A lone robot's is "" (the scene's
+            names, wherever it stands); several robots' are each a letter, letters or digits
+            and "_", distinct. Default: ("",) for one robot, else "r0_", "r1_", ....
         cameras_per_robot: Whether every robot after the first has its own belt camera
             upstream of it (`camera_lines_m`; module docstring); False: the scene's one camera.
     """
@@ -148,9 +152,9 @@ class LineLayout:
             or len(prefixes) != n
             or not all(isinstance(p, str) for p in prefixes)
             or len(set(prefixes)) != n
-            or not all(_PREFIX.fullmatch(p) or (p == "" and n == 1) for p in prefixes)
+            or not all((p == "") if n == 1 else _PREFIX.fullmatch(p) for p in prefixes)
         ):
-            allowed = f"{n} distinct prefixes like 'r0_' (or '' for a line of one robot)"
+            allowed = "('',) for one robot" if n == 1 else f"{n} distinct prefixes like 'r0_'"
             raise InvalidInput("line.prefixes", allowed, self.prefixes)
         object.__setattr__(self, "prefixes", tuple(prefixes))
         if not isinstance(self.cameras_per_robot, bool):
@@ -181,8 +185,8 @@ class LineLayout:
 
     @property
     def in_place(self) -> bool:
-        """Whether the line is the scene's own robot (one robot, prefix "")."""
-        return self.prefixes == ("",)
+        """Whether the line is the scene's own robot edited in place: a lone robot."""
+        return self.robots == 1
 
 
 def line_elements(layout: LineLayout, materials=None) -> tuple:
@@ -359,6 +363,14 @@ LINE_POOL_SIZE = 160
 (`sim.flow.limits.LINE_MAX_ITEMS_PER_METRE`)."""
 
 
+def _belt_length_m(layout: LineLayout, settings: CellSettings) -> float:
+    """The belt's length [m]: the settings' for the scene's robot at x = 0 (their range is the
+    scene's, 4 m and up), at least `layout.belt_length_m` once a robot stands further down."""
+    if layout.positions_m[-1] == 0.0:
+        return settings.belt_length_m
+    return max(settings.belt_length_m, layout.belt_length_m)
+
+
 def _scene_with_pool(pool_size: int, folder: Path) -> Path:
     """A copy of the cell's scene in `folder` whose pool has `pool_size` item bodies (the
     scene's `items.xml` generated again at that size, `sim.model.item_pool_xml`)."""
@@ -386,7 +398,7 @@ def line_spec(
     Args:
         layout: The robots, their positions and prefixes.
         settings: Cup diameter, belt length and width (`sim.model.scene_edits`); the belt is
-            made at least `layout.belt_length_m` long.
+            made at least `layout.belt_length_m` long when a robot stands past x = 0.
         materials: One bin per material for each robot (`perception.codes.Materials`); the
             thesis's when None.
         path: The scene file.
@@ -409,7 +421,7 @@ def line_spec(
     else:  # the scene with a pool of `pool_size` bodies
         with tempfile.TemporaryDirectory() as folder:
             spec = load_spec(_scene_with_pool(pool_size, Path(folder)), CELL_ELEMENTS)
-    set_belt_length(spec, max(settings.belt_length_m, layout.belt_length_m))
+    set_belt_length(spec, _belt_length_m(layout, settings))
     lay_out_bins(spec, materials)  # the file's own bins for the thesis's materials
     set_belt_width(spec, settings.belt_width_m, materials)  # before robots copy cage and bins
     if layout.in_place:
