@@ -88,7 +88,7 @@ def test_the_line_counts_add_up_and_every_robot_holds_together():
     assert worst_gap < 1e-4
 
 
-def test_one_robot_on_a_dense_belt_runs_on_a_line_model():
+def test_one_robot_on_a_dense_belt_gets_a_line_pool():
     config = episode_config.load(None, perception="truth", items=30, duration_s=12.0)
     assert config.line_cell  # 30 items in 12 s: 13.5 items per metre, over the single pool's 12
     sparse = episode_config.load(None, perception="truth", items=20, duration_s=12.0)

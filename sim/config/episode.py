@@ -320,9 +320,9 @@ class EpisodeConfig(EpisodeSettings):
 
     @property
     def line_cell(self) -> bool:
-        """Whether the episode runs on a line's model (`sim.cell.line`): several robots, one
-        robot placed elsewhere than x = 0, or one robot on a belt denser than the single
-        cell's pool carries (`MAX_ITEMS_PER_METRE`) at the feed's peak."""
+        """Whether the episode's cell has a line's item pool (`sim.episode.runner.pool_capacity`):
+        several robots, one robot placed elsewhere than x = 0, or one robot on a belt denser
+        than the single cell's pool carries (`MAX_ITEMS_PER_METRE`) at the feed's peak."""
         if self.robot_count > 1 or self.robot_positions_m[:1] not in ((), (0.0,)):
             return True
         density = self.items / (self.duration_s * self.belt_speed_mps)
