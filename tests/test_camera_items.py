@@ -8,7 +8,7 @@ features, the shipped classifier fused with the HMMs).
 import numpy as np
 import pytest
 
-from sim.evaluation.item_features import record
+from sim.sensing.item_recording import record
 
 pytestmark = pytest.mark.slow
 

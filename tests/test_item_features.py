@@ -212,3 +212,42 @@ def test_the_evaluations_table_names_the_item_types_the_classifier_errs_on():
     assert errors == [
         "fused mode's errors (3 of 10), by item type: pet_bottle_0l5_crushed 3 of 3 (aluminium 3)"
     ]
+
+
+_WAITER = """
+import sys
+from pathlib import Path
+from sim.sensing.item_recording import write_once
+print("ready", flush=True)
+wrote = write_once(Path(sys.argv[1]), lambda p: p.write_text("waiter"))
+print(wrote, flush=True)
+"""
+
+
+def test_a_catalogues_table_is_recorded_by_one_process_the_others_wait_and_read_it(tmp_path):
+    """A sweep's workers that build camera perceptions on the same new catalogue at once: the
+    first records the table while holding its lock; another waits for the lock, then finds the
+    table and records nothing (`sim.sensing.item_recording.write_once`)."""
+    import subprocess
+    import sys
+    import time
+
+    from sim.sensing.item_recording import exclusive, write_once
+
+    table = tmp_path / "item_features-abc.npz"
+    with exclusive(table):  # this process is the first: recording
+        waiter = subprocess.Popen(
+            [sys.executable, "-c", _WAITER, str(table)], stdout=subprocess.PIPE, text=True
+        )
+        assert waiter.stdout is not None
+        assert waiter.stdout.readline().strip() == "ready"
+        time.sleep(0.5)
+        assert waiter.poll() is None  # waiting for the lock
+        table.write_text("first")
+    out, _ = waiter.communicate(timeout=60)
+    assert waiter.returncode == 0 and out.strip() == "False"
+    assert table.read_text() == "first"
+    assert write_once(table, lambda p: p.write_text("again")) is False
+    fresh = tmp_path / "item_features-def.npz"
+    assert write_once(fresh, lambda p: p.write_text("made")) is True
+    assert fresh.read_text() == "made"

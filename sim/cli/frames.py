@@ -57,9 +57,6 @@ def main(args: argparse.Namespace) -> int:
 
     check_backend()
     frames.remove_stale(out)
-    from sim.evaluation.item_features import prepare_camera
-
-    prepare_camera(config)  # a custom catalogue's item classifier table, recorded once
     progress = None if args.quiet else Progress()
     result = frames.record_frames(config, out, every, args.keep_empty, progress)
     if progress is not None:

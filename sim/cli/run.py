@@ -254,10 +254,6 @@ def main(args: argparse.Namespace) -> int:
         extra = [] if video_path is None else [video_path.parent]
         extra += [cache] if (cache := existing_cache_dir()) is not None else []
         remove_stale_temporaries(out, *extra)
-        if config.perception == "camera":  # its modules cost a truth run a second to import
-            from sim.evaluation.item_features import prepare_camera
-
-            prepare_camera(config)  # a custom catalogue's item classifier table, recorded once
         progress = None if args.quiet else Progress()
         timeline = open_timeline(out, config)
         try:

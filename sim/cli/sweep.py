@@ -115,9 +115,6 @@ def _run(args: argparse.Namespace, config) -> int:
     from sim.experiments import sweep_runner as sweep
 
     sweep.write_manifest(config, args.out)
-    from sim.evaluation.item_features import prepare_camera
-
-    prepare_camera(*(spec.config for spec in config.episodes))
 
     log = logging.getLogger("sim.experiments.sweep")
     # On a terminal a bar with the ETA is redrawn in place (the per-episode lines go to

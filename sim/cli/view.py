@@ -56,9 +56,6 @@ def main(args: argparse.Namespace) -> int:
 
         check_camera_beside_viewer()
     check_perception(config)
-    from sim.evaluation.item_features import prepare_camera
-
-    prepare_camera(config)
     from sim.episode.runner import config_cell, run_episode
     from sim.render.live_view import LiveView, ViewerClosed
 

@@ -336,6 +336,7 @@ def perception(config: EpisodeConfig, cell: Cell, flow: Flow):
         return TruthPerception(cell.items, flow, speed, period)
     # The camera's modules (rendering, the HMMs, the item classifier) are imported only here:
     # a truth episode's start does without them.
+    from sim.sensing.item_recording import prepare_classifier
     from sim.sensing.perception import CameraPerception, line_camera_perception
 
     options = {
@@ -350,6 +351,7 @@ def perception(config: EpisodeConfig, cell: Cell, flow: Flow):
         "encoder": cell.belt.encoder,
     }
     data, catalogue = cell.items.current(), cell.catalogue
+    prepare_classifier(config.classifier, catalogue, config.mix_kwargs)  # once a process
     if not (config.camera.per_robot and len(cell.robots) > 1):
         camera = cell.belt_camera(config.camera.size)
         return CameraPerception(cell.model, data, catalogue, camera=camera, **options)

@@ -20,10 +20,10 @@ from perception.camera.grid import BeltGrid
 from perception.codes import EMPTY_CODE, VOID
 from perception.errors import PerceptionError
 from sim.cell.camera import PERCEPTION_SAMPLES, BeltCamera, camera_pipeline
-from sim.evaluation.flow_replay import FlowReplay
 from sim.flow.config import X_CAMERA, FlowConfig, stripe_of
 from sim.flow.ground_truth import flow_rows
 from sim.flow.labelled_grids import DURATION_S, Recording, conditions
+from sim.sensing.flow_replay import FlowReplay
 
 FRAME_SIZE = (640, 360)
 

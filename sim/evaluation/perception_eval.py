@@ -25,12 +25,12 @@ from perception.camera.pipeline import CameraPipeline
 from perception.codes import COLOURS, EMPTY_CODE, N_CODES
 from perception.errors import PerceptionError
 from sim.cell.camera import PERCEPTION_SAMPLES, BeltCamera, marker_points
-from sim.evaluation.flow_replay import FlowReplay
 from sim.flow.catalogue import load_catalogue
 from sim.flow.config import X_CAMERA, FlowConfig
 from sim.flow.ground_truth import flow_rows
 from sim.flow.world import WorldVariation
 from sim.paths import CAMERA_CALIBRATION_JSON as DEFAULT_CALIBRATION
+from sim.sensing.flow_replay import FlowReplay
 
 SIZE_LABELS = ("none", "small", "medium", "large")
 COLOUR_LABELS = ("none", *COLOURS)

@@ -1,6 +1,6 @@
 """The camera's items scored against the truth item by item: detected, split, merged, missed.
 
-A flow rides the belt in physics (`sim.evaluation.flow_replay.FlowReplay`, robot at home) and
+A flow rides the belt in physics (`sim.sensing.flow_replay.FlowReplay`, robot at home) and
 once per observation period the episode's own camera perception
 (`sim.sensing.perception.CameraPerception`: rendered frame and depth map, pipeline, HMMs) takes
 its frame; the newest row of its window of item pixels (belt coordinates and heights) is
@@ -32,12 +32,12 @@ from perception.codes import N_STATES
 from perception.items.blobs import item_blobs
 from perception.items.scoring import SEGMENT_KINDS, SegmentScore, pooled_segments, score_segments
 from perception.items.split import SplitSettings
-from sim.evaluation.flow_replay import FlowReplay
 from sim.flow.catalogue import Catalogue, ItemType, load_catalogue
 from sim.flow.config import BELT_HALF_WIDTH, X_CAMERA, FlowConfig
 from sim.flow.footprint_polygons import contains_grown, to_body
 from sim.flow.generator import generate_flow
 from sim.flow.ground_truth import flow_rows, yaw_from_xmat
+from sim.sensing.flow_replay import FlowReplay
 from sim.sensing.perception import (
     COMPLETE_ROW,
     ITEM_SPLIT,

@@ -171,16 +171,12 @@ class Run:
 
 def _check_camera(sweep: sweep_config.SweepConfig) -> None:
     """Refuse, before the sweep's first episode, what its camera episodes cannot run without
-    (the rendering back-end, the camera's calibration, the item classifier's training table),
-    and record a custom catalogue's classifier table once (as `sortsim sweep` does)."""
-    camera = [s.config for s in sweep.episodes if s.config.perception == "camera"]
-    if not camera:
+    (the rendering back-end, the camera's calibration)."""
+    if not any(s.config.perception == "camera" for s in sweep.episodes):
         return
     from perception.camera.calibration import CameraCalibration
     from sim.cell.camera import DEFAULT_CALIBRATION
     from sim.cell.rendering import check_backend
-    from sim.evaluation.item_features import prepare_camera
 
     CameraCalibration.load(DEFAULT_CALIBRATION)
     check_backend()
-    prepare_camera(*camera)

@@ -83,8 +83,8 @@ def is_default_catalogue(catalogue) -> bool:
 def catalogue_table(catalogue, mix: dict | None = None) -> Path:
     """Where the training table of `catalogue` (and its class `mix`) is kept (the user's cache
     folder, named by content): recorded once through the camera perception by
-    `sim.evaluation.item_features.ensure_catalogue_table`, which `sortsim run`, `sweep` and
-    `view` call before a camera episode on another catalogue than the default."""
+    `sim.sensing.item_recording.ensure_catalogue_table` when the first camera episode on it is
+    built."""
     key = hashlib.sha1(catalogue.digest.encode())
     key.update(repr(sorted((mix or {}).items())).encode())
     key.update(recording_code_digest().encode())
@@ -113,8 +113,8 @@ def trained_item_classifier(catalogue=None, mix: dict | None = None) -> ItemClas
     path = catalogue_table(catalogue, mix)
     if not path.exists():
         allowed = (
-            "the item classifier's training table of this catalogue, recorded by "
-            "`sortsim run` (or sim.evaluation.item_features.ensure_catalogue_table)"
+            "the item classifier's training table of this catalogue, recorded when a camera "
+            "episode on it is built (sim.sensing.item_recording.ensure_catalogue_table)"
         )
         raise InvalidInput("item table", allowed, "missing", str(path))
     return _fitted(path, catalogue.materials.ids)

@@ -3,8 +3,9 @@
 The cell with the robot at home, the belt at the flow's speed and the pool feeding the flow's
 items at their times (handed over at belt speed, as in the episode); `rows` advances the physics
 to each observation time t_k = k T and yields there, so the camera and the truth look at the
-same instant. Used by the camera scoring (`sim.evaluation.perception_eval`) and by the HMMs' camera
-recordings (`sim.evaluation.camera_recordings`).
+same instant. Used by the recording of a catalogue's item classifier table
+(`sim.sensing.item_recording`), the camera scoring (`sim.evaluation.perception_eval`) and the
+HMMs' camera recordings (`sim.evaluation.camera_recordings`).
 """
 
 from __future__ import annotations
