@@ -117,3 +117,44 @@ def test_the_regimes_run_the_flows_of_their_tables():
     for table in ("4_2", "4_4"):
         assert flows(f"reproduce_{table}_paused") == flows(f"reproduce_{table}")
         assert pauses(f"reproduce_{table}_paused") == {(0.5, 0.5)}
+
+
+@pytest.mark.parametrize(
+    ("scale", "first", "verdict"),
+    [(1.03, "0.995 (0.966)", "+3.0 %, within"), (0.90, "0.870 (0.966)", "-10.0 %, OUTSIDE")],
+)
+def test_the_calibration_check_compares_with_the_thesis(scale, first, verdict):
+    """Rows whose proximity picks `scale` x the thesis's items per second at every dataset
+    (80 items: 0.9664 x 1.03 = 0.995)."""
+    t = thesis_tables()["4.5"]
+    rows = [
+        {"planner": "proximity", "n_items": str(n), "picked": str(100 * r * scale), "sim_s": "100"}
+        for n, r in zip(t["items"], items_per_s(t, "proximity"), strict=True)
+    ]
+    text = "\n".join(reproduce_calibrated.calibration_lines(rows, t))
+    assert f"| proximity, items/s | {first} | " in text
+    assert f"({verdict} the 5 %" in text
+
+
+def test_the_paired_block_from_rows_already_read(tmp_path):
+    """The block as a run that has read its sweeps' rows makes it: the small episodes.csv as the
+    calibrated x1 sweep's rows, no rows elsewhere; the thesis's timing printed from its table."""
+    path = tmp_path / "episodes.csv"
+    with path.open("w", newline="") as f:
+        out = csv.writer(f)
+        out.writerow(["seed", "planner", "n_items", "profit_eur"])
+        out.writerows(EPISODES)
+    run = Run(tmp_path / "out")
+    for _, sweeps, _ in reproduce_paired.REGIMES:
+        for name in sweeps:
+            run._rows[name] = outputs.read_rows(path) if name == "reproduce_4_5_calibrated" else []
+            run.seeds_of[name] = [0, 1, 2, 3]
+    text = reproduce_paired.finding_paired(run).markdown
+    assert "seeds 0-3 (4 per grid point), truth perception" in text.splitlines()[0]
+    rows = [line for line in text.splitlines() if line.startswith("| calibrated")]
+    assert rows == [
+        "| calibrated | x1 | qlearning - proximity | +6.7 [-31.3, +44.6] | +11.7 [-7.3, +30.6] "
+        "| +9.2 [-2.5, +20.9] | +16.67 [-17.96, +51.30] |"
+    ]
+    assert "- table 4.5 (x1): its Q-learning's Time was +3.8 % longer" in text
+    assert "+8.4 % more items per second" in text and "+6.8 % more items per second" in text

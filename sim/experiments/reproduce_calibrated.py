@@ -83,22 +83,20 @@ def calibration_lines(rows: list[dict], t: dict) -> list[str]:
         "| items | " + " | ".join(str(n) for n in t["items"]) + " | mean |",
         "|---|" + "---|" * (len(t["items"]) + 1),
     ]
-    if any(o is None for o in ours):
+    known = [o for o in ours if o is not None]
+    if len(known) < len(ours):
         return [*lines, "| proximity, items/s | " + " | ".join(cells) + " | - |"]
-    mine, target = statistics.fmean(ours), statistics.fmean(theirs)  # type: ignore[arg-type]
-    lines.append("| proximity, items/s | " + " | ".join(cells) + f" | {mine:.3f} ({target:.3f}) |")
+    mine, target = statistics.fmean(known), statistics.fmean(theirs)
     off = 100.0 * (mine / target - 1.0)
-    inside = abs(off) <= 100 * CALIBRATION_TOLERANCE
-    lines.append(
+    inside = "within" if abs(off) <= 100 * CALIBRATION_TOLERANCE else "OUTSIDE"
+    return [
+        *lines,
+        "| proximity, items/s | " + " | ".join(cells) + f" | {mine:.3f} ({target:.3f}) |",
         "",
-    )
-    lines.append(
         f"Calibration: proximity picks {mine:.3f} items/s on the mean over the datasets against "
-        f"the thesis's {target:.3f} ({off:+.1f} %, "
-        + ("within" if inside else "OUTSIDE")
-        + f" the {100 * CALIBRATION_TOLERANCE:.0f} % the regime is set to)."
-    )
-    return lines
+        f"the thesis's {target:.3f} ({off:+.1f} %, {inside} the "
+        f"{100 * CALIBRATION_TOLERANCE:.0f} % the regime is set to).",
+    ]
 
 
 def _table(run: Run, sweep: str, table: str, piece: str) -> Block:
