@@ -37,8 +37,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from sim.errors import InvalidInput
+from sim.experiments import reproduce_calibrated as calibrated
 from sim.experiments import reproduce_figures as figs
 from sim.experiments import reproduce_hmm as hmm
+from sim.experiments import reproduce_paired as paired
 from sim.experiments import reproduce_tables as tables
 from sim.experiments.reproduce_run import Block, Run
 from sim.paths import REPO_ROOT
@@ -215,6 +217,39 @@ PIECES = (
         "against the random picker",
         _PHYSICAL + _PAUSED + _CAMERA + tables.random_sweeps(),
         tables.finding_13,
+    ),
+    Piece(
+        "table_4_2_paused",
+        "Table 4.2: pick-and-place accuracy, the thesis's pauses",
+        ("reproduce_4_2_paused",),
+        tables.table_4_2_paused,
+    ),
+    Piece(
+        "table_4_4_paused",
+        "Table 4.4: long-term accuracy, the thesis's pauses",
+        ("reproduce_4_4_paused",),
+        tables.table_4_4_paused,
+    ),
+    Piece(
+        "table_4_5_calibrated",
+        "Table 4.5: x1, the calibrated regime (pauses set to the thesis's items picked per "
+        "second); with lookahead and the random picker",
+        (calibrated.SWEEPS[0],),
+        calibrated.table_4_5_calibrated,
+    ),
+    Piece(
+        "table_4_6_calibrated",
+        "Table 4.6: x1.2, the calibrated regime; with lookahead and the random picker",
+        (calibrated.SWEEPS[1],),
+        calibrated.table_4_6_calibrated,
+    ),
+    Piece(
+        "finding_paired",
+        "The +13 % with paired 95 % intervals: qlearning, rollout and lookahead against "
+        "proximity and random per dataset and pooled, in the physical, paused and calibrated "
+        "regimes; the gain's slope against the items; the thesis's timing",
+        tuple(s for _, sweeps, _ in paired.REGIMES for s in sweeps),
+        paired.finding_paired,
     ),
 )
 """Every piece, in the order a whole run makes them (cheap ones first)."""

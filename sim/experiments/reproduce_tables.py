@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import statistics
 from collections import defaultdict
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, cast
 
 from perception.codes import THESIS_VALUES_EUR
@@ -31,6 +32,7 @@ HEADS = {
     "rollout": "rollout (ours)",
     "proximity": "proximity",
     "random": "random (thesis's random picker)",
+    "lookahead": "lookahead (ours)",
 }
 DECISION_PLANNERS = (*PLANNERS, "random")
 """The decision managers of tables 4.5 and 4.6, in their columns' order: the tables' three and
@@ -120,10 +122,28 @@ def item_counts(t: dict, by: dict) -> list[int]:
     return sorted(set(t["items"]) | {k[0] for k in by})
 
 
+THESIS_SEEDS = {"4.2": 10, "4.3": 10, "4.4": 4}
+"""The flows a grid point the thesis ran for tables 4.2-4.4 (its text: 10, 10 and 4)."""
+
+
+def seeds_said(run: Run, sweep: str, table: str) -> str:
+    """`Run.seeds_text` of `sweep` and the thesis's count for `table`, for a block's first line."""
+    return f"{run.seeds_text(sweep)}; the thesis: {THESIS_SEEDS[table]}"
+
+
 def table_4_2(run: Run) -> Block:
     """Table 4.2: accuracy SP/SI per belt speed and items, the three decision managers."""
+    return _table_4_2(run, "reproduce_4_2", "table_4_2", "physical cycle")
+
+
+def table_4_2_paused(run: Run) -> Block:
+    """Table 4.2 with the thesis's pauses."""
+    return _table_4_2(run, "reproduce_4_2_paused", "table_4_2_paused", "the thesis's pauses")
+
+
+def _table_4_2(run: Run, sweep: str, piece: str, regime: str) -> Block:
     t = thesis_tables()["4.2"]
-    by = groups(run.rows("reproduce_4_2"), "speed_factor", "n_items", "planner")
+    by = groups(run.rows(sweep), "speed_factor", "n_items", "planner")
     items = sorted(set(t["items"]) | {k[1] for k in by})
     factors = sorted(set(t["speed_factors"]) | {k[0] for k in by})
     head = "| belt | " + " | ".join(f"{n} items" for n in items) + " |"
@@ -139,20 +159,24 @@ def table_4_2(run: Run) -> Block:
             cells.append(text + ("" if theirs is None else f" ({theirs:.3f})"))
         lines.append(f"| x{factor:g} | " + " | ".join(cells) + " |")
     q_accuracy = [mean_of(v, "accuracy") for (_, _, p), v in by.items() if p == "qlearning"]
+    why = (
+        " (our flows keep the items per second at every speed, and the physical cycle, about "
+        "0.65 s, keeps up with 0.6-1.7 items/s)"
+        if regime == "physical cycle"
+        else f" ({regime})"
+    )
     reading = (
         f"Reading: the thesis's robot fell from 0.90 to 0.53 over these grids; qlearning here "
-        f"picks {min(q_accuracy):.3f}-{max(q_accuracy):.3f} of the items (our flows keep "
-        "the items per second at every speed, and the physical cycle, about 0.65 s, keeps up "
-        "with 0.6-1.7 items/s)."
+        f"picks {min(q_accuracy):.3f}-{max(q_accuracy):.3f} of the items{why}."
         if q_accuracy
         else ""
     )
-    what = run.seeds_text("reproduce_4_2") + ", 90 s flows, physical cycle"
+    what = seeds_said(run, sweep, "4.2") + f", 90 s flows, {regime}"
     note = (
         "Each cell: accuracy SP/SI of qlearning / rollout / proximity (the thesis's Q-learning); "
         "`qlearning` is the thesis's algorithm as written, `rollout` ours."
     )
-    return Block("\n".join([run.label("table_4_2", what), "", note, "", *lines, "", reading]))
+    return Block("\n".join([run.label(piece, what), "", note, "", *lines, "", reading]))
 
 
 def _table_4_3(run: Run, sweep: str, piece: str, regime: str) -> Block:
@@ -200,7 +224,7 @@ def _table_4_3(run: Run, sweep: str, piece: str, regime: str) -> Block:
         + "; ".join(moves)
         + "."
     )
-    what = run.seeds_text(sweep) + f", 118 items over 90 s at x1, {regime}"
+    what = seeds_said(run, sweep, "4.3") + f", 118 items over 90 s at x1, {regime}"
     return Block("\n".join([run.label(piece, what), "", *lines, "", reading]))
 
 
@@ -216,8 +240,17 @@ def table_4_3_paused(run: Run) -> Block:
 
 def table_4_4(run: Run) -> Block:
     """Table 4.4: accuracy and time of each long flow, the three decision managers."""
+    return _table_4_4(run, "reproduce_4_4", "table_4_4", "physical cycle")
+
+
+def table_4_4_paused(run: Run) -> Block:
+    """Table 4.4 with the thesis's pauses."""
+    return _table_4_4(run, "reproduce_4_4_paused", "table_4_4_paused", "the thesis's pauses")
+
+
+def _table_4_4(run: Run, sweep: str, piece: str, regime: str) -> Block:
     t = thesis_tables()["4.4"]
-    by = groups(run.rows("reproduce_4_4"), "planner", "seed")
+    by = groups(run.rows(sweep), "planner", "seed")
     seeds = sorted({int(s) for (_, s) in by}, key=int)
     lines = [
         "| flow | thesis accuracy | "
@@ -242,17 +275,17 @@ def table_4_4(run: Run) -> Block:
         + " | ".join(cell(a, None, ".3f") for a in avg)
         + f" | {t['average_time_min']:.2f} | {cell(q_min and q_min / 60, None, '.2f')} |"
     )
-    what = run.seeds_text("reproduce_4_4") + ", 3000 items over 25 min at x1, physical cycle"
+    what = seeds_said(run, sweep, "4.4") + f", 3000 items over 25 min at x1, {regime}"
     rates = {
         p: statistics.fmean(_f(r, "picked") / max(_f(r, "sim_s"), 1e-9) for r in rows)
-        for (p,), rows in groups(run.rows("reproduce_4_4"), "planner").items()
+        for (p,), rows in groups(run.rows(sweep), "planner").items()
     }
     per_s = ", ".join(f"{p} {rates[p]:.2f}" for p in PLANNERS if p in rates)
     reading = (
         "Reading: two items a second for 25 minutes; the thesis's robot picked 0.57 of them. "
         f"Ours is held by its cycle: items picked a second, {per_s}."
     )
-    return Block("\n".join([run.label("table_4_4", what), "", *lines, "", reading]))
+    return Block("\n".join([run.label(piece, what), "", *lines, "", reading]))
 
 
 def _decision_rows(run: Run, sweep: str) -> list[dict]:
@@ -260,8 +293,10 @@ def _decision_rows(run: Run, sweep: str) -> list[dict]:
     return run.rows(sweep) + run.rows(f"{sweep}_random")
 
 
-def _decision_cells(by: dict, n: int, t: dict) -> list[str]:
-    """Accuracy, time and profit of every decision manager at `n` items, ours (the thesis's)."""
+def _decision_cells(
+    by: dict, n: int, t: dict, planners: tuple[str, ...] = DECISION_PLANNERS
+) -> list[str]:
+    """Accuracy, time and profit of each of `planners` at `n` items, ours (the thesis's)."""
     metrics = (
         ("accuracy", "accuracy", ".3f"),
         ("time", "sim_s", ".1f"),
@@ -270,7 +305,7 @@ def _decision_cells(by: dict, n: int, t: dict) -> list[str]:
     cells = []
     for metric, key, fmt in metrics:
         parts = []
-        for p in DECISION_PLANNERS:
+        for p in planners:
             theirs = at(t, f"{metric}_{p}", n) if p in ("qlearning", "proximity") else None
             parts.append(cell(mean(by.get((n, p), []), key), theirs, fmt))
         cells.append(" / ".join(parts))
@@ -294,20 +329,42 @@ def _gain_reading(gains: dict[tuple[str, str], list[float]], thesis_all: list[fl
     )
 
 
-def _decision_table(run: Run, sweep: str, table: str, piece: str, regime: str) -> Block:
+@dataclass(frozen=True)
+class DecisionColumns:
+    """The planners of a table 4.5/4.6 block, its profit comparisons (planner, against), the
+    sweeps beside its own that hold its rows ({sweep}: the sweep's name) and its note."""
+
+    planners: tuple[str, ...] = DECISION_PLANNERS
+    comparisons: tuple[tuple[str, str], ...] = COMPARISONS
+    extra_sweeps: tuple[str, ...] = ("{sweep}_random",)
+    note: str = KEY_NOTE
+
+
+def decision_table(
+    run: Run,
+    sweep: str,
+    table: str,
+    piece: str,
+    regime: str,
+    columns: DecisionColumns = DecisionColumns(),
+) -> Block:
     t = thesis_tables()[table]
-    by = groups(_decision_rows(run, sweep), "n_items", "planner")
-    order = " / ".join(HEADS[p] for p in DECISION_PLANNERS)
-    lines = [
-        f"| items | accuracy: {order} | time [s] | profit [EUR] | qlearning - proximity "
-        "profit (thesis) | rollout - proximity | random - proximity | qlearning - random |",
-        "|---|---|---|---|---|---|---|---|",
+    sweeps = (sweep, *(s.format(sweep=sweep) for s in columns.extra_sweeps))
+    by = groups([r for s in sweeps for r in run.rows(s)], "n_items", "planner")
+    order = " / ".join(HEADS[p] for p in columns.planners)
+    heads = [
+        f"{p} - {a}" + (" profit (thesis)" if (p, a) == ("qlearning", "proximity") else "")
+        for p, a in columns.comparisons
     ]
-    gains: dict[tuple[str, str], list[float]] = {c: [] for c in COMPARISONS}
+    lines = [
+        f"| items | accuracy: {order} | time [s] | profit [EUR] | " + " | ".join(heads) + " |",
+        "|---|---|---|---|" + "---|" * len(heads),
+    ]
+    gains: dict[tuple[str, str], list[float]] = {c: [] for c in columns.comparisons}
     for n in item_counts(t, by):
         thesis_gain = pct(at(t, "profit_qlearning", n), at(t, "profit_proximity", n))
         diffs = []
-        for p, against in COMPARISONS:
+        for p, against in columns.comparisons:
             g = pct(
                 mean(by.get((n, p), []), "profit_eur"), mean(by.get((n, against), []), "profit_eur")
             )
@@ -315,34 +372,34 @@ def _decision_table(run: Run, sweep: str, table: str, piece: str, regime: str) -
                 gains[p, against].append(g)
             thesis = (p, against) == ("qlearning", "proximity")
             diffs.append(signed(g) + (f" ({signed(thesis_gain)})" if thesis else ""))
-        cells = _decision_cells(by, n, t)
+        cells = _decision_cells(by, n, t, columns.planners)
         lines.append(f"| {n} | " + " | ".join(cells) + " | " + " | ".join(diffs) + " |")
     thesis_all = thesis_gains(t, "profit_qlearning", "profit_proximity")
     reading = _gain_reading(gains, thesis_all)
-    what = run.seeds_text(sweep, f"{sweep}_random") + f", belt x{t['speed_factor']:g}, {regime}"
-    return Block("\n".join([run.label(piece, what), "", KEY_NOTE, "", *lines, "", reading]))
+    what = run.seeds_text(*sweeps) + f", belt x{t['speed_factor']:g}, {regime}"
+    return Block("\n".join([run.label(piece, what), "", columns.note, "", *lines, "", reading]))
 
 
 def table_4_5(run: Run) -> Block:
     """Table 4.5 (x1), the robot's physical cycle."""
-    return _decision_table(run, "reproduce_4_5", "4.5", "table_4_5", "physical cycle")
+    return decision_table(run, "reproduce_4_5", "4.5", "table_4_5", "physical cycle")
 
 
 def table_4_6(run: Run) -> Block:
     """Table 4.6 (x1.2), the robot's physical cycle."""
-    return _decision_table(run, "reproduce_4_6", "4.6", "table_4_6", "physical cycle")
+    return decision_table(run, "reproduce_4_6", "4.6", "table_4_6", "physical cycle")
 
 
 def table_4_5_paused(run: Run) -> Block:
     """Table 4.5 (x1) with the thesis's pauses."""
-    return _decision_table(
+    return decision_table(
         run, "reproduce_4_5_paused", "4.5", "table_4_5_paused", "the thesis's pauses"
     )
 
 
 def table_4_6_paused(run: Run) -> Block:
     """Table 4.6 (x1.2) with the thesis's pauses."""
-    return _decision_table(
+    return decision_table(
         run, "reproduce_4_6_paused", "4.6", "table_4_6_paused", "the thesis's pauses"
     )
 
