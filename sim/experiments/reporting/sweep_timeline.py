@@ -15,6 +15,7 @@ from collections import defaultdict
 from dataclasses import dataclass
 
 from sim.config.faults import FAULT_KINDS
+from sim.experiments.reporting.fault_colours import BAND_COLOURS
 
 KEY_COLUMNS = ("variant", "planner", "speed_factor", "n_items")
 """The columns of a grid point; `seed` and the variants' settings (`variant.<key>`) aside."""
@@ -114,8 +115,6 @@ def point_png(timeline: PointTimeline, title: str) -> bytes:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
-    from sim.experiments.reporting.timeline_figure import BAND_COLOURS
 
     fig, (top, middle, bottom) = plt.subplots(
         3, 1, sharex=True, figsize=(6.4, 6.0), dpi=100, height_ratios=(3, 3, 1.6)

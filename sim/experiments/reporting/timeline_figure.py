@@ -13,16 +13,8 @@ import io
 from pathlib import Path
 
 from sim.config.faults import FAULT_KINDS
+from sim.experiments.reporting.fault_colours import BAND_COLOURS
 from sim.results.timeline import TIMELINE_FILE, read_timeline
-
-BAND_COLOURS = {
-    "camera_outage": "tab:purple",
-    "robot_stop": "tab:red",
-    "belt_stop": "tab:gray",
-    "vacuum_drop": "tab:orange",
-    "belt_speed": "tab:cyan",
-}
-"""Each fault kind's band colour."""
 
 
 def series(rows: list[dict[str, str]]) -> tuple[list[float], list[float], list[float]]:
