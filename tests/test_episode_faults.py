@@ -103,6 +103,36 @@ def test_a_camera_outage_loses_about_the_items_that_crossed_its_line_meanwhile()
     assert during - edge <= never
 
 
+def _line_with_camera_0_out(per_robot: bool) -> tuple[int, int, int]:
+    config = episode_config.from_dict(
+        {
+            "perception": "camera",
+            "robots": 2,
+            "coordination": "coordinated",
+            "items": 24,
+            "duration_s": 14.0,
+            "seed": 5,
+            "camera": {"per_robot": per_robot},
+        }
+    )
+    outage = FaultSchedule((Fault("camera_outage", 8.0, 10.0, camera=0),))
+    with Episode(config, config_cell(config), faults=outage) as episode:
+        episode.reset()
+        episode.run()
+        entered, ends = _accounted(episode)
+        return entered, ends, episode.metrics.n_never_detected
+
+
+def test_a_camera_per_robot_sees_what_the_first_camera_missed_while_it_was_out():
+    # camera 0 out for 10 s of a 14 s feed: with the scene's one camera the items that crossed
+    # its line meanwhile are never seen (15 of 24 here); robot 1's own camera sees them
+    one = _line_with_camera_0_out(per_robot=False)
+    each = _line_with_camera_0_out(per_robot=True)
+    assert one[0] == one[1] == each[0] == each[1] == 24
+    assert one[2] >= 8
+    assert each[2] <= one[2] // 4
+
+
 def test_a_vacuum_drop_seals_slower_holds_less_and_every_item_is_accounted_for():
     drop = Fault("vacuum_drop", 0.5, 30.0, vacuum_pa=25e3)
     with _episode((), 14, 8.0) as episode:
