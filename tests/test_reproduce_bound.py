@@ -105,9 +105,9 @@ def test_the_block_names_its_regimes_and_says_what_the_bound_is(tmp_path):
 
 
 def test_best_order_needs_its_flow():
-    from planner.decision.registry import PLANNERS, make_planner
+    from planner.decision.registry import FLOW_PLANNERS, PLANNERS, make_planner
     from planner.errors import PlannerInputError
 
-    assert "best_order" in PLANNERS
+    assert "best_order" in FLOW_PLANNERS and "best_order" not in PLANNERS
     with pytest.raises(PlannerInputError, match="best_order"):
         make_planner("best_order")

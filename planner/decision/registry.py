@@ -46,9 +46,14 @@ _BUILT_IN = {
     "seen_best": "planner.decision.managers.seen_best:SeenBestPlanner",
     "best_order": "planner.decision.managers.best_order:BestOrderPlanner",
 }
-PLANNERS = tuple(_BUILT_IN)
-"""The built-in decision managers' names."""
-ALLOWED = " | ".join(PLANNERS) + " | module:Class (a class with choose() and reset())"
+FLOW_PLANNERS = ("best_order",)
+"""The built-in decision managers given the episode's whole flow by the episode runner
+(`sim.episode.builder.known_flow`): they cannot be built without it."""
+PLANNERS = tuple(name for name in _BUILT_IN if name not in FLOW_PLANNERS)
+"""The built-in decision managers built from their options alone (on any belt)."""
+ALLOWED = (
+    " | ".join((*PLANNERS, *FLOW_PLANNERS)) + " | module:Class (a class with choose() and reset())"
+)
 """What a planner spec may be, in words (for refusals and --help)."""
 
 
@@ -145,7 +150,7 @@ def make_planner(spec: str, **params):
     """A new decision manager.
 
     Args:
-        spec: One of PLANNERS, or `module:Class` of the user's own class.
+        spec: One of PLANNERS or FLOW_PLANNERS, or `module:Class` of the user's own class.
         **params: Options of that planner (qlearning, rollout, lookahead: the fields of
             QLearningConfig, RolloutConfig, LookaheadConfig; seen_best: max_items; learned:
             policy_file (a JSON written by `sortsim train`); random: seed and stream;
