@@ -71,7 +71,7 @@ def test_registry_builds_every_planner_and_refuses_unknown_names_and_options():
         make_planner("randomly")
     assert err.value.allowed == (
         "qlearning | rollout | lookahead | learned | proximity | fifo | greedy | random | "
-        "seen_best | module:Class "
+        "seen_best | best_order | module:Class "
         "(a class with choose() and reset())"
     )
     with pytest.raises(PlannerInputError) as err:

@@ -20,7 +20,7 @@ NAMES = (
     + ["table_4_5", "table_4_6", "table_4_5_paused", "table_4_6_paused"]
     + ["table_4_5_camera", "table_4_6_camera", "finding_13"]
     + ["table_4_2_paused", "table_4_4_paused", "table_4_5_calibrated", "table_4_6_calibrated"]
-    + ["finding_paired"]
+    + ["finding_paired", "bound_4_5_4_6"]
     + ["figure_4_1", "figure_4_2", "figure_4_3"]
     + [f"figure_4_{k}" for k in range(4, 10)]
 )
@@ -29,7 +29,7 @@ NAMES = (
 def test_list_names_every_table_and_figure(capsys):
     assert main(["reproduce", "--list"]) == 0
     text = capsys.readouterr().out
-    listed = re.findall(r"^((?:table|figure|finding)_\w+)\s", text, flags=re.M)
+    listed = re.findall(r"^((?:table|figure|finding|bound)_\w+)\s", text, flags=re.M)
     assert sorted(listed) == sorted(NAMES)
     assert "reproduce_4_5_camera (150 episodes)" in text  # the thesis's 5 seeds
     for sweep in reproduce_tables.random_sweeps():  # the random picker's rows, 5 seeds too
@@ -38,7 +38,8 @@ def test_list_names_every_table_and_figure(capsys):
     assert "Table 4.5: x1, the calibrated regime" in text
     assert "reproduce_4_2_paused (360 episodes)" in text  # the thesis's 10 seeds
     assert "reproduce_4_4_paused (12 episodes)" in text  # its 4
-    assert "19 sweeps, 1964 episodes" in text
+    assert "reproduce_4_6_calibrated_best_order (25 episodes)" in text  # the bound's best order
+    assert "25 sweeps, 2114 episodes" in text
     assert main(["reproduce", "--list", "--quick"]) == 0
     quick = capsys.readouterr().out
     assert "reproduce_4_5_camera (30 episodes)" in quick

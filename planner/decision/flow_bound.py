@@ -1,4 +1,10 @@
-"""An upper bound on the profit any pick order can earn on a whole known flow.
+"""An upper bound, under the cycle-time model, on the profit any pick order can earn on a whole
+known flow.
+
+It bounds every order a robot that keeps to the cycle-time model's least times could play; it
+is not proven for the physics' robot, which may move faster than the model somewhere (the
+times can be scaled down by a measured ratio, `scale`, and every physics run is checked against
+it: `sim.evaluation.flow_bound.time_scale`, `tests/test_flow_bound.py`).
 
 The relaxation keeps two facts of every pick a single robot makes and drops everything else:
 
@@ -16,8 +22,8 @@ sum over S of (P_k + K_k) <= (b - a) + max P + max K (the first meeting's K and 
 fall outside), and they number at most floor((b - a) / gap) + 1, gap = min P + min K.
 `interval_bound` maximises the value picked, each item taken by a fraction in [0, 1], under
 both for every interval from a window's start to a window's end at most `span_s` later (a
-linear programme, scipy's HiGHS). Every constraint holds for every feasible order, so the
-optimum bounds every order's profit; dropping constraints only loosens it.
+linear programme, scipy's HiGHS). Every constraint holds for every order feasible under the
+model, so the optimum bounds every such order's profit; dropping constraints only loosens it.
 """
 
 from __future__ import annotations
@@ -44,7 +50,7 @@ class FlowBound:
     """The bound on one flow.
 
     Attributes:
-        bound: Most any pick order can earn [EUR].
+        bound: Most any pick order can earn under the cycle-time model [EUR].
         reachable_value: Value of the items the robot can reach at all [EUR] (no time limit).
         gap_s: Least time between two meetings used [s].
         constraints: Interval constraints that cut something.

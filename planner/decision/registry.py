@@ -3,7 +3,8 @@
 `make_planner('qlearning', gamma=0.9)` builds a built-in manager (qlearning: the thesis's algorithm;
 rollout: our timed rollout over its reward; lookahead: our budgeted branch and bound; proximity,
 fifo, greedy; random: a uniform draw among the items the cup can meet, the thesis's "random picker";
-seen_best: the best order over the items in view, replanned at each decision: no bound).
+seen_best: the best order over the items in view, replanned at each decision: no bound;
+best_order: the order a search finds with the episode's whole flow known, followed: no bound).
 `make_planner('mymod:MyPlanner')` (or `path/to/file.py:MyPlanner`) imports the user's class and
 builds it with no arguments. A user's class implements
 `planner.decision.interface.DecisionManager`: a `choose(items, robot, context)` returning a
@@ -43,10 +44,16 @@ _BUILT_IN = {
     "greedy": "planner.decision.managers.greedy:GreedyPlanner",
     "random": "planner.decision.managers.random_pick:RandomPlanner",
     "seen_best": "planner.decision.managers.seen_best:SeenBestPlanner",
+    "best_order": "planner.decision.managers.best_order:BestOrderPlanner",
 }
-PLANNERS = tuple(_BUILT_IN)
-"""The built-in decision managers' names."""
-ALLOWED = " | ".join(PLANNERS) + " | module:Class (a class with choose() and reset())"
+FLOW_PLANNERS = ("best_order",)
+"""The built-in decision managers given the episode's whole flow by the episode runner
+(`sim.episode.builder.known_flow`): they cannot be built without it."""
+PLANNERS = tuple(name for name in _BUILT_IN if name not in FLOW_PLANNERS)
+"""The built-in decision managers built from their options alone (on any belt)."""
+ALLOWED = (
+    " | ".join((*PLANNERS, *FLOW_PLANNERS)) + " | module:Class (a class with choose() and reset())"
+)
 """What a planner spec may be, in words (for refusals and --help)."""
 
 
@@ -134,6 +141,7 @@ def _built_in(name: str) -> tuple[type, tuple[str, ...]]:
         "seen_best": ("max_items",),
         "learned": ("policy_file",),
         "random": ("seed", "stream"),
+        "best_order": ("x0", "y", "classes"),
     }
     return cls, extra.get(name, ())
 
@@ -142,11 +150,12 @@ def make_planner(spec: str, **params):
     """A new decision manager.
 
     Args:
-        spec: One of PLANNERS, or `module:Class` of the user's own class.
+        spec: One of PLANNERS or FLOW_PLANNERS, or `module:Class` of the user's own class.
         **params: Options of that planner (qlearning, rollout, lookahead: the fields of
             QLearningConfig, RolloutConfig, LookaheadConfig; seen_best: max_items; learned:
-            policy_file (a JSON written by `sortsim train`); random: seed and stream; the
-            others, and users' classes, take none).
+            policy_file (a JSON written by `sortsim train`); random: seed and stream;
+            best_order: the flow, x0, y and classes (required); the others, and users'
+            classes, take none).
 
     Raises:
         PlannerInputError: Unknown name or option, or an option out of range.

@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from planner.decision.registry import COORDINATIONS, PLANNERS
+from planner.decision.registry import COORDINATIONS, FLOW_PLANNERS, PLANNERS
 from planner.motion.belt_speeds import SPEED_RANGE_MPS, SPEED_X1_MPS
 from sim.config.fields import Range, setting
 from sim.config.plant import MAX_ROBOTS
@@ -96,7 +96,8 @@ class EpisodeSettings:
         "qlearning",
         option="--planner",
         metavar="NAME|module:Class",
-        help=f"decision manager: {' | '.join(PLANNERS)}, or module:Class of your own "
+        help=f"decision manager: {' | '.join((*PLANNERS, *FLOW_PLANNERS))}, or module:Class of "
+        "your own "
         "(default {default})",
     )
     perception: str = setting(

@@ -10,6 +10,7 @@ import time
 from collections.abc import Callable
 
 import mujoco
+import numpy as np
 
 from planner.decision.energy_cost import EnergyPrice
 from planner.decision.interface import DecisionContext
@@ -29,6 +30,7 @@ from sim.episode.pick_control import PRESS_DEPTH_M, PickController
 from sim.episode.scheduler import BeltRowEvent, PeriodicEvent
 from sim.episode.stations import Offers, RobotStation
 from sim.errors import InvalidInput
+from sim.flow.config import X_INFEED
 from sim.flow.generator import Flow, generate_flow, max_items_on_belt
 from sim.monitors.energy import ActuatorLog, EnergyMeter
 from sim.monitors.mj_warnings import WarningCounter
@@ -48,7 +50,7 @@ def make_decision_manager(config: EpisodeConfig, robot: int = 0):
     """The configured planner: qlearning and rollout take the [qlearning] section's parameters
     and the observation period as their grid's row period; qlearning draws its random actions
     from the episode's seed; random draws its picks from the episode's seed, each robot of a
-    line from its own stream.
+    line from its own stream; best_order is given the episode's whole flow (`known_flow`).
 
     Args:
         config: The episode's configuration.
@@ -68,7 +70,23 @@ def make_decision_manager(config: EpisodeConfig, robot: int = 0):
         )
     if config.planner == "random":
         return make_planner("random", seed=config.seed, stream=robot)
+    if config.planner == "best_order":
+        return make_planner("best_order", **known_flow(config))
     return make_planner(config.planner)
+
+
+def known_flow(config: EpisodeConfig) -> dict[str, np.ndarray]:
+    """The config's whole flow as `best_order` is given it: each item's x at t = 0 (dropped at
+    `X_INFEED` at its spawn time, riding at the belt's speed) [m], its y [m] and class id, by
+    flow item id."""
+    from sim.episode.runner import pool_capacity
+
+    flow = config_flow(config, config.item_catalogue, pool_capacity(config.line_cell))
+    return {
+        "x0": X_INFEED - config.belt_speed_mps * np.asarray(flow.t_spawn, dtype=float),
+        "y": np.asarray(flow.y, dtype=float),
+        "classes": np.asarray(flow.class_id, dtype=int),
+    }
 
 
 def check_cell(cell: Cell, config: EpisodeConfig) -> None:

@@ -4,32 +4,29 @@
 each item's place at t = 0 (dropped at `X_INFEED` at its spawn time, riding at the belt's
 speed), its class and value, and the first robot's decision context (its reach window, bins,
 and cycle-time model with the regime's pauses). `bound_of` is the relaxation of
-`planner.decision.flow_bound` on it: no pick order earns more in the episode.
+`planner.decision.flow_bound` on it: no pick order timed by the cycle-time model earns more. It
+is not proven for the physics' robot (`time_scale` measures how much faster than the model's
+least times a physics run's picks were; the tests check the physics' runs against it).
 
-`best_order` searches with the whole flow known: the look-ahead planner on the kinematic belt
-(`planner.decision.kinematic_belt`) with every item in view from t = 0. `replay` runs that order
-in physics (`planner.decision.managers.follow_order`); its profit is what the best known order
-earns there, a lower bound on the best order's.
+`best_order` searches with the whole flow known (`planner.decision.managers.best_order`, the
+planner `best_order`: the look-ahead planner on the kinematic belt with every item in view from
+t = 0). `replay` runs that order in physics; its profit is what the best known order earns
+there, a lower bound on the best order's.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from planner.decision.flow_bound import FlowBound, interval_bound, pick_place_times, reach_windows
 from planner.decision.interface import DecisionContext
-from planner.decision.kinematic_belt import Belt, BeltItem, one_hot, simulate
+from planner.decision.managers.best_order import search_order
 from planner.decision.managers.follow_order import FollowOrderPlanner
 from planner.decision.oracle import pick_lower_bound, place_lower_bound
-from planner.decision.registry import make_planner
 from sim.config import EpisodeConfig
 from sim.flow.config import X_INFEED
-
-SEARCH = "lookahead"
-"""The planner whose run over the whole known flow gives the best known order."""
 
 
 @dataclass(frozen=True)
@@ -100,14 +97,8 @@ def time_scale(facts: FlowFacts, pick_rows: list[dict]) -> float:
 
 def best_order(facts: FlowFacts) -> tuple[tuple[int, ...], float]:
     """(order of flow ids, its profit on the kinematic belt [EUR]) of `SEARCH` with the whole
-    flow in view from the start."""
-    items = tuple(
-        BeltItem(j, float(x), float(y), int(c), one_hot(int(c)))
-        for j, (x, y, c) in enumerate(zip(facts.x0, facts.y, facts.classes, strict=True))
-    )
-    belt = Belt(items, facts.context.belt_speed)
-    result = simulate(make_planner(SEARCH), belt, facts.context, view_start=-math.inf)
-    return tuple(p.item_id for p in result.picks), result.profit
+    flow in view from the start (`search_order`)."""
+    return search_order(facts.x0, facts.y, facts.classes, facts.context)
 
 
 def replay(config: EpisodeConfig, facts: FlowFacts, order: tuple[int, ...]) -> dict:

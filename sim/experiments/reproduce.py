@@ -21,6 +21,7 @@ local workers or Ray) and a function that turns their rows into a markdown block
    the same block twice changes nothing.
 
 The pieces' contents are made in `sim.experiments.reproduce_tables` (tables, the +13 % finding),
+`sim.experiments.reproduce_bound` (the bound on tables 4.5/4.6's flows),
 `sim.experiments.reproduce_figures` (figures) and `sim.experiments.reproduce_hmm` (table 4.1 and
 figure 4.1: the stripe HMMs, no sweep), each given the run (`sim.experiments.reproduce_run`);
 this module orders them (`PIECES`) and writes their blocks.
@@ -37,6 +38,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from sim.errors import InvalidInput
+from sim.experiments import reproduce_bound as bound
 from sim.experiments import reproduce_calibrated as calibrated
 from sim.experiments import reproduce_figures as figs
 from sim.experiments import reproduce_hmm as hmm
@@ -250,6 +252,16 @@ PIECES = (
         "regimes; the gain's slope against the items; the thesis's timing",
         tuple(s for _, sweeps, _ in paired.REGIMES for s in sweeps),
         paired.finding_paired,
+    ),
+    Piece(
+        bound.PIECE,
+        "The bound on tables 4.5/4.6's flows under the cycle-time model (not proven for the "
+        "physics' robot), the best order found with the flow known replayed in physics, and "
+        "the planners beside them, per regime; the headroom over proximity with paired 95 % "
+        "intervals",
+        bound.sweeps(),
+        bound.bound_block,
+        "the bound per flow (a linear programme, no physics)",
     ),
 )
 """Every piece, in the order a whole run makes them (cheap ones first)."""
