@@ -17,8 +17,8 @@ import pytest
 
 from sim.cli.main import main
 from sim.errors import InvalidInput
-from sim.experiments import reproduce
-from sim.experiments.reproduce import Run
+from sim.experiments.thesis import reproduce
+from sim.experiments.thesis.reproduce import Run
 from sim.paths import REPO_ROOT
 from sim.results import code_digest, outputs
 

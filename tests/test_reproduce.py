@@ -10,9 +10,9 @@ import pytest
 
 from sim.cli.main import main
 from sim.errors import InvalidInput
-from sim.experiments import reproduce, reproduce_hmm, reproduce_tables
-from sim.experiments.reproduce import END_MARKER, Run, start_marker, write_block
-from sim.experiments.thesis_report import mean_and_range
+from sim.experiments.thesis import reproduce, reproduce_hmm, reproduce_tables
+from sim.experiments.thesis.reproduce import END_MARKER, Run, start_marker, write_block
+from sim.experiments.thesis.thesis_report import mean_and_range
 from sim.results import code_digest, outputs
 
 NAMES = (

@@ -9,8 +9,8 @@ import math
 
 import pytest
 
-from sim.experiments import reproduce_bound as bound
-from sim.experiments.reproduce import Run
+from sim.experiments.thesis import reproduce_bound as bound
+from sim.experiments.thesis.reproduce import Run
 from sim.results import outputs
 
 SWEEP = "reproduce_4_5_paused_best_order"

@@ -8,10 +8,10 @@ import math
 
 import pytest
 
-from sim.experiments import reproduce_calibrated, reproduce_paired
-from sim.experiments.reproduce import DEFAULT_OUT, Run
-from sim.experiments.thesis_rates import items_per_s, mean_items_per_s, timing
-from sim.experiments.thesis_report import thesis_tables
+from sim.experiments.thesis import reproduce_calibrated, reproduce_paired
+from sim.experiments.thesis.reproduce import DEFAULT_OUT, Run
+from sim.experiments.thesis.thesis_rates import items_per_s, mean_items_per_s, timing
+from sim.experiments.thesis.thesis_report import thesis_tables
 from sim.results import outputs
 
 

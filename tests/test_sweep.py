@@ -9,8 +9,9 @@ import tomllib
 import pytest
 
 from sim.cli import main as cli
-from sim.experiments import sweep_config, thesis_report
+from sim.experiments import sweep_config
 from sim.experiments import sweep_runner as sweep
+from sim.experiments.thesis import thesis_report
 from sim.flow.world import WorldVariation
 from sim.results import code_digest, outputs
 

@@ -12,7 +12,7 @@ is refused in one line before any work, unless `--mix-code`; each block's first 
 commit and code digest its episodes ran on, and says MIXED CODE when they ran on several.
 Each piece is printed, written to `<out>/<name>.md`, and put between its markers in `--docs`
 (default docs/results.md; its figures in docs/results/); `--no-docs` leaves the docs alone
-(figures in `<out>/figures/`). The logic is in `sim.experiments.reproduce`.
+(figures in `<out>/figures/`). The logic is in `sim.experiments.thesis.reproduce`.
 """
 
 from __future__ import annotations
@@ -64,7 +64,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def main(args: argparse.Namespace) -> int:
     """List, or run the chosen pieces and fill the docs."""
     from sim.errors import InvalidInput
-    from sim.experiments import reproduce
+    from sim.experiments.thesis import reproduce
 
     if args.list:
         print(reproduce.list_text(args.quick))

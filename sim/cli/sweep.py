@@ -127,7 +127,7 @@ def _run(args: argparse.Namespace, config) -> int:
     if bar:
         bar.done()
     print(f"{config.name}: {len(rows)} episodes in {args.out / 'episodes.csv'}")
-    from sim.experiments import thesis_report
+    from sim.experiments.thesis import thesis_report
 
     table = thesis_report.format_table(config.table, rows)
     if table:

@@ -320,7 +320,7 @@ class EpisodeConfig(EpisodeSettings):
 
     @property
     def line_cell(self) -> bool:
-        """Whether the episode's cell has a line's item pool (`sim.episode.runner.pool_capacity`):
+        """Whether the episode's cell has a line's item pool (`sim.model.line_model.pool_capacity`):
         several robots, one robot placed elsewhere than x = 0, or one robot on a belt denser
         than the single cell's pool carries (`MAX_ITEMS_PER_METRE`) at the feed's peak."""
         if self.robot_count > 1 or self.robot_positions_m[:1] not in ((), (0.0,)):

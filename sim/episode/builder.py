@@ -79,7 +79,7 @@ def known_flow(config: EpisodeConfig) -> dict[str, np.ndarray]:
     """The config's whole flow as `best_order` is given it: each item's x at t = 0 (dropped at
     `X_INFEED` at its spawn time, riding at the belt's speed) [m], its y [m] and class id, by
     flow item id."""
-    from sim.episode.runner import pool_capacity
+    from sim.model.line_model import pool_capacity
 
     flow = config_flow(config, config.item_catalogue, pool_capacity(config.line_cell))
     return {

@@ -86,9 +86,9 @@ def shared_cell(
     `sim.model.line_model.LineLayout`); a line of several robots with `cameras_per_robot` has
     a belt camera for each robot. Every cell is compiled by `compile_line`, so a lone robot
     has the scene's names wherever it stands and whatever its pool. The pool has `pool_size`
-    bodies (`pool_capacity` when None: the most any flow may need; a line's, `line`, for
-    several robots or one away from x = 0)."""
-    from sim.model.line_model import LineLayout, compile_line
+    bodies (`sim.model.line_model.pool_capacity` when None: the most any flow may need; a
+    line's, `line`, for several robots or one away from x = 0)."""
+    from sim.model.line_model import LineLayout, compile_line, pool_capacity
 
     if catalogue is None:
         from sim.flow.catalogue import load_catalogue
@@ -107,15 +107,6 @@ def shared_cell(
     return _CELLS[key]
 
 
-def pool_capacity(line: bool) -> int:
-    """Item bodies the pool of a cell (`line` False) or of a line has when not sized for one
-    flow: the most items any flow it takes may have on the belt at once."""
-    from sim.model.item_pool_xml import POOL_SIZE
-    from sim.model.line_model import LINE_POOL_SIZE
-
-    return LINE_POOL_SIZE if line else POOL_SIZE
-
-
 def config_cell(config: EpisodeConfig, sized: bool = False):
     """This process's shared cell for `config` (`shared_cell` of its model settings,
     catalogue, robots and their positions, and a camera per robot for a line's camera
@@ -127,6 +118,7 @@ def config_cell(config: EpisodeConfig, sized: bool = False):
         from sim.cell.item_pool import pool_size_for
         from sim.episode.builder import config_flow
         from sim.flow.generator import max_items_on_belt
+        from sim.model.line_model import pool_capacity
 
         capacity = pool_capacity(config.line_cell)
         flow = config_flow(config, config.item_catalogue, capacity)

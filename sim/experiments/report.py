@@ -657,7 +657,7 @@ def write_report(folders: list[Path], out: Path, baseline: str | None = None) ->
         baseline: The planner every other is compared with (spec or short label); None: each
             grid point's best by mean profit.
     """
-    from sim.experiments import thesis_report
+    from sim.experiments.thesis import thesis_report
 
     rows, tables = read_folders(folders)
     check_baseline(rows, baseline)

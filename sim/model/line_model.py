@@ -477,3 +477,11 @@ def compile_line(
     qpos, ctrl = _line_home(compile_spec(spec, path), layout)
     spec.add_key(name="home", qpos=qpos.tolist(), ctrl=ctrl.tolist())
     return compile_spec(spec, path, elements)
+
+
+def pool_capacity(line: bool) -> int:
+    """Item bodies the pool of a cell (`line` False) or of a line has when not sized for one
+    flow: the most items any flow it takes may have on the belt at once."""
+    from sim.model.item_pool_xml import POOL_SIZE
+
+    return LINE_POOL_SIZE if line else POOL_SIZE

@@ -1,11 +1,12 @@
 """Tables 4.5 and 4.6 in the `calibrated` regime: the robot's pauses set so that proximity picks
 as many items per second on table 4.5's flows as the thesis's proximity picker did.
 
-The thesis's items per second come from its own columns (`sim.experiments.thesis_rates`); ours
-are items picked over the simulated seconds until the last item left the belt, per episode,
-averaged over the seeds and then over the datasets. Each block prints both, dataset by dataset,
-so the calibration is checked wherever the block is regenerated. The five decision managers
-(`qlearning`, `rollout`, `lookahead`, `proximity`, `random`) run in one sweep a table.
+The thesis's items per second come from its own columns
+(`sim.experiments.thesis.thesis_rates`); ours are items picked over the simulated seconds until
+the last item left the belt, per episode, averaged over the seeds and then over the datasets.
+Each block prints both, dataset by dataset, so the calibration is checked wherever the block is
+regenerated. The five decision managers (`qlearning`, `rollout`, `lookahead`, `proximity`,
+`random`) run in one sweep a table.
 """
 
 from __future__ import annotations
@@ -13,13 +14,13 @@ from __future__ import annotations
 import statistics
 from typing import TYPE_CHECKING
 
-from sim.experiments import reproduce_tables as tables
-from sim.experiments.reproduce_run import Block
-from sim.experiments.thesis_rates import CALIBRATION_TOLERANCE, items_per_s
-from sim.experiments.thesis_report import thesis_tables
+from sim.experiments.thesis import reproduce_tables as tables
+from sim.experiments.thesis.reproduce_run import Block
+from sim.experiments.thesis.thesis_rates import CALIBRATION_TOLERANCE, items_per_s
+from sim.experiments.thesis.thesis_report import thesis_tables
 
 if TYPE_CHECKING:
-    from sim.experiments.reproduce_run import Run
+    from sim.experiments.thesis.reproduce_run import Run
 
 REGIME = "calibrated"
 """The regime's name in the blocks, sweeps (`reproduce_4_5_calibrated`) and pieces."""

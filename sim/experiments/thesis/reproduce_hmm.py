@@ -21,11 +21,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from sim.experiments.reproduce_run import Block
+from sim.experiments.thesis.reproduce_run import Block
 from sim.paths import temporary_path
 
 if TYPE_CHECKING:
-    from sim.experiments.reproduce_run import Run
+    from sim.experiments.thesis.reproduce_run import Run
 
 TRUTH_SEEDS = (range(0, 12), range(200, 212), range(100, 112))
 """Labelled training, unlabelled and held-out flows on true codes (as `sortsim hmm-eval`)."""

@@ -7,7 +7,7 @@ gain has the report's paired Student's t interval (`reporting.stats.paired_diffe
 gains against 0: `scipy.stats.ttest_rel`'s test). The thesis's claim that the gain grows with
 the number of items is the least-squares slope of the pairs' gain in EUR against the dataset's
 item count, with its 95 % interval (Student's t, n - 2). The timing hypothesis is computed from
-the thesis's own Time columns (`sim.experiments.thesis_rates.timing`).
+the thesis's own Time columns (`sim.experiments.thesis.thesis_rates.timing`).
 """
 
 from __future__ import annotations
@@ -18,12 +18,12 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from sim.experiments.reporting.stats import paired_difference
-from sim.experiments.reproduce_run import Block
-from sim.experiments.thesis_rates import timing
-from sim.experiments.thesis_report import thesis_tables
+from sim.experiments.thesis.reproduce_run import Block
+from sim.experiments.thesis.thesis_rates import timing
+from sim.experiments.thesis.thesis_report import thesis_tables
 
 if TYPE_CHECKING:
-    from sim.experiments.reproduce_run import Run
+    from sim.experiments.thesis.reproduce_run import Run
 
 PAIRINGS = (
     ("qlearning", "proximity"),

@@ -4,7 +4,7 @@ A `Run` knows where things go and how many seeds each sweep runs (the sweep file
 thesis's counts, or `QUICK_SEEDS` under `--quick`); it runs a sweep the first time a piece asks
 for its rows (resuming, `sim.experiments.sweep_runner`) and labels each block with the command,
 commit and code digest it ran on. The pieces themselves are in `reproduce_tables`,
-`reproduce_figures` and `reproduce_hmm`; `sim.experiments.reproduce` orders and writes them.
+`reproduce_figures` and `reproduce_hmm`; `sim.experiments.thesis.reproduce` orders and writes them.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from sim.experiments import sweep_runner as runner
 from sim.paths import EXPERIMENTS_DIR
 from sim.results import code_digest
 
-log = logging.getLogger("sim.experiments.reproduce")
+log = logging.getLogger("sim.experiments.thesis.reproduce")
 
 QUICK_SEEDS = {
     "reproduce_4_2": 1,

@@ -20,11 +20,10 @@ local workers or Ray) and a function that turns their rows into a markdown block
    next `<!-- /reproduce -->` (`write_block`): nothing outside the markers changes, and writing
    the same block twice changes nothing.
 
-The pieces' contents are made in `sim.experiments.reproduce_tables` (tables, the +13 % finding),
-`sim.experiments.reproduce_bound` (the bound on tables 4.5/4.6's flows),
-`sim.experiments.reproduce_figures` (figures) and `sim.experiments.reproduce_hmm` (table 4.1 and
-figure 4.1: the stripe HMMs, no sweep), each given the run (`sim.experiments.reproduce_run`);
-this module orders them (`PIECES`) and writes their blocks.
+The pieces' contents are made in `reproduce_tables` (tables, the +13 % finding),
+`reproduce_bound` (the bound on tables 4.5/4.6's flows), `reproduce_figures` (figures) and
+`reproduce_hmm` (table 4.1 and figure 4.1: the stripe HMMs, no sweep) of this package, each
+given the run (`reproduce_run`); this module orders them (`PIECES`) and writes their blocks.
 """
 
 from __future__ import annotations
@@ -38,13 +37,13 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from sim.errors import InvalidInput
-from sim.experiments import reproduce_bound as bound
-from sim.experiments import reproduce_calibrated as calibrated
-from sim.experiments import reproduce_figures as figs
-from sim.experiments import reproduce_hmm as hmm
-from sim.experiments import reproduce_paired as paired
-from sim.experiments import reproduce_tables as tables
-from sim.experiments.reproduce_run import Block, Run
+from sim.experiments.thesis import reproduce_bound as bound
+from sim.experiments.thesis import reproduce_calibrated as calibrated
+from sim.experiments.thesis import reproduce_figures as figs
+from sim.experiments.thesis import reproduce_hmm as hmm
+from sim.experiments.thesis import reproduce_paired as paired
+from sim.experiments.thesis import reproduce_tables as tables
+from sim.experiments.thesis.reproduce_run import Block, Run
 from sim.paths import REPO_ROOT
 from sim.results import outputs
 

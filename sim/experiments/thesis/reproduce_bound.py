@@ -21,12 +21,12 @@ from __future__ import annotations
 import statistics
 from typing import TYPE_CHECKING
 
-from sim.experiments import reproduce_paired as paired
-from sim.experiments.reproduce_run import Block
+from sim.experiments.thesis import reproduce_paired as paired
+from sim.experiments.thesis.reproduce_run import Block
 
 if TYPE_CHECKING:
     from sim.config import EpisodeConfig
-    from sim.experiments.reproduce_run import Run
+    from sim.experiments.thesis.reproduce_run import Run
 
 PIECE = "bound_4_5_4_6"
 BOUND = "bound"
@@ -127,7 +127,7 @@ def regime_table(rows: list[dict]) -> list[str]:
 
 def bound_block(run: Run) -> Block:
     """The piece's block: a table per regime and belt."""
-    from sim.experiments.thesis_report import thesis_tables
+    from sim.experiments.thesis.thesis_report import thesis_tables
 
     tables = thesis_tables()
     text = [

@@ -17,9 +17,9 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from sim.experiments.reproduce_run import Block  # noqa: E402
-from sim.experiments.reproduce_tables import PLANNERS  # noqa: E402
-from sim.experiments.thesis_report import (  # noqa: E402
+from sim.experiments.thesis.reproduce_run import Block  # noqa: E402
+from sim.experiments.thesis.reproduce_tables import PLANNERS  # noqa: E402
+from sim.experiments.thesis.thesis_report import (  # noqa: E402
     DECISION_FIGURES,
     DecisionFigure,
     RowValue,
@@ -31,7 +31,7 @@ from sim.experiments.thesis_report import (  # noqa: E402
 if TYPE_CHECKING:
     from pathlib import Path
 
-    from sim.experiments.reproduce_run import Run
+    from sim.experiments.thesis.reproduce_run import Run
 
 SWEEPS = (
     ("physical cycle", "reproduce_4_5", "4.5"),

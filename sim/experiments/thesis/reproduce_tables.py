@@ -1,11 +1,11 @@
 """The decision tables of `sortsim reproduce` (thesis tables 4.2-4.6) and the +13 % finding.
 
-Each function takes the run (`sim.experiments.reproduce_run.Run`), reads the rows of its sweeps and
-returns a `Block`: markdown tables with our means over the seeds beside the thesis's numbers
-(`sim/data/thesis_tables.toml`), and a reading computed from the same numbers. The decision
-managers have their own columns: `qlearning` is the thesis's algorithm as written (the thesis's
-"Our Method"), `rollout` is ours (no counterpart in the thesis), `proximity` the thesis's
-comparison picker; tables 4.5 and 4.6 and the finding add `random`, the thesis's "random
+Each function takes the run (`sim.experiments.thesis.reproduce_run.Run`), reads the rows of its
+sweeps and returns a `Block`: markdown tables with our means over the seeds beside the
+thesis's numbers (`sim/data/thesis_tables.toml`), and a reading computed from the same numbers.
+The decision managers have their own columns: `qlearning` is the thesis's algorithm as written
+(the thesis's "Our Method"), `rollout` is ours (no counterpart in the thesis), `proximity` the
+thesis's comparison picker; tables 4.5 and 4.6 and the finding add `random`, the thesis's "random
 picker" (a uniform draw among the items the cup can meet now), from sweeps of its own
 (`<sweep>_random`: the same flows, belt and regime).
 """
@@ -18,11 +18,11 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, cast
 
 from perception.codes import THESIS_VALUES_EUR
-from sim.experiments.reproduce_run import Block
-from sim.experiments.thesis_report import thesis_tables
+from sim.experiments.thesis.reproduce_run import Block
+from sim.experiments.thesis.thesis_report import thesis_tables
 
 if TYPE_CHECKING:
-    from sim.experiments.reproduce_run import Run
+    from sim.experiments.thesis.reproduce_run import Run
 
 
 PLANNERS = ("qlearning", "rollout", "proximity")

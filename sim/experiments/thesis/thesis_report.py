@@ -4,13 +4,13 @@ Each table is printed in the thesis's layout with every cell as `ours (thesis)`;
 the mean over the seeds of the sweep's episodes.csv, one block or column per decision manager
 (never mixed): `qlearning` is the thesis's algorithm as written (its "Our Method", whose
 numbers stand in brackets), `rollout` ours (no thesis counterpart). The thesis's numbers are in
-`sim/data/thesis_tables.toml`. `sortsim reproduce` (`sim.experiments.reproduce`) makes the
+`sim/data/thesis_tables.toml`. `sortsim reproduce` (`sim.experiments.thesis.reproduce`) makes the
 whole chapter as markdown.
 
 Figures 4.4, 4.5 and 4.6 plot accuracy, time and profit against the dataset size, one line per
 decision manager: ours solid with markers (mean over seeds, bars at min..max), the thesis's
 dashed. A sweep's figures have one panel per belt speed (`save_figures`); `sortsim reproduce`
-draws the same panels for both regimes (`sim.experiments.reproduce_figures`). A sweep folder
+draws the same panels for both regimes (`sim.experiments.thesis.reproduce_figures`). A sweep folder
 written before the rename holds the rollout under the name `qlearning` (`docs/results.md`).
 """
 
@@ -352,14 +352,14 @@ def save_figures(table_id: str | None, rows: list[dict], out_dir: Path) -> list[
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Figures 4.4-4.6 with both speeds: `python -m sim.experiments.thesis_report DIR... --out
-    DIR`."""
+    """Figures 4.4-4.6 with both speeds: `python -m sim.experiments.thesis.thesis_report DIR...
+    --out DIR`."""
     import argparse
 
     from sim.results import outputs
 
     parser = argparse.ArgumentParser(
-        prog="python -m sim.experiments.thesis_report", description=main.__doc__
+        prog="python -m sim.experiments.thesis.thesis_report", description=main.__doc__
     )
     parser.add_argument("dirs", nargs="+", type=Path, help="sweep folders with episodes.csv")
     parser.add_argument("--out", type=Path, required=True, help="where to write the PNGs")
