@@ -5,8 +5,9 @@ with one geom per shape-and-pose family and a visual-only label sleeve. Spawning
 slot into one flow item: its family's geom takes the item's (scaled) size, friction and bounding
 volumes (`geom_rbound`, `geom_aabb`, which MuJoCo's broad and mid phases use), collides and is
 drawn in the item's colour, the label is drawn when the item has one, the body gets the item's
-mass and inertia (all as MuJoCo's compiler derives them for that geom alone, from a one-body
-model compiled once per item type and scale), gravity, and a pose just above the belt (or above
+mass and inertia (all as MuJoCo's compiler derives them for that geom alone: a flow's items are
+compiled together, `PROPS_BATCH` free bodies a model, once per flow; see `ItemPool.prepare`),
+gravity, and a pose just above the belt (or above
 the flat item it partly lies on) at rest. Parking hides it again, 2 m below the cell,
 gravity-compensated and touching nothing, where MuJoCo puts it to sleep. Spawning and parking
 write item poses and velocities here; besides them only `sim.cell.riding` does, carrying
@@ -37,24 +38,38 @@ LABEL_LENGTH_SHARE = 0.6
 _CACHE_SIZE = 4096
 
 
-def _type_props(item_type: ItemType) -> dict[str, np.ndarray]:
-    """Mass properties and geom fields of one item alone, as MuJoCo's compiler derives them."""
+PROPS_BATCH = 64
+"""Free item bodies compiled in one model when a flow's mass properties are derived. The bodies
+of a model share nothing (each hangs from the world on its own free joint), so each gets what
+MuJoCo's compiler gives it alone, bit for bit (`tests/test_item_pool.py`); 64 a model costs an
+eighth of a compile per item (MuJoCo's compile grows faster than linearly with the bodies:
+1,024 a model costs 6x as much as 64), and thousands of one-body compiles grew the heap
+(glibc's) by up to 500 MB an 8-hour flow, kept after they were freed."""
+
+
+def _batch_props(item_types: list[ItemType]) -> list[dict[str, np.ndarray]]:
+    """Mass properties and geom fields of each item alone, as MuJoCo's compiler derives them:
+    one model of `len(item_types)` free bodies, body i + 1 holding geom i and dofs 6i..6i+5."""
     spec = mujoco.MjSpec()
-    body = spec.worldbody.add_body()
-    body.add_freejoint()
-    body.add_geom(
-        type=getattr(mujoco.mjtGeom, f"mjGEOM_{item_type.shape.upper()}"),
-        size=list(item_type.size) + [0.0] * (3 - len(item_type.size)),
-        quat=list(item_type.geom_quat),
-        mass=item_type.mass,
-        friction=list(item_type.friction),
-    )
+    for item_type in item_types:
+        body = spec.worldbody.add_body()
+        body.add_freejoint()
+        body.add_geom(
+            type=getattr(mujoco.mjtGeom, f"mjGEOM_{item_type.shape.upper()}"),
+            size=list(item_type.size) + [0.0] * (3 - len(item_type.size)),
+            quat=list(item_type.geom_quat),
+            mass=item_type.mass,
+            friction=list(item_type.friction),
+        )
     model = spec.compile()
-    props = {name: getattr(model, name)[1].copy() for name in _INERTIA_FIELDS}
-    props |= {name: getattr(model, name)[0].copy() for name in _GEOM_FIELDS}
-    props["dof_invweight0"] = model.dof_invweight0[:6].copy()
-    props["dof_M0"] = model.dof_M0[:6].copy()
-    return props
+    out = []
+    for i in range(len(item_types)):
+        props = {name: getattr(model, name)[i + 1].copy() for name in _INERTIA_FIELDS}
+        props |= {name: getattr(model, name)[i].copy() for name in _GEOM_FIELDS}
+        props["dof_invweight0"] = model.dof_invweight0[6 * i : 6 * i + 6].copy()
+        props["dof_M0"] = model.dof_M0[6 * i : 6 * i + 6].copy()
+        out.append(props)
+    return out
 
 
 def label_size(item_type: ItemType) -> tuple[float, float]:
@@ -127,6 +142,9 @@ class ItemPool:
         self.dof_adr = model.jnt_dofadr[model.body_jntadr[self.body_ids]]
         self.park_qpos = np.array([model.qpos0[a : a + 7] for a in self.qpos_adr])
         self._props: dict[tuple, dict[str, np.ndarray]] = {}
+        """Mass properties of types asked one at a time (at most `_CACHE_SIZE`)."""
+        self._flow_props: dict[tuple, dict[str, np.ndarray]] = {}
+        """Mass properties of the prepared flow's items (`prepare`), all of them."""
         self.item_ids = np.full(len(body_ids), -1)
         self.type_index = np.full(len(body_ids), -1)
         """Catalogue index of the type (base or variant) each slot plays, -1 when parked."""
@@ -166,15 +184,36 @@ class ItemPool:
         """The colliding geom of an active slot."""
         return int(self.active_geom[slot])
 
+    def _key(self, type_index: int, scale) -> tuple[tuple, ItemType]:
+        """The cache key of a catalogue type at `scale`, and the scaled type."""
+        item_type = self.catalogue.types[int(type_index)].scaled(scale)
+        return (int(type_index), item_type.size, item_type.mass), item_type
+
+    def prepare(self, type_indices, scales) -> None:
+        """Derive the mass properties of every item of a flow (catalogue indices and scales,
+        one per item), `PROPS_BATCH` a compiled model, and hold them for the flow: an episode
+        compiles nothing after it is built, however long it runs. Replaces the last flow's."""
+        wanted: dict[tuple, ItemType] = {}
+        for type_index, scale in zip(type_indices, scales, strict=True):
+            key, item_type = self._key(type_index, scale)
+            wanted.setdefault(key, item_type)
+        held = self._flow_props
+        props = {key: held[key] for key in wanted if key in held}
+        missing = [key for key in wanted if key not in props]
+        for start in range(0, len(missing), PROPS_BATCH):
+            keys = missing[start : start + PROPS_BATCH]
+            props.update(zip(keys, _batch_props([wanted[k] for k in keys]), strict=True))
+        self._flow_props = props
+
     def props(self, type_index: int, scale=(1.0, 1.0, 1.0)) -> dict[str, np.ndarray]:
-        """Mass properties and geom fields of a catalogue type at `scale` (cached)."""
-        item_type = self.catalogue.types[type_index].scaled(scale)
-        key = (type_index, item_type.size, item_type.mass)
-        props = self._props.get(key)
+        """Mass properties and geom fields of a catalogue type at `scale` (the prepared flow's,
+        or derived now and cached)."""
+        key, item_type = self._key(type_index, scale)
+        props = self._flow_props.get(key) or self._props.get(key)
         if props is None:
             if len(self._props) >= _CACHE_SIZE:
                 self._props.clear()
-            props = self._props[key] = _type_props(item_type)
+            props = self._props[key] = _batch_props([item_type])[0]
         return props
 
     def position(self, data: mujoco.MjData, slot: int) -> np.ndarray:

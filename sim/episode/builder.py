@@ -313,6 +313,7 @@ def build_parts(
     tracker = Tracker(speed)
     controllers = pick_controllers(config, cell, flow)
     bins = item_checks.episode_bins(cell)
+    cell.pool.prepare(flow.variant, flow.scale)  # every item's mass properties, once
     radius = largest_item_radius(cell, flow)
     riding = item_riding(config, cell, radius)
     cell.items.ride(riding)
