@@ -178,6 +178,12 @@ def book_pick(
     mech, elec = station.energy.reading()
     if not outcome.held_to_bin and track.true_id is not None:
         offers.failed(track.true_id)
+    tracker = offers.tracker
+    if not outcome.sealed and track.true_id is None and tracker.speed_changed_since(pick.t_start_s):
+        # The belt stopped or changed speed during the pick: the chain met the item where the
+        # old speed would have carried it, and the cup came down beside it. The camera saw the
+        # item once and will not again: its track is given back where the belt carried it.
+        tracker.restore(track)
     if outcome.item_id >= 0:  # the cup may have sealed on a neighbour: forget its track too
         offers.tracker.remove_true(outcome.item_id)
     true_class = int(flow.class_id[outcome.item_id]) if outcome.item_id >= 0 else None

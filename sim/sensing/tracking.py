@@ -203,6 +203,11 @@ class Tracker:
         self._speed_changes.append((float(t), self.belt_speed))
         self.belt_speed = float(belt_speed)
 
+    def speed_changed_since(self, t: float) -> bool:
+        """Whether the belt's speed changed after sim time `t` [s] (a belt fault began or
+        ended): a pick planned at `t` met its item at the old speed."""
+        return any(changed > t for changed, _ in self._speed_changes)
+
     def restore(self, track: Track) -> None:
         """Track `track` again (removed for a pick that was given up: its item is offered
         again), placed where the belt carried it through the changes of its speed meanwhile."""

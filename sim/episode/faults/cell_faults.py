@@ -18,7 +18,9 @@ did). At a start it fails the part, at an end it brings it back, each as the rea
   managers' contexts, the pick controllers' intercepts) sees the belt as it runs now. A pick
   under way goes on as planned, as a controller without conveyor tracking plays a chain it
   has started: its cup may come down where its item is no more, then lifts empty, and the item
-  is offered again while it is in reach (truth perception reports it again).
+  is offered again while it is in reach (truth perception reports it again; the camera's track
+  of it, which the camera will not renew, is given back where the belt carried it:
+  `sim.episode.stations.book_pick`).
 
 The timeline reads `robot_state(k, t)` and `active(t)`.
 """
