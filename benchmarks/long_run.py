@@ -42,6 +42,20 @@ def rss_mb() -> float:
         return int(f.read().split()[1]) * PAGE_KB / 1024.0
 
 
+def huge_pages_mb() -> float:
+    """This process's anonymous memory in transparent huge pages [MB] (0 where unknown): the
+    kernel may back a region with 2 MB pages (numpy asks for them on large arrays), each
+    counted whole in the resident memory however little of it is used."""
+    try:
+        with open("/proc/self/smaps_rollup") as f:
+            for line in f:
+                if line.startswith("AnonHugePages:"):
+                    return int(line.split()[1]) / 1024.0
+    except OSError:
+        pass
+    return 0.0
+
+
 def max_rss_mb() -> float:
     """The peak resident memory of this process since it started [MB] (Linux: ru_maxrss kB)."""
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
@@ -68,11 +82,13 @@ class Sampler:
     def point(self, t: float) -> None:
         wall, cpu = time.perf_counter() - self.wall0, time.process_time() - self.cpu0
         point = {"t": t, "rss": rss_mb(), "peak": self.peak_mb, "maxrss": max_rss_mb()}
+        point["huge"] = huge_pages_mb()
         point |= {"wall": wall, "cpu": cpu}
         self.points.append(point)
         print(
             f"sim {t / 3600:5.2f} h  rss {point['rss']:7.1f} MB  peak {point['peak']:7.1f} MB  "
-            f"ru_maxrss {point['maxrss']:7.1f} MB  wall {wall:7.1f} s  cpu {cpu:7.1f} s  "
+            f"ru_maxrss {point['maxrss']:7.1f} MB  huge pages {point['huge']:5.1f} MB  "
+            f"wall {wall:7.1f} s  cpu {cpu:7.1f} s  "
             f"wall/sim {wall / t:.4f}",
             flush=True,
         )
