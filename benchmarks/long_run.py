@@ -5,7 +5,8 @@ of belt arriving over the whole shift, the run ended at the shift's end: `horizo
 `duration_s`) in this process, its picks streamed to `<out>/picks.csv` as `sortsim run` streams
 them. Every `--every-min` simulated minutes it prints the process's resident memory (now, and
 the peak of the samples taken about once per simulated second since the start), the peak of
-`resource.getrusage` (`ru_maxrss`), the wall and CPU time so far and wall / simulated time.
+`resource.getrusage` (`ru_maxrss`), the memory in transparent huge pages, the wall and CPU time
+so far and wall / simulated time.
 At the end: the peak memory at the last full hour against that at 1 h (the shift's memory is
 flat when it is within 10 %), and the wall time per simulated hour of the first hour and of the
 whole run (proportional when they agree).
