@@ -387,3 +387,13 @@ def test_touched_slot_equals_a_scan_of_the_pool(off_edge):
     offset = (0.0, cell.pool.item_type(slot).half_width if off_edge else 0.0)
     pick_and_place(cell, slot, "paper", offset=offset, hold=0.2)
     assert found and (slot in found) != off_edge, found
+
+
+def test_the_cup_hands_its_events_over_once_and_keeps_none_after():
+    cell = make_cell(1.5)
+    slot = spawn(cell, "can_330_lying")
+    run = pick_and_place(cell, slot, cell.pool.item_type(slot).material, hold=0.5)
+    assert [e.kind for e in run.events] == ["sealed", "released"]
+    taken = cell.cup.take_events()
+    assert taken == run.events  # every event of the pick, in order
+    assert cell.cup.events == [] and cell.cup.take_events() == []

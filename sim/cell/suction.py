@@ -134,6 +134,7 @@ class SuctionCup:
         self._held: int | None = None
         self._release_at: float | None = None
         self.events: list[SuctionEvent] = []
+        """The cup's events not yet taken (`take_events`): a shift's are not all kept."""
         self._force = np.zeros(6)
         # [m/s^2] (read once: the option never changes)
         self._gravity = tuple(model.opt.gravity.tolist())
@@ -246,6 +247,11 @@ class SuctionCup:
                 self._sealing = (slot, sealing[1], t)
         self.events += events
         return events
+
+    def take_events(self) -> list[SuctionEvent]:
+        """The events since the last call, in order; the cup keeps them no longer."""
+        taken, self.events = self.events, []
+        return taken
 
     def _touched_slot(self, data: mujoco.MjData) -> int | None:
         """Active slot whose item the lip touches and lies on, or None. Where it touches

@@ -17,6 +17,7 @@ A seal that does not form leaves the cup to lift straight up, empty.
 from __future__ import annotations
 
 import math
+from collections import deque
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import cast
@@ -90,6 +91,11 @@ APPROACH_CLEARANCE_M = 0.025
 down to the item it picks [m]."""
 MAX_RAISES = 3
 """Times the approach is planned again over a neighbour the last plan passed too low."""
+
+
+STARTED_KEPT = 1000
+"""Picks started that a controller keeps as planned (`PickController.started`, which the
+cycle-time fit reads): every pick of an episode of a few minutes, and a shift's memory flat."""
 
 
 def clear_height(catalogue: Catalogue, rail_top: float, items: Iterable[ItemType] = ()) -> float:
@@ -250,7 +256,8 @@ class PickController:
         self.aimed_by_others: Callable[[], Iterable[int]] = tuple
         """The slots the other robots' picks under way aim at (a line sets it:
         `sim.episode.builder.pick_controllers`); an item touching one of them waits."""
-        self.started: list[StartedPick] = []  # every pick started, as planned
+        self.started: deque[StartedPick] = deque(maxlen=STARTED_KEPT)
+        """The picks started, as planned: the last `STARTED_KEPT`."""
         self.halted = False
         """A protective stop holds the robot: its set-points stay, its pick waits (`halt`)."""
 

@@ -83,7 +83,6 @@ class RobotStation:
         self.path: PlannedPath | None = None
         """The cup's planned path of the pick under way (riders it passes are woken)."""
         self.picks_done, self.pick_time_sum = 0, 0.0  # its finished picks and their time [s]
-        self.cup_events_seen = 0
         self.stopped_until = 0.0
         """When its last protective stop ends [s] (`sim.episode.faults`): no decision before."""
 
@@ -104,9 +103,7 @@ class RobotStation:
 
     def new_cup_events(self) -> list[SuctionEvent]:
         """The cup's events since this was last asked."""
-        events = self.robot.suction.events
-        new, self.cup_events_seen = events[self.cup_events_seen :], len(events)
-        return new
+        return self.robot.suction.take_events()
 
     @property
     def current_pick(self) -> Track | None:
