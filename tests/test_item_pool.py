@@ -178,24 +178,6 @@ def test_a_pool_sized_for_its_flow_gives_the_results_of_the_full_pool():
     assert pool_size_for(0, 160) == 16
 
 
-def _one_body_props(item_type):
-    """What MuJoCo's compiler gives one item alone: a model of that one free body."""
-    spec = mujoco.MjSpec()
-    body = spec.worldbody.add_body()
-    body.add_freejoint()
-    body.add_geom(
-        type=getattr(mujoco.mjtGeom, f"mjGEOM_{item_type.shape.upper()}"),
-        size=list(item_type.size) + [0.0] * (3 - len(item_type.size)),
-        quat=list(item_type.geom_quat),
-        mass=item_type.mass,
-        friction=list(item_type.friction),
-    )
-    model = spec.compile()
-    props = {name: getattr(model, name)[1] for name in item_pool._INERTIA_FIELDS}
-    props |= {name: getattr(model, name)[0] for name in item_pool._GEOM_FIELDS}
-    return props | {"dof_invweight0": model.dof_invweight0, "dof_M0": model.dof_M0}
-
-
 def test_a_flows_items_compiled_together_get_what_each_gets_alone_bit_for_bit():
     rng = np.random.default_rng(5)
     n = item_pool.PROPS_BATCH + 37  # two models, the second part full
@@ -205,7 +187,7 @@ def test_a_flows_items_compiled_together_get_what_each_gets_alone_bit_for_bit():
     pool.prepare(indices, scales)
     assert not pool._props  # nothing compiled one at a time
     for k, scale in zip(indices, scales, strict=True):
-        alone = _one_body_props(CATALOGUE.types[int(k)].scaled(scale))
+        alone = item_pool._batch_props([CATALOGUE.types[int(k)].scaled(scale)])[0]  # alone
         held = pool.props(int(k), scale)
         assert held.keys() == alone.keys()
         for name, value in alone.items():
